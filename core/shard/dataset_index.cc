@@ -1,0 +1,161 @@
+#include "core/shard/dataset_index.h"
+
+#include <algorithm>
+#include <cmath>
+#include <filesystem>
+
+#include "core/atomic_file.h"
+#include "core/error.h"
+#include "core/shard/shard_format.h"
+
+namespace wm::shard {
+namespace {
+using nlohmann::json;
+
+json StatsToJson(const ActionStats& s) {
+  return {{"mean", s.mean}, {"std", s.std}, {"min", s.min},
+          {"max", s.max},   {"q01", s.q01}, {"q99", s.q99}};
+}
+
+ActionStats StatsFromJson(const json& j) {
+  ActionStats s;
+  s.mean = j.at("mean").get<ActionStats::Vec>();
+  s.std = j.at("std").get<ActionStats::Vec>();
+  s.min = j.at("min").get<ActionStats::Vec>();
+  s.max = j.at("max").get<ActionStats::Vec>();
+  s.q01 = j.at("q01").get<ActionStats::Vec>();
+  s.q99 = j.at("q99").get<ActionStats::Vec>();
+  return s;
+}
+
+double Quantile(const std::vector<double>& sorted, double q) {
+  double h = (static_cast<double>(sorted.size()) - 1.0) * q;
+  auto lo = static_cast<size_t>(std::floor(h));
+  size_t hi = std::min(lo + 1, sorted.size() - 1);
+  return sorted[lo] + (h - static_cast<double>(lo)) * (sorted[hi] - sorted[lo]);
+}
+
+}  // namespace
+
+json IndexToJson(const DatasetIndex& x) {
+  json shards = json::array();
+  for (const auto& s : x.shards) {
+    shards.push_back({{"file", s.file}, {"bytes", s.bytes}, {"sha256", s.sha256},
+                      {"num_episodes", s.num_episodes}, {"num_steps", s.num_steps}});
+  }
+  json skipped = json::array();
+  for (const auto& s : x.skipped) {
+    skipped.push_back({{"file", s.file}, {"record", s.record}, {"reason", s.reason}});
+  }
+  return {{"format", kFormatName},
+          {"format_version", kFormatVersion},
+          {"dataset", x.dataset},
+          {"split", x.split},
+          {"source", x.source},
+          {"features", x.features},
+          {"shards", shards},
+          {"num_episodes", x.num_episodes},
+          {"num_steps", x.num_steps},
+          {"action_stats", StatsToJson(x.action_stats)},
+          {"skipped", {{"count", x.skipped.size()}, {"episodes", skipped}}},
+          {"provenance", x.provenance}};
+}
+
+DatasetIndex IndexFromJson(const json& j, const std::string& file) {
+  Check(j.is_object(), "index is not a JSON object", {.file = file});
+  Check(j.value("format", "") == kFormatName,
+        std::string("not a wmkit shard index (format must be \"") + kFormatName + "\")",
+        {.file = file, .key = "format"});
+  const json& version = j.contains("format_version") ? j["format_version"] : json();
+  if (!version.is_number_unsigned() || version.get<uint32_t>() != kFormatVersion) {
+    throw Error("unknown format_version " + version.dump() + " (this build reads version " +
+                    std::to_string(kFormatVersion) + ")",
+                {.file = file, .key = "format_version"});
+  }
+  DatasetIndex x;
+  std::string key;
+  try {
+    key = "dataset", x.dataset = j.at(key).get<std::string>();
+    key = "split", x.split = j.at(key).get<std::string>();
+    key = "source", x.source = j.at(key);
+    key = "features", x.features = j.at(key);
+    key = "shards";
+    for (const auto& s : j.at(key)) {
+      x.shards.push_back({s.at("file").get<std::string>(), s.at("bytes").get<uint64_t>(),
+                          s.at("sha256").get<std::string>(), s.at("num_episodes").get<uint64_t>(),
+                          s.at("num_steps").get<uint64_t>()});
+    }
+    key = "num_episodes", x.num_episodes = j.at(key).get<uint64_t>();
+    key = "num_steps", x.num_steps = j.at(key).get<uint64_t>();
+    key = "action_stats", x.action_stats = StatsFromJson(j.at(key));
+    key = "skipped";
+    for (const auto& s : j.at(key).at("episodes")) {
+      x.skipped.push_back({s.at("file").get<std::string>(), s.at("record").get<int64_t>(),
+                           s.at("reason").get<std::string>()});
+    }
+    key = "provenance", x.provenance = j.at(key);
+  } catch (const json::exception& e) {
+    throw Error(std::string("malformed index: ") + e.what(), {.file = file, .key = key});
+  }
+  uint64_t episodes = 0, steps = 0;
+  for (const auto& s : x.shards) {
+    Check(s.file.find('/') == std::string::npos && !s.file.empty() && s.file[0] != '.',
+          "shard file name must be a plain file name, got '" + s.file + "'",
+          {.file = file, .key = "shards"});
+    episodes += s.num_episodes;
+    steps += s.num_steps;
+  }
+  Check(episodes == x.num_episodes && steps == x.num_steps,
+        "num_episodes/num_steps disagree with the sum over shards", {.file = file});
+  return x;
+}
+
+DatasetIndex ReadIndex(const std::string& dir) {
+  std::string path = (std::filesystem::path(dir) / kIndexFileName).string();
+  if (!std::filesystem::exists(path)) {
+    throw Error("not a wmkit dataset: index.json is missing (an interrupted wm-ingest? run it "
+                "again with the same options to resume)",
+                {.file = path});
+  }
+  json j = json::parse(ReadFile(path), nullptr, /*allow_exceptions=*/false);
+  Check(!j.is_discarded(), "index.json is not valid JSON", {.file = path});
+  return IndexFromJson(j, path);
+}
+
+void WriteIndex(const std::string& dir, const DatasetIndex& index) {
+  WriteFileAtomically((std::filesystem::path(dir) / kIndexFileName).string(),
+                      IndexToJson(index).dump(2) + "\n");
+}
+
+ActionStats ComputeActionStats(const std::vector<float>& actions) {
+  ActionStats s;
+  const size_t n = actions.size() / kActionDim;
+  if (n == 0) return s;
+  std::vector<double> column(n);
+  for (int d = 0; d < kActionDim; ++d) {
+    double sum = 0;
+    for (size_t i = 0; i < n; ++i) sum += column[i] = actions[i * kActionDim + d];
+    double mean = sum / static_cast<double>(n), sq = 0;
+    for (double v : column) sq += (v - mean) * (v - mean);
+    std::sort(column.begin(), column.end());
+    s.mean[d] = mean;
+    s.std[d] = std::sqrt(sq / static_cast<double>(n));
+    s.min[d] = column.front();
+    s.max[d] = column.back();
+    s.q01[d] = Quantile(column, 0.01);
+    s.q99[d] = Quantile(column, 0.99);
+  }
+  return s;
+}
+
+json FeaturesOf(const Episode& e) {
+  json f = {{"action", {{"dim", kActionDim}, {"names", kActionNames}}}};
+  for (const auto& [name, frames] : e.images) {
+    f[name] = {{"encoding", frames.encoding},
+               {"dtype", frames.dtype},
+               {"shape", {frames.height, frames.width, frames.channels}}};
+  }
+  return f;
+}
+
+}  // namespace wm::shard

@@ -1,0 +1,57 @@
+#pragma once
+// index.json of a shard dataset directory: what it holds, where, with which hashes and action
+// statistics. Schema: schemas/shard-index.schema.json; prose: docs/shard-format.md.
+#include <array>
+#include <cstdint>
+#include <nlohmann/json.hpp>
+#include <string>
+#include <vector>
+
+#include "core/episode.h"
+
+namespace wm::shard {
+
+struct ShardInfo {
+  std::string file;  // name inside the dataset directory
+  uint64_t bytes = 0;
+  std::string sha256;
+  uint64_t num_episodes = 0, num_steps = 0;
+};
+
+struct SkippedEpisode {
+  std::string file;
+  int64_t record = 0;
+  std::string reason;
+};
+
+// Per action dimension, over every step of every episode; computed in float64.
+struct ActionStats {
+  using Vec = std::array<double, kActionDim>;
+  Vec mean{}, std{}, min{}, max{}, q01{}, q99{};
+};
+
+struct DatasetIndex {
+  std::string dataset, split;
+  nlohmann::json source = nlohmann::json::object();    // {"format", "inputs": [...]}
+  nlohmann::json features = nlohmann::json::object();  // action + image streams
+  std::vector<ShardInfo> shards;
+  uint64_t num_episodes = 0, num_steps = 0;
+  ActionStats action_stats;
+  std::vector<SkippedEpisode> skipped;
+  nlohmann::json provenance = nlohmann::json::object();
+};
+
+nlohmann::json IndexToJson(const DatasetIndex& index);
+// Validates structure and version; errors name `file` and the offending key.
+DatasetIndex IndexFromJson(const nlohmann::json& j, const std::string& file);
+
+DatasetIndex ReadIndex(const std::string& dir);
+void WriteIndex(const std::string& dir, const DatasetIndex& index);  // atomic
+
+// `actions` is [N, 7] row-major. Quantiles interpolate linearly (numpy's default).
+ActionStats ComputeActionStats(const std::vector<float>& actions);
+
+// The `features` block describing an episode's streams (action layout, image shapes).
+nlohmann::json FeaturesOf(const Episode& episode);
+
+}  // namespace wm::shard

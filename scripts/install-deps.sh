@@ -1,0 +1,37 @@
+#!/usr/bin/env bash
+# Installs every Debian package wmkit builds, tests or benchmarks with. Idempotent: when all
+# packages are present it only checks and exits. Uses sudo when not root.
+set -euo pipefail
+
+PACKAGES=(
+  # toolchain
+  build-essential cmake pkg-config ccache clang-format clang-tidy
+  # libraries
+  libopencv-dev libeigen3-dev libpcl-dev libceres-dev libtorch-dev
+  libprotobuf-dev protobuf-compiler libzstd-dev libhdf5-dev libssl-dev
+  libcli11-dev libspdlog-dev libfmt-dev nlohmann-json3-dev libyaml-cpp-dev
+  libgtest-dev libgmock-dev libbenchmark-dev
+  # Python reference checks (run with /usr/bin/python3)
+  python3 python3-numpy python3-scipy python3-skimage python3-torch python3-torchvision
+  python3-opencv python3-h5py python3-jsonschema python3-crc32c python3-zstandard python3-yaml python3-matplotlib
+)
+
+missing=()
+for p in "${PACKAGES[@]}"; do
+  dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")
+done
+if [ ${#missing[@]} -eq 0 ]; then
+  echo "install-deps: all ${#PACKAGES[@]} packages present"
+  exit 0
+fi
+
+SUDO=""
+if [ "$(id -u)" -ne 0 ]; then SUDO="sudo"; fi
+echo "install-deps: installing ${#missing[@]} missing packages: ${missing[*]}"
+export DEBIAN_FRONTEND=noninteractive
+# An empty package list means apt-get update never ran on this machine.
+if [ -z "$(ls -A /var/lib/apt/lists 2>/dev/null | grep -v -e lock -e partial)" ] ||
+   ! apt-cache policy "${missing[0]}" 2>/dev/null | grep -q Candidate; then
+  $SUDO apt-get update -q
+fi
+$SUDO apt-get install -y -q --no-install-recommends "${missing[@]}"
