@@ -114,7 +114,8 @@ DatasetIndex DatasetWriter::Finish(DatasetIndex index) {
     index.num_steps += s.num_steps;
   }
   index.shards = shards_;
-  index.skipped = skipped_;
+  // Damage found while listing inputs (from the caller) comes before per-episode skips.
+  index.skipped.insert(index.skipped.end(), skipped_.begin(), skipped_.end());
   index.features = features_;
   index.action_stats = ComputeActionStats(actions);
   WriteIndex(options_.dir, index);

@@ -1,0 +1,22 @@
+#include "core/paths.h"
+
+#include <cstdlib>
+#include <filesystem>
+
+namespace wm {
+namespace fs = std::filesystem;
+
+std::string DefaultConfigsDir() {
+  if (const char* env = std::getenv("WMKIT_CONFIGS"); env != nullptr && *env != '\0') return env;
+  std::error_code ec;
+  fs::path exe = fs::read_symlink("/proc/self/exe", ec);
+  if (!ec) {
+    for (fs::path dir = exe.parent_path(); !dir.empty() && dir != dir.root_path();
+         dir = dir.parent_path()) {
+      if (fs::is_directory(dir / "configs" / "datasets")) return (dir / "configs").string();
+    }
+  }
+  return "configs";
+}
+
+}  // namespace wm

@@ -1,0 +1,84 @@
+// Errors, atomic files, hashes, provenance and progress formatting.
+#include <gtest/gtest.h>
+
+#include <filesystem>
+
+#include "core/atomic_file.h"
+#include "core/error.h"
+#include "core/progress.h"
+#include "core/provenance.h"
+#include "core/sha256.h"
+#include "core/zstd_codec.h"
+#include "tests/core/test_util.h"
+
+namespace wm {
+namespace {
+
+TEST(Error, NamesFileRecordAndKey) {
+  Error e = Error("expected 7 values").WithKey("steps/action").WithRecord(3).WithFile("a.tfrecord");
+  EXPECT_STREQ(e.what(), "a.tfrecord: record 3: key 'steps/action': expected 7 values");
+  // Inner context wins: the first file named is the most specific one.
+  EXPECT_EQ(e.WithFile("outer").context().file, "a.tfrecord");
+}
+
+TEST(Sha256, KnownVectors) {
+  EXPECT_EQ(Sha256Hex(""), "e3b0c44298fc1c149afbf4c8996fb92427ae41e4649b934ca495991b7852b855");
+  EXPECT_EQ(Sha256Hex("abc"), "ba7816bf8f01cfea414140de5dae2223b00361a396177a9cb410ff61f20015ad");
+}
+
+TEST(AtomicFile, CommitReplacesAndFailureLeavesOldContent) {
+  test::TempDir dir;
+  std::string path = dir / "f.txt";
+  WriteFileAtomically(path, "old");
+  {
+    AtomicFileWriter w(path);
+    w.Write("new but abandoned");
+  }
+  EXPECT_EQ(ReadFile(path), "old");
+  EXPECT_FALSE(std::filesystem::exists(TempPathFor(path)));
+  WriteFileAtomically(path, "new");
+  EXPECT_EQ(ReadFile(path), "new");
+}
+
+TEST(AtomicFile, UnwritableDirectoryIsAClearError) {
+  try {
+    WriteFileAtomically("/nonexistent-dir/x/y.json", "data");
+    FAIL();
+  } catch (const Error& e) {
+    EXPECT_NE(std::string(e.what()).find("/nonexistent-dir/x/"), std::string::npos) << e.what();
+  }
+}
+
+TEST(Zstd, RoundTripAndCorruption) {
+  std::string raw(10000, 'x');
+  for (size_t i = 0; i < raw.size(); i += 7) raw[i] = static_cast<char>(i);
+  std::string packed = ZstdCompress(raw);
+  EXPECT_LT(packed.size(), raw.size());
+  EXPECT_EQ(ZstdDecompress(packed, raw.size()), raw);
+  EXPECT_THROW(ZstdDecompress(packed, raw.size() + 1), Error);
+  packed[packed.size() / 2] ^= 0x55;
+  EXPECT_THROW(ZstdDecompress(packed.substr(0, packed.size() / 2), raw.size()), Error);
+}
+
+TEST(Provenance, ConfigHashIgnoresKeyOrderButNotValues) {
+  nlohmann::json a = {{"x", 1}, {"y", "z"}}, b = {{"y", "z"}, {"x", 1}}, c = {{"x", 2}, {"y", "z"}};
+  EXPECT_EQ(ConfigHash(a), ConfigHash(b));
+  EXPECT_NE(ConfigHash(a), ConfigHash(c));
+  nlohmann::json p = MakeProvenance("t", a);
+  for (const char* key : {"tool", "wmkit_version", "git_commit", "config_hash", "libraries"}) {
+    EXPECT_TRUE(p.contains(key)) << key;
+  }
+  EXPECT_TRUE(p["libraries"].contains("zstd"));
+}
+
+TEST(Progress, LineShowsRateAndEta) {
+  std::string line = Progress::FormatLine("ingest", 25, 100, "episodes", 5.0, 10);
+  EXPECT_NE(line.find(" 25%"), std::string::npos) << line;
+  EXPECT_NE(line.find("5.0 episodes/s"), std::string::npos) << line;
+  EXPECT_NE(line.find("ETA 00:15"), std::string::npos) << line;
+  EXPECT_NE(line.find("|##        |"), std::string::npos) << line;
+  EXPECT_EQ(Progress::FormatDuration(3725), "1:02:05");
+}
+
+}  // namespace
+}  // namespace wm

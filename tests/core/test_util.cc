@@ -1,0 +1,61 @@
+#include "tests/core/test_util.h"
+
+#include <fstream>
+#include <unistd.h>
+
+namespace wm::test {
+namespace fs = std::filesystem;
+
+TempDir::TempDir() {
+  static int counter = 0;
+  path_ = fs::temp_directory_path() /
+          ("wmkit-test-" + std::to_string(::getpid()) + "-" + std::to_string(counter++));
+  fs::remove_all(path_);
+  fs::create_directories(path_);
+}
+
+TempDir::~TempDir() {
+  std::error_code ec;
+  fs::remove_all(path_, ec);
+}
+
+Episode MakeEpisode(int steps, uint64_t seed, const std::string& key) {
+  std::mt19937_64 rng(seed);
+  auto uniform = [&] { return static_cast<float>(static_cast<double>(rng() >> 11) * 0x1.0p-53) - 0.5f; };
+  Episode e;
+  e.episode_key = key;
+  e.source_file = key + ".tfrecord";
+  e.source_record = static_cast<int64_t>(seed);
+  e.language_instruction = "push the block";
+  e.policy_id = "expert";
+  e.episode_seed = static_cast<int64_t>(seed);
+  e.num_steps = steps;
+  for (int i = 0; i < steps * kActionDim; ++i) e.actions.push_back(uniform());
+  for (int t = 0; t < steps; ++t) {
+    e.rewards.push_back(t == steps - 1 ? 1.0f : 0.0f);
+    e.discounts.push_back(1.0f);
+    e.is_first.push_back(t == 0);
+    e.is_last.push_back(t == steps - 1);
+    e.is_terminal.push_back(t == steps - 1);
+  }
+  EncodedFrames& f = e.images["image"];
+  f.encoding = "jpeg";
+  f.height = 4, f.width = 4, f.channels = 3;
+  for (int t = 0; t < steps; ++t) {
+    f.frames.push_back(std::string("\xFF\xD8\xFF", 3) + std::string(10 + t, static_cast<char>('a' + t % 26)));
+  }
+  return e;
+}
+
+void FlipByte(const std::string& file, uint64_t offset) {
+  std::fstream f(file, std::ios::in | std::ios::out | std::ios::binary);
+  f.seekg(static_cast<std::streamoff>(offset));
+  char c = 0;
+  f.get(c);
+  f.seekp(static_cast<std::streamoff>(offset));
+  f.put(static_cast<char>(c ^ 0x40));
+}
+
+void Truncate(const std::string& file, uint64_t new_size) { fs::resize_file(file, new_size); }
+
+}  // namespace wm::test

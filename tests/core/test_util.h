@@ -1,0 +1,29 @@
+#pragma once
+// Small helpers shared by the C++ tests: temp directories and a synthetic episode.
+#include <filesystem>
+#include <random>
+#include <string>
+
+#include "core/episode.h"
+
+namespace wm::test {
+
+// A fresh directory under the system temp dir, removed when the object dies.
+class TempDir {
+ public:
+  TempDir();
+  ~TempDir();
+  const std::filesystem::path& path() const { return path_; }
+  std::string operator/(const std::string& name) const { return (path_ / name).string(); }
+
+ private:
+  std::filesystem::path path_;
+};
+
+// A deterministic episode with `steps` steps, actions from `seed`, fake JPEG-magic frames.
+Episode MakeEpisode(int steps, uint64_t seed, const std::string& key = "ep");
+
+void FlipByte(const std::string& file, uint64_t offset);
+void Truncate(const std::string& file, uint64_t new_size);
+
+}  // namespace wm::test
