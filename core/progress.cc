@@ -17,6 +17,7 @@ Progress::Progress(std::string label, uint64_t total, std::string unit)
 Progress::~Progress() { Finish(); }
 
 void Progress::Add(uint64_t n) {
+  if (n == 0) return;
   std::lock_guard<std::mutex> lock(mu_);
   done_ += n;
   auto now = std::chrono::steady_clock::now();
@@ -79,8 +80,10 @@ void Progress::Render(bool final) {
   }
   int decile = total_ > 0 ? static_cast<int>(10 * done_ / total_) : -1;
   double since = std::chrono::duration<double>(now - last_render_).count();
-  if (final || decile > last_logged_decile_ || since >= 10.0) {
+  bool news = done_ != last_logged_done_;
+  if (news && (final || decile > last_logged_decile_ || since >= 10.0)) {
     last_logged_decile_ = decile;
+    last_logged_done_ = done_;
     last_render_ = now;
     spdlog::info("{}", FormatLine(label_, done_, total_, unit_, elapsed, 0));
   }

@@ -28,6 +28,7 @@ class Progress {
   bool tty_, finished_ = false;
   std::chrono::steady_clock::time_point start_, last_render_;
   int last_logged_decile_ = -1;
+  uint64_t last_logged_done_ = ~uint64_t{0};
   std::mutex mu_;
 };
 

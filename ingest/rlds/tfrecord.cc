@@ -1,5 +1,7 @@
 #include "ingest/rlds/tfrecord.h"
 
+#include <fstream>
+
 #include "core/crc32c.h"
 #include "core/error.h"
 #include "core/shard/shard_format.h"
@@ -8,26 +10,36 @@ namespace wm::rlds {
 using shard::GetU32;
 using shard::GetU64;
 
-TfRecordReader::TfRecordReader(const std::string& path)
+namespace {
+// Why the record framed at `pos` is damaged, or "" when its header is intact.
+std::string FramingProblem(const uint8_t* p, uint64_t n, uint64_t pos) {
+  if (n - pos < 12) {
+    return "truncated TFRecord header (" + std::to_string(n - pos) + " bytes left at offset " +
+           std::to_string(pos) + ")";
+  }
+  if (MaskCrc(Crc32c(p + pos, 8)) != GetU32(p + pos + 8)) {
+    return "TFRecord length CRC mismatch at offset " + std::to_string(pos) + " (corrupt file)";
+  }
+  uint64_t len = GetU64(p + pos);
+  if (len > n - pos - 12 || n - pos - 12 - len < 4) {
+    return "truncated TFRecord: record of " + std::to_string(len) + " bytes at offset " +
+           std::to_string(pos) + " runs past the end of the file";
+  }
+  return "";
+}
+}  // namespace
+
+TfRecordReader::TfRecordReader(const std::string& path, bool stop_at_damage)
     : file_(std::make_unique<MappedFile>(path)) {
   const uint8_t* p = file_->data();
   const uint64_t n = file_->size();
-  uint64_t pos = 0;
-  while (pos < n) {
-    ErrorContext where{.file = path, .record = static_cast<int64_t>(offsets_.size())};
-    Check(n - pos >= 12, "truncated TFRecord header (" + std::to_string(n - pos) +
-                             " bytes left at offset " + std::to_string(pos) + ")",
-          where);
-    Check(MaskCrc(Crc32c(p + pos, 8)) == GetU32(p + pos + 8),
-          "TFRecord length CRC mismatch at offset " + std::to_string(pos) + " (corrupt file)",
-          where);
-    uint64_t len = GetU64(p + pos);
-    Check(len <= n - pos - 12 && n - pos - 12 - len >= 4,
-          "truncated TFRecord: record of " + std::to_string(len) + " bytes at offset " +
-              std::to_string(pos) + " runs past the end of the file",
-          where);
+  for (uint64_t pos = 0; pos < n; pos += 12 + GetU64(p + pos) + 4) {
+    std::string problem = FramingProblem(p, n, pos);
+    if (!problem.empty()) {
+      if (stop_at_damage) break;
+      throw Error(problem, {.file = path, .record = static_cast<int64_t>(offsets_.size())});
+    }
     offsets_.push_back(pos);
-    pos += 12 + len + 4;
   }
 }
 
@@ -38,6 +50,30 @@ std::string_view TfRecordReader::Record(size_t k) const {
         "TFRecord data CRC mismatch (corrupt record)",
         {.file = path(), .record = static_cast<int64_t>(k)});
   return {reinterpret_cast<const char*>(p + 12), len};
+}
+
+std::vector<uint64_t> ScanTfRecordOffsets(const std::string& path, bool stop_at_damage) {
+  return TfRecordReader(path, stop_at_damage).record_offsets();
+}
+
+std::string ReadTfRecordAt(const std::string& path, uint64_t offset) {
+  std::ifstream in(path, std::ios::binary);
+  Check(in.good(), "cannot open TFRecord file", {.file = path});
+  uint8_t head[12];
+  in.seekg(static_cast<std::streamoff>(offset));
+  Check(in.read(reinterpret_cast<char*>(head), 12).good(),
+        "truncated TFRecord header at offset " + std::to_string(offset), {.file = path});
+  Check(MaskCrc(Crc32c(head, 8)) == GetU32(head + 8),
+        "TFRecord length CRC mismatch at offset " + std::to_string(offset), {.file = path});
+  uint64_t len = GetU64(head);
+  std::string data(len + 4, '\0');
+  Check(in.read(data.data(), static_cast<std::streamsize>(data.size())).good(),
+        "truncated TFRecord record at offset " + std::to_string(offset), {.file = path});
+  uint32_t crc = GetU32(reinterpret_cast<const uint8_t*>(data.data()) + len);
+  data.resize(len);
+  Check(MaskCrc(Crc32c(data)) == crc, "TFRecord data CRC mismatch (corrupt record)",
+        {.file = path});
+  return data;
 }
 
 void TfRecordWriter::Write(std::string_view record) {

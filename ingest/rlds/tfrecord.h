@@ -14,7 +14,9 @@ namespace wm::rlds {
 
 class TfRecordReader {
  public:
-  explicit TfRecordReader(const std::string& path);
+  // With `stop_at_damage`, a damaged tail ends the scan instead of throwing; records() then
+  // holds the intact records before it.
+  explicit TfRecordReader(const std::string& path, bool stop_at_damage = false);
   // Scans the framing (length CRCs only) and returns each record's offset; throws wm::Error
   // naming the file and record on a truncated file or a bad length CRC.
   const std::vector<uint64_t>& record_offsets() const { return offsets_; }
@@ -27,6 +29,12 @@ class TfRecordReader {
   std::unique_ptr<MappedFile> file_;
   std::vector<uint64_t> offsets_;
 };
+
+// Offsets of the intact records (see TfRecordReader's `stop_at_damage`).
+std::vector<uint64_t> ScanTfRecordOffsets(const std::string& path, bool stop_at_damage);
+
+// Reads and checks the one record that starts at `offset` (positioned reads, no full scan).
+std::string ReadTfRecordAt(const std::string& path, uint64_t offset);
 
 class TfRecordWriter {
  public:

@@ -1,5 +1,6 @@
 #include "tests/core/test_util.h"
 
+#include <cstdlib>
 #include <fstream>
 #include <unistd.h>
 
@@ -45,6 +46,22 @@ Episode MakeEpisode(int steps, uint64_t seed, const std::string& key) {
     f.frames.push_back(std::string("\xFF\xD8\xFF", 3) + std::string(10 + t, static_cast<char>('a' + t % 26)));
   }
   return e;
+}
+
+std::string SourceDir() {
+  const char* env = std::getenv("WM_SOURCE_DIR");
+#ifdef WM_DEFAULT_SOURCE_DIR
+  if (env == nullptr) return WM_DEFAULT_SOURCE_DIR;
+#endif
+  return env != nullptr ? env : ".";
+}
+
+std::string BinDir() {
+  const char* env = std::getenv("WM_BIN_DIR");
+#ifdef WM_DEFAULT_BIN_DIR
+  if (env == nullptr) return WM_DEFAULT_BIN_DIR;
+#endif
+  return env != nullptr ? env : "build/bin";
 }
 
 void FlipByte(const std::string& file, uint64_t offset) {

@@ -23,6 +23,11 @@ class TempDir {
 // A deterministic episode with `steps` steps, actions from `seed`, fake JPEG-magic frames.
 Episode MakeEpisode(int steps, uint64_t seed, const std::string& key = "ep");
 
+// The repository root and the directory of built tools ($WM_SOURCE_DIR / $WM_BIN_DIR, else the
+// paths compiled into the test).
+std::string SourceDir();
+std::string BinDir();
+
 void FlipByte(const std::string& file, uint64_t offset);
 void Truncate(const std::string& file, uint64_t new_size);
 

@@ -1,0 +1,40 @@
+#pragma once
+// Options of one `wm-ingest` run. Everything that shapes the output goes into ToConfig() and so
+// into the config hash that resume and provenance rely on.
+#include <nlohmann/json.hpp>
+#include <string>
+
+namespace wm::ingest {
+
+struct IngestOptions {
+  std::string format;            // "rlds", "hdf5" or "folder"
+  std::string input;             // dataset directory / file / folder
+  std::string output;            // dataset directory to write
+  std::string dataset;           // name recorded in index.json; default: the source's own name
+  std::string split = "train";   // RLDS split to read; recorded in index.json for every format
+  std::string mapping;           // RLDS: mapping YAML (default configs/datasets/<name>.yaml)
+  std::string configs_dir;       // where configs/datasets lives (default: wm::DefaultConfigsDir)
+  std::string camera;            // HDF5: obs/<camera> key (default: first RGB camera found)
+  int resize_width = 0, resize_height = 0;  // 0: keep encoded bytes as they are
+  double shard_size_mb = 256;    // a shard closes once it reaches this size
+  int shard_index = 0, num_shards = 1;  // this job's contiguous block of the input episodes
+  int64_t max_episodes = -1;     // first N input episodes only (-1: all)
+  std::string on_error = "fail";  // "fail" or "skip" a bad episode
+  int threads = 2;               // decode/check workers
+  bool full_image_check = true;  // decode every frame (false: first frame + magic only)
+  int zstd_level = 3;
+
+  // Throws wm::Error describing the first invalid option.
+  void Check() const;
+  nlohmann::json ToConfig() const;
+};
+
+struct IngestSummary {
+  uint64_t episodes = 0, steps = 0, bytes = 0, skipped = 0, resumed_from = 0;
+  double seconds = 0;
+  bool already_complete = false;
+};
+
+IngestSummary RunIngest(const IngestOptions& options);
+
+}  // namespace wm::ingest

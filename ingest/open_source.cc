@@ -1,0 +1,21 @@
+#include "ingest/open_source.h"
+
+#include "core/error.h"
+#include "core/paths.h"
+#include "ingest/folder/folder_source.h"
+#include "ingest/hdf5/hdf5_source.h"
+#include "ingest/rlds/rlds_source.h"
+
+namespace wm::ingest {
+
+std::unique_ptr<EpisodeSource> OpenSource(const IngestOptions& o) {
+  if (o.format == "rlds") {
+    return std::make_unique<RldsSource>(o.input, o.split, o.mapping,
+                                        o.configs_dir.empty() ? DefaultConfigsDir() : o.configs_dir);
+  }
+  if (o.format == "hdf5") return std::make_unique<Hdf5Source>(o.input, o.camera);
+  if (o.format == "folder") return std::make_unique<FolderSource>(o.input);
+  throw Error("unknown --format '" + o.format + "' (expected rlds, hdf5 or folder)");
+}
+
+}  // namespace wm::ingest

@@ -1,0 +1,192 @@
+// wm-ingest's work: list input episodes, take this job's block, then load + check + transform
+// them on worker threads and write them in input order, so output bytes never depend on
+// thread timing.
+#include <spdlog/spdlog.h>
+
+#include <atomic>
+#include <csignal>
+#include <cstdlib>
+#include <chrono>
+#include <filesystem>
+#include <opencv2/core/version.hpp>
+#include <thread>
+#include <variant>
+
+#include "core/error.h"
+#include "core/progress.h"
+#include "core/provenance.h"
+#include "core/sha256.h"
+#include "core/shard/dataset_writer.h"
+#include "ingest/image_codec.h"
+#include "ingest/ingest_options.h"
+#include "ingest/open_source.h"
+#include "ingest/validate.h"
+
+namespace wm::ingest {
+namespace fs = std::filesystem;
+using nlohmann::json;
+
+namespace {
+
+using LoadResult = std::variant<Episode, Error>;
+
+LoadResult LoadOne(const EpisodeSource& source, const EpisodeRef& ref, const IngestOptions& o) {
+  try {
+    Episode e = source.Load(ref);
+    try {
+      ValidateEpisode(e, o.full_image_check);
+      if (o.resize_width > 0) {
+        for (auto& [name, frames] : e.images) {
+          ResizeFrames(frames, o.resize_width, o.resize_height, /*nearest=*/name != "image");
+        }
+      }
+    } catch (const Error& err) {
+      throw err.WithRecord(ref.record).WithFile(ref.path);
+    }
+    return e;
+  } catch (const Error& err) {
+    return err;
+  } catch (const std::exception& err) {
+    return Error(err.what(), {.file = ref.path, .record = ref.record});
+  }
+}
+
+// Loads refs[begin, end) with `threads` workers; results in input order.
+std::vector<LoadResult> LoadWindow(const EpisodeSource& source, const std::vector<EpisodeRef>& refs,
+                                   size_t begin, size_t end, const IngestOptions& o) {
+  std::vector<std::optional<LoadResult>> slots(end - begin);
+  std::atomic<size_t> next{begin};
+  auto work = [&] {
+    for (size_t i = next++; i < end; i = next++) slots[i - begin] = LoadOne(source, refs[i], o);
+  };
+  std::vector<std::thread> workers;
+  for (int w = 1; w < o.threads; ++w) workers.emplace_back(work);
+  work();
+  for (auto& w : workers) w.join();
+  std::vector<LoadResult> out;
+  for (auto& s : slots) out.push_back(std::move(*s));
+  return out;
+}
+
+// Fault injection for the kill/resume tests: WMKIT_FAULT_KILL_AFTER=N SIGKILLs this process
+// right after the N-th input episode was handed to the writer, as a crash would.
+void MaybeInjectKill(uint64_t episodes_done) {
+  static const char* env = std::getenv("WMKIT_FAULT_KILL_AFTER");
+  if (env != nullptr && std::strtoull(env, nullptr, 10) == episodes_done) std::raise(SIGKILL);
+}
+
+json HashInputs(const std::vector<EpisodeRef>& refs) {
+  std::map<std::string, std::string> files;  // rel -> path, sorted and unique
+  for (const auto& r : refs) files.emplace(r.rel_path, r.path);
+  json inputs = json::array();
+  for (const auto& [rel, path] : files) {
+    inputs.push_back({{"path", rel}, {"bytes", fs::file_size(path)}, {"sha256", Sha256File(path)}});
+  }
+  return inputs;
+}
+
+}  // namespace
+
+void IngestOptions::Check() const {
+  wm::Check(!input.empty() && !output.empty(), "--input and --output are required");
+  wm::Check(fs::exists(input), "input does not exist", {.file = input});
+  wm::Check(on_error == "fail" || on_error == "skip", "--on-error must be fail or skip");
+  wm::Check(num_shards >= 1 && shard_index >= 0 && shard_index < num_shards,
+            "--shard-index must be in [0, --num-shards)");
+  wm::Check(shard_size_mb > 0, "--shard-size-mb must be positive");
+  wm::Check(threads >= 1 && threads <= 256, "--threads must be in [1, 256]");
+  wm::Check((resize_width == 0) == (resize_height == 0) && resize_width >= 0 && resize_height >= 0,
+            "--resize must be WxH with both positive");
+}
+
+json IngestOptions::ToConfig() const {
+  return {{"format", format},         {"dataset", dataset},
+          {"split", split},           {"camera", camera},
+          {"resize", {resize_width, resize_height}},
+          {"shard_size_mb", shard_size_mb},
+          {"shard_index", shard_index}, {"num_shards", num_shards},
+          {"max_episodes", max_episodes}, {"on_error", on_error},
+          {"full_image_check", full_image_check}, {"zstd_level", zstd_level},
+          {"shard_format_version", 1}};
+}
+
+IngestSummary RunIngest(const IngestOptions& o) {
+  o.Check();
+  auto start = std::chrono::steady_clock::now();
+  std::unique_ptr<EpisodeSource> source = OpenSource(o);
+  json config = o.ToConfig();
+  config["source"] = source->Describe();
+  const std::string config_hash = ConfigHash(config);
+
+  IngestSummary summary;
+  if (fs::exists(fs::path(o.output) / "index.json")) {
+    shard::DatasetIndex existing = shard::ReadIndex(o.output);
+    wm::Check(existing.provenance.value("config_hash", "") == config_hash,
+              "output already holds a dataset made with other options; choose another --output "
+              "or delete it",
+              {.file = o.output});
+    spdlog::info("{} is already complete for this config; nothing to do", o.output);
+    summary.already_complete = true;
+    summary.episodes = existing.num_episodes;
+    return summary;
+  }
+
+  std::vector<shard::SkippedEpisode> damaged;
+  std::vector<EpisodeRef> refs = source->ListEpisodes(o.on_error == "skip" ? &damaged : nullptr);
+  if (o.max_episodes >= 0 && refs.size() > static_cast<size_t>(o.max_episodes)) {
+    refs.resize(static_cast<size_t>(o.max_episodes));
+  }
+  // Contiguous blocks, so merging the parts in order keeps the single-job episode order.
+  const size_t n = refs.size(), i = static_cast<size_t>(o.shard_index),
+               k = static_cast<size_t>(o.num_shards);
+  refs = std::vector<EpisodeRef>(refs.begin() + static_cast<std::ptrdiff_t>(n * i / k),
+                                 refs.begin() + static_cast<std::ptrdiff_t>(n * (i + 1) / k));
+  spdlog::info("ingest {} -> {}: {} episodes (job {}/{})", o.input, o.output, refs.size(),
+               o.shard_index, o.num_shards);
+
+  shard::DatasetWriter writer({.dir = o.output,
+                               .shard_size_bytes = static_cast<uint64_t>(o.shard_size_mb * 1048576.0),
+                               .zstd_level = o.zstd_level,
+                               .config_hash = config_hash});
+  summary.resumed_from = writer.resume_position();
+  if (summary.resumed_from > 0) {
+    spdlog::info("resuming after {} episodes in {} finished shards", summary.resumed_from,
+                 writer.resumed_shards());
+  }
+  Progress progress("ingest", refs.size(), "episodes");
+  progress.Add(summary.resumed_from);
+  const size_t window = static_cast<size_t>(o.threads) * 4;  // bounds memory to a few episodes
+  for (size_t b = summary.resumed_from; b < refs.size(); b += window) {
+    size_t e = std::min(refs.size(), b + window);
+    std::vector<LoadResult> results = LoadWindow(*source, refs, b, e, o);
+    for (size_t j = 0; j < results.size(); ++j) {
+      const EpisodeRef& ref = refs[b + j];
+      if (auto* err = std::get_if<Error>(&results[j])) {
+        if (o.on_error == "fail") throw *err;
+        spdlog::warn("skipping bad episode: {}", err->what());
+        writer.Skip({ref.rel_path, ref.record, err->message()}, b + j);
+      } else {
+        writer.Add(std::get<Episode>(results[j]), b + j);
+        MaybeInjectKill(b + j + 1);
+      }
+      progress.Add();
+    }
+  }
+  progress.Finish();
+
+  shard::DatasetIndex index;
+  index.dataset = o.dataset.empty() ? source->dataset_name() : o.dataset;
+  index.split = o.split;
+  index.source = {{"format", source->format()}, {"inputs", HashInputs(refs)}};
+  index.skipped = damaged;
+  index.provenance = MakeProvenance("wm-ingest", config, {{"opencv", CV_VERSION}});
+  index = writer.Finish(index);
+  summary.episodes = index.num_episodes;
+  summary.steps = index.num_steps;
+  summary.skipped = index.skipped.size();
+  for (const auto& s : index.shards) summary.bytes += s.bytes;
+  summary.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  return summary;
+}
+
+}  // namespace wm::ingest
