@@ -38,11 +38,7 @@ shard::DatasetIndex MergeDatasets(const std::vector<std::string>& parts, const s
       Check(Sha256File(to) == info.sha256, "copied shard does not match its hash", {.file = to});
       info.file = fs::path(to).filename().string();
       merged.shards.push_back(info);
-      const shard::ShardReader& sr = reader.shard(s);
-      for (size_t k = 0; k < sr.num_episodes(); ++k) {
-        Episode e = sr.ReadEpisode(k);
-        actions.insert(actions.end(), e.actions.begin(), e.actions.end());
-      }
+      reader.shard(s).AppendActions(actions);
     }
     for (const auto& in : x.source.value("inputs", json::array())) inputs.push_back(in);
     merged.skipped.insert(merged.skipped.end(), x.skipped.begin(), x.skipped.end());

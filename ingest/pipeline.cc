@@ -9,7 +9,6 @@
 #include <chrono>
 #include <filesystem>
 #include <opencv2/core/version.hpp>
-#include <thread>
 #include <variant>
 
 #include "core/error.h"
@@ -20,6 +19,7 @@
 #include "ingest/image_codec.h"
 #include "ingest/ingest_options.h"
 #include "ingest/open_source.h"
+#include "ingest/ordered_loader.h"
 #include "ingest/validate.h"
 
 namespace wm::ingest {
@@ -49,23 +49,6 @@ LoadResult LoadOne(const EpisodeSource& source, const EpisodeRef& ref, const Ing
   } catch (const std::exception& err) {
     return Error(err.what(), {.file = ref.path, .record = ref.record});
   }
-}
-
-// Loads refs[begin, end) with `threads` workers; results in input order.
-std::vector<LoadResult> LoadWindow(const EpisodeSource& source, const std::vector<EpisodeRef>& refs,
-                                   size_t begin, size_t end, const IngestOptions& o) {
-  std::vector<std::optional<LoadResult>> slots(end - begin);
-  std::atomic<size_t> next{begin};
-  auto work = [&] {
-    for (size_t i = next++; i < end; i = next++) slots[i - begin] = LoadOne(source, refs[i], o);
-  };
-  std::vector<std::thread> workers;
-  for (int w = 1; w < o.threads; ++w) workers.emplace_back(work);
-  work();
-  for (auto& w : workers) w.join();
-  std::vector<LoadResult> out;
-  for (auto& s : slots) out.push_back(std::move(*s));
-  return out;
 }
 
 // Fault injection for the kill/resume tests: WMKIT_FAULT_KILL_AFTER=N SIGKILLs this process
@@ -155,22 +138,23 @@ IngestSummary RunIngest(const IngestOptions& o) {
   }
   Progress progress("ingest", refs.size(), "episodes");
   progress.Add(summary.resumed_from);
-  const size_t window = static_cast<size_t>(o.threads) * 4;  // bounds memory to a few episodes
-  for (size_t b = summary.resumed_from; b < refs.size(); b += window) {
-    size_t e = std::min(refs.size(), b + window);
-    std::vector<LoadResult> results = LoadWindow(*source, refs, b, e, o);
-    for (size_t j = 0; j < results.size(); ++j) {
-      const EpisodeRef& ref = refs[b + j];
-      if (auto* err = std::get_if<Error>(&results[j])) {
-        if (o.on_error == "fail") throw *err;
-        spdlog::warn("skipping bad episode: {}", err->what());
-        writer.Skip({ref.rel_path, ref.record, err->message()}, b + j);
-      } else {
-        writer.Add(std::get<Episode>(results[j]), b + j);
-        MaybeInjectKill(b + j + 1);
-      }
-      progress.Add();
+  // Workers load and check while this thread writes, in input order; at most a few episodes
+  // per thread are in memory at once.
+  OrderedLoader<LoadResult> loader(summary.resumed_from, refs.size(), o.threads,
+                                   static_cast<size_t>(o.threads) * 4,
+                                   [&](size_t i) { return LoadOne(*source, refs[i], o); });
+  for (size_t i = summary.resumed_from; i < refs.size(); ++i) {
+    LoadResult result = loader.Take(i);
+    const EpisodeRef& ref = refs[i];
+    if (auto* err = std::get_if<Error>(&result)) {
+      if (o.on_error == "fail") throw *err;
+      spdlog::warn("skipping bad episode: {}", err->what());
+      writer.Skip({ref.rel_path, ref.record, err->message()}, i);
+    } else {
+      writer.Add(std::get<Episode>(result), i);
+      MaybeInjectKill(i + 1);
     }
+    progress.Add();
   }
   progress.Finish();
 

@@ -105,11 +105,7 @@ DatasetIndex DatasetWriter::Finish(DatasetIndex index) {
   std::vector<float> actions;
   index.num_episodes = index.num_steps = 0;
   for (const auto& s : shards_) {
-    ShardReader reader(PathOf(s.file));
-    for (size_t k = 0; k < reader.num_episodes(); ++k) {
-      Episode e = reader.ReadEpisode(k);
-      actions.insert(actions.end(), e.actions.begin(), e.actions.end());
-    }
+    ShardReader(PathOf(s.file)).AppendActions(actions);
     index.num_episodes += s.num_episodes;
     index.num_steps += s.num_steps;
   }

@@ -115,7 +115,7 @@ EncodedRecord EncodeEpisode(const Episode& e, int level) {
   return {meta.dump(), std::move(body)};
 }
 
-Episode DecodeEpisode(std::string_view meta_text, std::string_view body) {
+Episode DecodeEpisode(std::string_view meta_text, std::string_view body, bool with_images) {
   json meta = json::parse(meta_text, nullptr, /*allow_exceptions=*/false);
   Check(meta.is_object(), "episode meta is not a JSON object");
   Episode e;
@@ -137,7 +137,7 @@ Episode DecodeEpisode(std::string_view meta_text, std::string_view body) {
       else if (current_key == "is_first") e.is_first = ReadArray<uint8_t>(s, body, t, 0);
       else if (current_key == "is_last") e.is_last = ReadArray<uint8_t>(s, body, t, 0);
       else if (current_key == "is_terminal") e.is_terminal = ReadArray<uint8_t>(s, body, t, 0);
-      else if (s.at("kind") == "blobs") e.images[current_key] = ReadBlobs(s, body, t);
+      else if (s.at("kind") == "blobs" && with_images) e.images[current_key] = ReadBlobs(s, body, t);
     }
   } catch (const json::exception& ex) {
     throw Error(std::string("malformed episode meta: ") + ex.what(), {.key = current_key});
@@ -149,7 +149,7 @@ Episode DecodeEpisode(std::string_view meta_text, std::string_view body) {
             e.is_first.size() == t && e.is_last.size() == t && e.is_terminal.size() == t,
         "record lacks one of the sections action, reward, discount, is_first, is_last, "
         "is_terminal");
-  Check(e.images.count("image") == 1, "record has no image section");
+  Check(!with_images || e.images.count("image") == 1, "record has no image section");
   return e;
 }
 

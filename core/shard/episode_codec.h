@@ -15,6 +15,7 @@ struct EncodedRecord {
 
 EncodedRecord EncodeEpisode(const Episode& episode, int zstd_level);
 // Throws wm::Error (key = section name) on a malformed meta or body.
-Episode DecodeEpisode(std::string_view meta, std::string_view body);
+// `with_images` false skips the image sections (statistics passes read only numbers).
+Episode DecodeEpisode(std::string_view meta, std::string_view body, bool with_images = true);
 
 }  // namespace wm::shard

@@ -73,18 +73,25 @@ std::string_view ShardReader::RecordBytes(size_t k) const {
   return {reinterpret_cast<const char*>(r), e.length};
 }
 
+void ShardReader::AppendActions(std::vector<float>& out) const {
+  for (size_t k = 0; k < entries_.size(); ++k) {
+    Episode e = ReadEpisode(k, /*with_images=*/false);
+    out.insert(out.end(), e.actions.begin(), e.actions.end());
+  }
+}
+
 std::string ShardReader::ReadMeta(size_t k) const {
   std::string_view rec = RecordBytes(k);
   uint64_t meta_len = GetU64(reinterpret_cast<const uint8_t*>(rec.data()) + 8);
   return std::string(rec.substr(kRecordHeaderSize, meta_len));
 }
 
-Episode ShardReader::ReadEpisode(size_t k) const {
+Episode ShardReader::ReadEpisode(size_t k, bool with_images) const {
   std::string_view rec = RecordBytes(k);
   uint64_t meta_len = GetU64(reinterpret_cast<const uint8_t*>(rec.data()) + 8);
   try {
     return DecodeEpisode(rec.substr(kRecordHeaderSize, meta_len),
-                         rec.substr(kRecordHeaderSize + meta_len));
+                         rec.substr(kRecordHeaderSize + meta_len), with_images);
   } catch (const Error& e) {
     throw e.WithRecord(static_cast<int64_t>(k)).WithFile(path());
   }

@@ -18,7 +18,9 @@ class ShardReader {
   const std::vector<IndexEntry>& entries() const { return entries_; }
   const std::string& path() const { return file_->path(); }
 
-  Episode ReadEpisode(size_t k) const;
+  Episode ReadEpisode(size_t k, bool with_images = true) const;
+  // Appends every episode's [T, 7] actions (checked records, images not decoded).
+  void AppendActions(std::vector<float>& out) const;
   // The meta JSON of record k (checked), without decoding the body.
   std::string ReadMeta(size_t k) const;
   // The raw record bytes (header + meta + body) after checking them; used by merge and tests.

@@ -191,6 +191,7 @@ std::vector<EpisodeRef> FolderSource::ListEpisodes(
   Check(!names.empty(), "no episode subdirectories", {input_});
   std::sort(names.begin(), names.end(), NaturalLess);
   std::vector<EpisodeRef> refs;
+  refs.reserve(names.size());
   for (const auto& name : names) refs.push_back({(fs::path(input_) / name).string(), name, 0});
   return refs;
 }

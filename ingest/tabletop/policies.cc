@@ -62,7 +62,7 @@ class NoisyPolicy : public Policy {
  public:
   Action Act(const SceneState& s, Rng& rng) override {
     Action a = PickAndPlace(s, s.goal);
-    for (int i = 0; i < 3; ++i) a[i] += static_cast<float>(rng.Normal(0, 0.012));
+    for (int i = 0; i < 3; ++i) a[i] += static_cast<float>(rng.Normal(0, 0.011));
     for (int i = 3; i < 6; ++i) a[i] += static_cast<float>(rng.Normal(0, 0.06));
     a[6] += static_cast<float>(rng.Normal(0, 0.25));  // ~2% of carrying steps drop the block
     return ClampAction(a);
@@ -85,12 +85,12 @@ class RandomPolicy : public Policy {
 class WrongGoalPolicy : public Policy {
  public:
   // The decoy lies beyond the block, on the side away from the goal, so the carry never
-  // crosses the goal region.
+  // crosses the goal region. It stays well inside the workspace so the block can reach it.
   explicit WrongGoalPolicy(const SceneState& initial) {
     Vec3 away = {initial.block.x - initial.goal.x, initial.block.y - initial.goal.y, 0};
     away = away * (0.18 / std::max(Norm(away), 1e-9));
-    decoy_ = {std::clamp(initial.block.x + away.x, -0.25, 0.25),
-              std::clamp(initial.block.y + away.y, -0.1, 0.4), 0};
+    decoy_ = {std::clamp(initial.block.x + away.x, -0.2, 0.2),
+              std::clamp(initial.block.y + away.y, -0.05, 0.4), 0};
   }
   Action Act(const SceneState& s, Rng&) override {
     if (placed_) return MoveTowards(s, {s.ee.x, s.ee.y, kHoverZ}, 0, 0);  // retreat and wait

@@ -8,7 +8,7 @@
 namespace wm::tabletop {
 namespace {
 
-constexpr double kFieldOfView = 55.0 * std::numbers::pi / 180;
+constexpr double kFieldOfView = 45.0 * std::numbers::pi / 180;
 constexpr double kHitEpsilon = 1e-7;
 
 // An oriented box: every solid in the scene (block, fingers, palm, arm link) is one.
@@ -160,7 +160,7 @@ CameraIntrinsics IntrinsicsForSize(int size) {
 }
 
 CameraPose TableCamera() {
-  const Vec3 position = {0, -0.35, 0.6}, target = {0, 0.15, 0};
+  const Vec3 position = {0, -0.25, 0.5}, target = {0, 0.15, 0};
   const Vec3 forward = Normalized(target - position);
   const Vec3 right = Normalized(Cross(forward, {0, 0, 1}));
   return {position, right, Cross(forward, right), forward};

@@ -16,11 +16,11 @@ enum Label : uint8_t { kLabelTable = 0, kLabelRobot = 1, kLabelBlock = 2, kLabel
 struct CameraIntrinsics {
   float fx = 0, fy = 0, cx = 0, cy = 0;
 };
-// A square image `size` pixels wide with a 55 degree field of view.
+// A square image `size` pixels wide with a 45 degree field of view.
 CameraIntrinsics IntrinsicsForSize(int size);
 
-// The camera's pose in the table frame: it sits 60 cm above the near edge of the table and
-// looks down at 50 degrees. Fixed for every episode.
+// The camera's pose in the table frame: it sits 50 cm above the table, 40 cm in front of the
+// workspace centre (0, 0.15, 0) it looks at, i.e. 51 degrees down. Fixed for every episode.
 struct CameraPose {
   Vec3 position, right, down, forward;  // forward = optical axis; all unit vectors
 };

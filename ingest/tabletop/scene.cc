@@ -137,8 +137,8 @@ void StepScene(SceneState& s, const Action& action) {
     PushBlock(s);
   }
   // The block may be pushed around but stays in view.
-  s.block.x = Clamp(s.block.x, -0.35, 0.35);
-  s.block.y = Clamp(s.block.y, -0.2, 0.5);
+  s.block.x = Clamp(s.block.x, -0.3, 0.3);
+  s.block.y = Clamp(s.block.y, -0.12, 0.5);
 }
 
 bool BlockInGoal(const SceneState& s) {

@@ -19,8 +19,8 @@ inline constexpr double kMaxTranslationStep = 0.04;
 inline constexpr double kMaxRotationStep = 0.25;
 
 // End-effector workspace (tool point = centre between the fingertips), metres.
-inline constexpr Vec3 kEeMin = {-0.30, -0.15, 0.005};
-inline constexpr Vec3 kEeMax = {0.30, 0.45, 0.35};
+inline constexpr Vec3 kEeMin = {-0.25, -0.10, 0.005};
+inline constexpr Vec3 kEeMax = {0.25, 0.45, 0.35};
 inline constexpr double kMaxTilt = 0.6;  // |roll|, |pitch| limit, radians
 
 inline constexpr double kBlockHalfSize = 0.02;  // 4 cm cube

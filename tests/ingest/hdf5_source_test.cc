@@ -66,10 +66,13 @@ constexpr int kSize = 8;  // frames are kSize x kSize
 
 std::vector<uint8_t> Frames(int steps) {
   std::vector<uint8_t> rgb;
-  for (int t = 0; t < steps; ++t)
-    for (int y = 0; y < kSize; ++y)
-      for (int x = 0; x < kSize; ++x)
+  for (int t = 0; t < steps; ++t) {
+    for (int y = 0; y < kSize; ++y) {
+      for (int x = 0; x < kSize; ++x) {
         for (int c = 0; c < 3; ++c) rgb.push_back(Pixel(t, y, x, c));
+      }
+    }
+  }
   return rgb;
 }
 
@@ -82,8 +85,9 @@ void WriteLiberoFile(const std::string& path) {
                   R"({"problem_name": "x", "language_instruction": "put the bowl on the plate"})");
 
   std::vector<double> actions10;
-  for (int t = 0; t < 3; ++t)
+  for (int t = 0; t < 3; ++t) {
     for (int d = 0; d < 7; ++d) actions10.push_back(Action(t, d));
+  }
   WriteDataset(data, "demo_10/actions", H5T_NATIVE_DOUBLE, {3, 7}, actions10.data());
   std::vector<double> rewards{0, 0.5, 1};
   WriteDataset(data, "demo_10/rewards", H5T_NATIVE_DOUBLE, {3}, rewards.data());
@@ -101,13 +105,15 @@ void WriteLiberoFile(const std::string& path) {
   WriteDataset(data, "demo_10/obs/eye_in_hand_rgb", H5T_NATIVE_UINT8, {3, kSize, kSize, 3},
                wrist.data());
   std::vector<uint16_t> depth;
-  for (int t = 0; t < 3; ++t)
-    for (int y = 0; y < kSize; ++y)
+  for (int t = 0; t < 3; ++t) {
+    for (int y = 0; y < kSize; ++y) {
       for (int x = 0; x < kSize; ++x) depth.push_back(Depth(t, y, x));
+    }
+  }
   WriteDataset(data, "demo_10/obs/agentview_rgb_depth", H5T_NATIVE_UINT16, {3, kSize, kSize},
                depth.data());
 
-  std::vector<float> actions2(2 * 7, -1.5f);
+  std::vector<float> actions2(14, -1.5f);
   WriteDataset(data, "demo_2/actions", H5T_NATIVE_FLOAT, {2, 7}, actions2.data());
   std::vector<int64_t> dones2{0, 0};
   WriteDataset(data, "demo_2/dones", H5T_NATIVE_INT64, {2}, dones2.data());
@@ -152,8 +158,9 @@ TEST_F(Hdf5SourceTest, LoadsStepsFlagsAndInstruction) {
   EXPECT_EQ(ep.language_instruction, "put the bowl on the plate");
   ASSERT_EQ(ep.num_steps, 3);
   ASSERT_EQ(ep.actions.size(), 21u);
-  for (int t = 0; t < 3; ++t)
+  for (int t = 0; t < 3; ++t) {
     for (int d = 0; d < 7; ++d) EXPECT_EQ(ep.actions[t * 7 + d], Action(t, d));
+  }
   EXPECT_EQ(ep.rewards, (std::vector<float>{0, 0.5f, 1}));
   EXPECT_EQ(ep.discounts, (std::vector<float>{1, 1, 1}));
   EXPECT_EQ(ep.is_first, (std::vector<uint8_t>{1, 0, 0}));
@@ -180,9 +187,11 @@ TEST_F(Hdf5SourceTest, PngFramesDecodeToTheStoredPixels) {
   for (int t = 0; t < 3; ++t) {
     cv::Mat rgb;
     cv::cvtColor(Decode(image.frames[t]), rgb, cv::COLOR_BGR2RGB);
-    for (int y = 0; y < kSize; ++y)
-      for (int x = 0; x < kSize; ++x)
+    for (int y = 0; y < kSize; ++y) {
+      for (int x = 0; x < kSize; ++x) {
         for (int c = 0; c < 3; ++c) ASSERT_EQ(rgb.at<cv::Vec3b>(y, x)[c], Pixel(t, y, x, c));
+      }
+    }
   }
   const EncodedFrames& depth = ep.images.at("depth");
   EXPECT_EQ(depth.dtype, "uint16");
@@ -190,8 +199,9 @@ TEST_F(Hdf5SourceTest, PngFramesDecodeToTheStoredPixels) {
   for (int t = 0; t < 3; ++t) {
     cv::Mat d = Decode(depth.frames[t]);
     ASSERT_EQ(d.type(), CV_16UC1);
-    for (int y = 0; y < kSize; ++y)
+    for (int y = 0; y < kSize; ++y) {
       for (int x = 0; x < kSize; ++x) ASSERT_EQ(d.at<uint16_t>(y, x), Depth(t, y, x));
+    }
   }
 }
 
@@ -220,6 +230,7 @@ TEST_F(Hdf5SourceTest, ConcurrentLoadsAgree) {
   Hdf5Source source(path_);
   Episode expected = source.Load({path_, "x", 10});
   std::vector<std::thread> threads;
+  threads.reserve(4);
   std::atomic<int> mismatches{0};
   for (int i = 0; i < 4; ++i) {
     threads.emplace_back([&] {
@@ -264,7 +275,7 @@ TEST(Hdf5SourceErrors, BadDemosNameFileDemoAndKey) {
   test::TempDir dir;
   std::string path = dir / "bad.hdf5";
   hid_t file = H5Fcreate(path.c_str(), H5F_ACC_TRUNC, H5P_DEFAULT, H5P_DEFAULT);
-  std::vector<float> six(2 * 6, 0.0f), seven(2 * 7, 0.0f);
+  std::vector<float> six(12, 0.0f), seven(14, 0.0f);
   std::vector<uint8_t> rgb = Frames(2);
   WriteDataset(file, "data/demo_3/actions", H5T_NATIVE_FLOAT, {2, 6}, six.data());
   WriteDataset(file, "data/demo_3/obs/agentview_rgb", H5T_NATIVE_UINT8, {2, kSize, kSize, 3},
