@@ -17,6 +17,12 @@ struct EpisodeRef {
   uint64_t offset = 0;   // byte offset of the record, for formats that have one (TFRecord)
 };
 
+// Fills an episode's identity from its ref (key "<rel_path>#<record>") and, for T steps, the
+// flags of a single-episode source: is_first at step 0, is_last at T-1, is_terminal at T-1 when
+// `terminal`; discounts 1. Shared by the sources that have no per-step flags of their own.
+void StartEpisode(Episode& episode, const EpisodeRef& ref);
+void SetBoundaryFlags(Episode& episode, bool terminal);
+
 class EpisodeSource {
  public:
   virtual ~EpisodeSource() = default;

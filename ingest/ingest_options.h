@@ -15,6 +15,7 @@ struct IngestOptions {
   std::string mapping;           // RLDS: mapping YAML (default configs/datasets/<name>.yaml)
   std::string configs_dir;       // where configs/datasets lives (default: wm::DefaultConfigsDir)
   std::string camera;            // HDF5: obs/<camera> key (default: first RGB camera found)
+  bool hdf5_depth = true;        // HDF5: also read obs/<camera>_depth (uint16) when present
   int resize_width = 0, resize_height = 0;  // 0: keep encoded bytes as they are
   double shard_size_mb = 256;    // a shard closes once it reaches this size
   int shard_index = 0, num_shards = 1;  // this job's contiguous block of the input episodes

@@ -84,7 +84,7 @@ void IngestOptions::Check() const {
 
 json IngestOptions::ToConfig() const {
   return {{"format", format},         {"dataset", dataset},
-          {"split", split},           {"camera", camera},
+          {"split", split},           {"camera", camera}, {"hdf5_depth", hdf5_depth},
           {"resize", {resize_width, resize_height}},
           {"shard_size_mb", shard_size_mb},
           {"shard_index", shard_index}, {"num_shards", num_shards},

@@ -199,9 +199,7 @@ std::vector<EpisodeRef> FolderSource::ListEpisodes(
 Episode FolderSource::Load(const EpisodeRef& ref) const {
   const fs::path dir = ref.path;
   Episode ep;
-  ep.episode_key = ref.rel_path + "#" + std::to_string(ref.record);
-  ep.source_file = ref.rel_path;
-  ep.source_record = ref.record;
+  StartEpisode(ep, ref);
 
   EncodedFrames& image = ep.images["image"];
   image = ReadFrames(dir);
@@ -239,14 +237,8 @@ Episode FolderSource::Load(const EpisodeRef& ref) const {
   ep.policy_id = std::move(meta.policy_id);
   ep.episode_seed = meta.episode_seed;
 
-  ep.discounts.assign(T, 1.0f);
-  ep.is_first.assign(T, 0);
-  ep.is_last.assign(T, 0);
-  ep.is_terminal.assign(T, 0);
-  ep.is_first[0] = 1;
-  ep.is_last[T - 1] = 1;
   // A folder cannot say whether the episode reached a terminal state; meta.json must.
-  ep.is_terminal[T - 1] = meta.terminal ? 1 : 0;
+  SetBoundaryFlags(ep, meta.terminal);
   return ep;
 }
 

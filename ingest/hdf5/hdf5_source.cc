@@ -180,7 +180,7 @@ void ReadImages(const DemoReader& r, const std::string& camera, bool read_depth,
   if (!depth.IsUnsignedInt(2) || !rank_ok || depth.dims[0] != static_cast<hsize_t>(raw.num_steps)) {
     throw r.Fail(depth_key,
                  "expected uint16 [T, H, W] or [T, H, W, 1], T = " + std::to_string(raw.num_steps) +
-                     ", got " + depth.Describe() + "; turn the depth option off to ignore depth");
+                     ", got " + depth.Describe() + "; pass --hdf5-no-depth to ignore depth");
   }
   raw.depth_height = static_cast<int>(depth.dims[1]);
   raw.depth_width = static_cast<int>(depth.dims[2]);
@@ -274,22 +274,14 @@ Episode Hdf5Source::Load(const EpisodeRef& ref) const {
   RawDemo raw = ReadDemo(ref, camera_, depth_);
   const size_t T = static_cast<size_t>(raw.num_steps);
   Episode ep;
-  ep.episode_key = ref.rel_path + "#" + std::to_string(ref.record);
-  ep.source_file = ref.rel_path;
-  ep.source_record = ref.record;
+  StartEpisode(ep, ref);
   ep.language_instruction = std::move(raw.language_instruction);
   ep.num_steps = raw.num_steps;
   ep.actions = std::move(raw.actions);
   ep.rewards = raw.rewards.empty() ? std::vector<float>(T, 0.0f) : std::move(raw.rewards);
-  ep.discounts.assign(T, 1.0f);
-  ep.is_first.assign(T, 0);
-  ep.is_last.assign(T, 0);
-  ep.is_terminal.assign(T, 0);
-  ep.is_first[0] = 1;
-  ep.is_last[T - 1] = 1;
   // Only the last step's done counts: robomimic's done_mode 2 also sets dones at mid-episode
   // success steps, which do not end the episode.
-  ep.is_terminal[T - 1] = !raw.dones.empty() && raw.dones[T - 1] != 0.0f;
+  SetBoundaryFlags(ep, !raw.dones.empty() && raw.dones[T - 1] != 0.0f);
 
   auto check = [&](EncodedFrames& frames, const std::string& key) {
     try {

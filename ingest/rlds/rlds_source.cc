@@ -64,8 +64,19 @@ RldsSource::RldsSource(const std::string& path, const std::string& split,
   require(mapping_.image, "image");
   int width = 0;
   for (const auto& part : mapping_.action) {
-    if (!part.key.empty()) require(part.key, "action");
-    width += part.Width(part.key.empty() ? 0 : static_cast<int>(dataset_.features[part.key].ElementSize()));
+    if (part.key.empty()) {
+      width += part.zeros;
+      continue;
+    }
+    require(part.key, "action");
+    const auto size = static_cast<int>(dataset_.features[part.key].ElementSize());
+    for (int index : part.select) {
+      Check(index >= 0 && index < size,
+            "select index " + std::to_string(index) + " is outside the feature's " +
+                std::to_string(size) + " values per step",
+            {.file = mapping_.file, .key = part.key});
+    }
+    width += part.Width(size);
   }
   Check(width == kActionDim, "action parts add up to " + std::to_string(width) +
                                  " dimensions, expected 7 (Δxyz, Δrpy, gripper)",

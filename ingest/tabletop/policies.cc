@@ -93,7 +93,7 @@ class WrongGoalPolicy : public Policy {
               std::clamp(initial.block.y + away.y, -0.05, 0.4), 0};
   }
   Action Act(const SceneState& s, Rng&) override {
-    if (placed_) return MoveTowards(s, {s.ee.x, s.ee.y, kHoverZ}, 0, 0);  // retreat and wait
+    if (placed_) return MoveTowards(s, {s.ee.x, s.ee.y, 2 * kHoverZ}, 0, 0);  // retreat, wait
     bool at_place = false;
     Action a = PickAndPlace(s, decoy_, &at_place);
     if (!at_place) return a;
@@ -123,7 +123,7 @@ PolicyKind ParsePolicyKind(const std::string& name) {
   const auto it = std::find(names.begin(), names.end(), name);
   if (it == names.end()) {
     throw Error("unknown policy '" + name + "' (valid: expert, noisy, random, wrong_goal)",
-                {.key = "policies"});
+                {.key = "--policies"});
   }
   return static_cast<PolicyKind>(it - names.begin());
 }
@@ -135,7 +135,7 @@ std::unique_ptr<Policy> MakePolicy(PolicyKind kind, const SceneState& initial) {
     case PolicyKind::kRandom: return std::make_unique<RandomPolicy>();
     case PolicyKind::kWrongGoal: return std::make_unique<WrongGoalPolicy>(initial);
   }
-  throw Error("invalid policy kind", {.key = "policies"});
+  throw Error("invalid policy kind", {.key = "--policies"});
 }
 
 }  // namespace wm::tabletop

@@ -17,7 +17,7 @@ enum class PolicyKind { kExpert, kNoisy, kRandom, kWrongGoal };
 
 // "expert", "noisy", "random", "wrong_goal" (the policy_id written to the dataset).
 std::string PolicyName(PolicyKind kind);
-// Throws wm::Error(key "policies") naming the valid policies when `name` is none of them.
+// Throws wm::Error(key "--policies") naming the valid policies when `name` is none of them.
 PolicyKind ParsePolicyKind(const std::string& name);
 const std::vector<std::string>& AllPolicyNames();
 

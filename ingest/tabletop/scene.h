@@ -20,7 +20,7 @@ inline constexpr double kMaxRotationStep = 0.25;
 
 // End-effector workspace (tool point = centre between the fingertips), metres.
 inline constexpr Vec3 kEeMin = {-0.25, -0.10, 0.005};
-inline constexpr Vec3 kEeMax = {0.25, 0.45, 0.35};
+inline constexpr Vec3 kEeMax = {0.25, 0.40, 0.30};
 inline constexpr double kMaxTilt = 0.6;  // |roll|, |pitch| limit, radians
 
 inline constexpr double kBlockHalfSize = 0.02;  // 4 cm cube

@@ -47,7 +47,11 @@ int main(int argc, char** argv) {
                  "Comma-separated mix, assigned round-robin: expert,noisy,random,wrong_goal")
       ->delimiter(',')
       ->capture_default_str();
-  CLI11_PARSE(app, argc, argv);
+  try {
+    app.parse(argc, argv);
+  } catch (const CLI::ParseError& e) {
+    return app.exit(e) == 0 ? 0 : 2;  // --help is a ParseError too
+  }
   if (version->count() > 0) {
     if (version_arg.empty()) {
       std::cout << wm::VersionString("wm-gen-tabletop") << "\n";

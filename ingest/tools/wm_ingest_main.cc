@@ -41,6 +41,8 @@ int main(int argc, char** argv) {
   app.add_option("--mapping", o.mapping, "RLDS feature mapping YAML (default: configs/datasets/<name>.yaml)");
   app.add_option("--configs", o.configs_dir, "Configs directory (default: $WMKIT_CONFIGS or the repo's configs/)");
   app.add_option("--camera", o.camera, "HDF5 camera key under obs/ (default: first RGB camera)");
+  bool no_depth = false;
+  app.add_flag("--hdf5-no-depth", no_depth, "HDF5: ignore obs/<camera>_depth (e.g. float depth)");
   app.add_option("--resize", resize, "Re-encode every frame at WxH (default: keep encoded bytes)");
   app.add_option("--shard-size-mb", o.shard_size_mb, "Close a shard at this size")->capture_default_str();
   app.add_option("--shard-index", o.shard_index, "This job's index (Slurm: $SLURM_ARRAY_TASK_ID)")->capture_default_str();
@@ -57,6 +59,7 @@ int main(int argc, char** argv) {
       throw wm::Error("--resize must look like 128x128, got '" + resize + "'");
     }
     o.full_image_check = !header_only;
+    o.hdf5_depth = !no_depth;
     wm::ingest::IngestSummary s = wm::ingest::RunIngest(o);
     if (!s.already_complete) {
       spdlog::info("wrote {} episodes, {} steps, {:.1f} MB in {:.1f} s ({} skipped) -> {}",

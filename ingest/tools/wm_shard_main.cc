@@ -6,6 +6,7 @@
 #include "core/log.h"
 #include "core/provenance.h"
 #include "core/shard/dataset_reader.h"
+#include "ingest/dataset_summary.h"
 #include "ingest/episode_json.h"
 #include "ingest/merge.h"
 
@@ -13,7 +14,7 @@ namespace {
 
 constexpr const char* kFooter = R"(
 Examples:
-  wm-shard info data/shards/train
+  wm-shard info data/shards/train          # summary; --json for the whole index
   wm-shard verify data/shards/train
   wm-shard dump data/shards/train --episode 3
   wm-shard merge --output data/shards/all data/shards/part-0 data/shards/part-1
@@ -30,8 +31,10 @@ int main(int argc, char** argv) {
   std::string dir, output;
   std::vector<std::string> parts;
   int64_t episode = -1;
-  auto* info = app.add_subcommand("info", "Print a dataset summary (index.json) as JSON");
+  bool as_json = false;
+  auto* info = app.add_subcommand("info", "Print a dataset summary (--json: the whole index.json)");
   info->add_option("dir", dir, "Dataset directory")->required();
+  info->add_flag("--json", as_json, "Print index.json as parsed and checked");
   auto* verify = app.add_subcommand("verify", "Re-check every hash and CRC");
   verify->add_option("dir", dir, "Dataset directory")->required();
   auto* dump = app.add_subcommand("dump", "Print episodes as JSON (all, or one)");
@@ -44,7 +47,9 @@ int main(int argc, char** argv) {
   wm::InitLogging("info");
   try {
     if (*info) {
-      std::cout << wm::shard::IndexToJson(wm::shard::ReadIndex(dir)).dump(2) << "\n";
+      wm::shard::DatasetIndex index = wm::shard::ReadIndex(dir);
+      std::cout << (as_json ? wm::shard::IndexToJson(index).dump(2) + "\n"
+                            : wm::ingest::FormatSummary(index));
     } else if (*verify) {
       wm::shard::VerifyReport r = wm::shard::VerifyDataset(dir);
       std::cout << "OK " << r.episodes << " episodes, " << r.steps << " steps, " << r.bytes

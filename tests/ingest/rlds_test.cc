@@ -145,6 +145,12 @@ TEST(RldsSource, MappingErrorsAreClear) {
   msg = ErrorText([&] { RldsSource s(FractalDir(), "train", mapping, ConfigsDir()); });
   EXPECT_NE(msg.find("steps/observation/nope"), std::string::npos) << msg;
 
+  WriteFileAtomically(mapping, "dataset: x\nimage: steps/observation/image\naction:\n"
+                               "  - {key: steps/action/world_vector, select: [0, 1, 5]}\n"
+                               "  - {zeros: 4}\n");
+  msg = ErrorText([&] { RldsSource s(FractalDir(), "train", mapping, ConfigsDir()); });
+  EXPECT_NE(msg.find("select index 5 is outside"), std::string::npos) << msg;
+
   msg = ErrorText([&] { RldsSource s(FractalDir(), "train", "", dir.path().string()); });
   EXPECT_NE(msg.find("no dataset mapping for 'fractal20220817_data'"), std::string::npos) << msg;
 }
