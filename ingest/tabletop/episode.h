@@ -12,8 +12,8 @@
 namespace wm::tabletop {
 
 // Flattened feature keys (tfds_features.cc declares each of them in features.json).
-inline constexpr const char* kImageKey = "steps/observation/image";         // JPEG, RGB
-inline constexpr const char* kDepthKey = "steps/observation/depth";         // PNG uint16, mm
+inline constexpr const char* kImageKey = "steps/observation/image";                // JPEG, RGB
+inline constexpr const char* kDepthKey = "steps/observation/depth";                // PNG uint16, mm
 inline constexpr const char* kSegmentationKey = "steps/observation/segmentation";  // PNG, Label
 inline constexpr const char* kActionKey = "steps/action";  // 7 floats per step, see Action
 inline constexpr const char* kRewardKey = "steps/reward";

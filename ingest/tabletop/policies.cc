@@ -130,10 +130,14 @@ PolicyKind ParsePolicyKind(const std::string& name) {
 
 std::unique_ptr<Policy> MakePolicy(PolicyKind kind, const SceneState& initial) {
   switch (kind) {
-    case PolicyKind::kExpert: return std::make_unique<ExpertPolicy>();
-    case PolicyKind::kNoisy: return std::make_unique<NoisyPolicy>();
-    case PolicyKind::kRandom: return std::make_unique<RandomPolicy>();
-    case PolicyKind::kWrongGoal: return std::make_unique<WrongGoalPolicy>(initial);
+    case PolicyKind::kExpert:
+      return std::make_unique<ExpertPolicy>();
+    case PolicyKind::kNoisy:
+      return std::make_unique<NoisyPolicy>();
+    case PolicyKind::kRandom:
+      return std::make_unique<RandomPolicy>();
+    case PolicyKind::kWrongGoal:
+      return std::make_unique<WrongGoalPolicy>(initial);
   }
   throw Error("invalid policy kind", {.key = "--policies"});
 }

@@ -65,25 +65,33 @@ bool HitSolid(const Solid& s, const Vec3& origin, const Vec3& dir, double* t, Ve
 std::vector<Solid> BuildSolids(const Scene& scene, bool draw_robot) {
   const SceneState& s = scene.state;
   std::vector<Solid> solids;
-  solids.push_back({s.block, RotationFromRpy(0, 0, s.block_yaw),
-                    {kBlockHalfSize, kBlockHalfSize, kBlockHalfSize}, scene.look.block_rgb,
+  solids.push_back({s.block,
+                    RotationFromRpy(0, 0, s.block_yaw),
+                    {kBlockHalfSize, kBlockHalfSize, kBlockHalfSize},
+                    scene.look.block_rgb,
                     kLabelBlock});
   if (!draw_robot) return solids;
   const Mat3 r = RotationFromRpy(s.ee_rpy.x, s.ee_rpy.y, s.ee_rpy.z);
   const double finger_x = FingerGap(s) / 2 + kFingerHalfWidth;
   for (double side : {-1.0, 1.0}) {
-    solids.push_back({s.ee + r * Vec3{side * finger_x, 0, kFingerLength / 2}, r,
+    solids.push_back({s.ee + r * Vec3{side * finger_x, 0, kFingerLength / 2},
+                      r,
                       {kFingerHalfWidth, kFingerHalfDepth, kFingerLength / 2},
-                      {0.22, 0.22, 0.25}, kLabelRobot});
+                      {0.22, 0.22, 0.25},
+                      kLabelRobot});
   }
-  solids.push_back({s.ee + r * Vec3{0, 0, kFingerLength + kPalmHalfHeight}, r,
-                    {kPalmHalfWidth, kPalmHalfDepth, kPalmHalfHeight}, {0.55, 0.56, 0.60},
+  solids.push_back({s.ee + r * Vec3{0, 0, kFingerLength + kPalmHalfHeight},
+                    r,
+                    {kPalmHalfWidth, kPalmHalfDepth, kPalmHalfHeight},
+                    {0.55, 0.56, 0.60},
                     kLabelRobot});
   // The arm link stays vertical (a gantry-style arm); it turns with the wrist's yaw only.
   const Vec3 wrist = s.ee + r * Vec3{0, 0, kFingerLength + 2 * kPalmHalfHeight};
   const double half_length = std::max(kRodTopZ - wrist.z, 0.01) / 2;
-  solids.push_back({{wrist.x, wrist.y, wrist.z + half_length}, RotationFromRpy(0, 0, s.ee_rpy.z),
-                    {kRodHalfWidth, kRodHalfWidth, half_length}, {0.75, 0.75, 0.78},
+  solids.push_back({{wrist.x, wrist.y, wrist.z + half_length},
+                    RotationFromRpy(0, 0, s.ee_rpy.z),
+                    {kRodHalfWidth, kRodHalfWidth, half_length},
+                    {0.75, 0.75, 0.78},
                     kLabelRobot});
   return solids;
 }
@@ -149,7 +157,9 @@ Vec3 TableAlbedo(const Vec3& p, const Scene& scene, Label* label) {
   return look.table_rgb * shade;
 }
 
-uint8_t ToByte(double v) { return static_cast<uint8_t>(std::lround(std::clamp(v, 0.0, 1.0) * 255)); }
+uint8_t ToByte(double v) {
+  return static_cast<uint8_t>(std::lround(std::clamp(v, 0.0, 1.0) * 255));
+}
 
 }  // namespace
 
@@ -183,8 +193,8 @@ Frame RenderFrame(const Scene& scene, int size, const RenderOptions& options) {
               std::vector<uint8_t>(size * size)};
   for (int v = 0; v < size; ++v) {
     for (int u = 0; u < size; ++u) {
-      const Vec3 dir = Normalized(cam.right * ((u - k.cx) / k.fx) +
-                                  cam.down * ((v - k.cy) / k.fy) + cam.forward);
+      const Vec3 dir = Normalized(cam.right * ((u - k.cx) / k.fx) + cam.down * ((v - k.cy) / k.fy) +
+                                  cam.forward);
       double t = dir.z < 0 ? -cam.position.z / dir.z : std::numeric_limits<double>::infinity();
       int hit = -1;  // -1: the table plane
       Vec3 normal = {0, 0, 1};

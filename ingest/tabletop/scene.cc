@@ -16,12 +16,13 @@ struct NamedColour {
 };
 // No green among block or table colours: green is the goal's colour.
 constexpr NamedColour kBlockColours[] = {
-    {"red", {0.85, 0.12, 0.10}},   {"blue", {0.12, 0.25, 0.85}},
-    {"yellow", {0.92, 0.80, 0.12}}, {"orange", {0.95, 0.48, 0.08}},
-    {"purple", {0.55, 0.18, 0.70}}, {"white", {0.92, 0.92, 0.90}}};
-constexpr Vec3 kTableColours[] = {
-    {0.55, 0.38, 0.22}, {0.62, 0.60, 0.56}, {0.80, 0.72, 0.58}, {0.30, 0.32, 0.38},
-    {0.50, 0.55, 0.65}};
+    {"red", {0.85, 0.12, 0.10}},    {"blue", {0.12, 0.25, 0.85}},   {"yellow", {0.92, 0.80, 0.12}},
+    {"orange", {0.95, 0.48, 0.08}}, {"purple", {0.55, 0.18, 0.70}}, {"white", {0.92, 0.92, 0.90}}};
+constexpr Vec3 kTableColours[] = {{0.55, 0.38, 0.22},
+                                  {0.62, 0.60, 0.56},
+                                  {0.80, 0.72, 0.58},
+                                  {0.30, 0.32, 0.38},
+                                  {0.50, 0.55, 0.65}};
 constexpr const char* kInstructionTemplates[] = {
     "push the {} block to the green goal", "move the {} block onto the green goal",
     "put the {} block in the green goal region", "bring the {} block to the green circle"};

@@ -40,10 +40,10 @@ inline constexpr double kRodHalfWidth = 0.02;  // vertical arm link from the pal
 inline constexpr double kRodTopZ = 1.2;        // above the camera, so it leaves the image top
 
 struct SceneState {
-  Vec3 ee;              // end-effector tool point, metres
-  Vec3 ee_rpy;          // roll, pitch, yaw, radians
-  double gripper = 0;   // 0 open .. 1 closed (follows the command immediately)
-  Vec3 block;           // block centre
+  Vec3 ee;             // end-effector tool point, metres
+  Vec3 ee_rpy;         // roll, pitch, yaw, radians
+  double gripper = 0;  // 0 open .. 1 closed (follows the command immediately)
+  Vec3 block;          // block centre
   double block_yaw = 0;
   bool holding = false;  // block grasped and carried with the gripper
   Vec3 hold_offset;      // block - ee while held
@@ -52,7 +52,7 @@ struct SceneState {
 
 // Per-episode look: what varies between episodes besides the layout.
 struct Appearance {
-  Vec3 table_rgb;        // linear 0..1
+  Vec3 table_rgb;         // linear 0..1
   int table_pattern = 0;  // 0 wood grain, 1 checker, 2 speckle
   double pattern_scale = 1, pattern_phase = 0;
   Vec3 block_rgb;

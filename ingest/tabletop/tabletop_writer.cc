@@ -39,8 +39,8 @@ std::string Describe(const TabletopOptions& o) {
   for (const std::string& p : o.policies) policies += (policies.empty() ? "" : ",") + p;
   return "Synthetic tabletop pick-and-place episodes written by wm-gen-tabletop (wmkit " +
          std::string(kWmkitVersion) + ", seed " + std::to_string(o.seed) + ", max_steps " +
-         std::to_string(o.max_steps) + ", policies " + policies + "). Per step: " +
-         std::to_string(o.size) + "x" + std::to_string(o.size) +
+         std::to_string(o.max_steps) + ", policies " + policies +
+         "). Per step: " + std::to_string(o.size) + "x" + std::to_string(o.size) +
          " RGB JPEG, depth PNG (uint16 millimetres along the optical axis), segmentation PNG "
          "(0 table, 1 arm and gripper, 2 block, 3 goal region), action [dx, dy, dz, droll, "
          "dpitch, dyaw, gripper (1 = closed)].";
@@ -51,8 +51,8 @@ std::vector<Rollout> RollOutAll(const TabletopOptions& o, const std::string& spl
                                 int count) {
   std::vector<Rollout> rollouts;
   for (int i = 0; i < count; ++i) {
-    rollouts.push_back(RollOut(EpisodeSeed(o.seed, split, first + i),
-                               o.PolicyForEpisode(first + i), o.max_steps));
+    rollouts.push_back(
+        RollOut(EpisodeSeed(o.seed, split, first + i), o.PolicyForEpisode(first + i), o.max_steps));
   }
   return rollouts;
 }
@@ -60,8 +60,8 @@ std::vector<Rollout> RollOutAll(const TabletopOptions& o, const std::string& spl
 // Renders and encodes on all cores; the result is in index order whatever the thread count.
 std::vector<std::string> EncodeAll(const std::vector<Rollout>& rollouts, int size) {
   std::vector<std::string> encoded(rollouts.size());
-  const size_t threads =
-      std::clamp<size_t>(std::thread::hardware_concurrency(), 1, std::max<size_t>(rollouts.size(), 1));
+  const size_t threads = std::clamp<size_t>(std::thread::hardware_concurrency(), 1,
+                                            std::max<size_t>(rollouts.size(), 1));
   std::vector<std::thread> workers;
   std::vector<std::exception_ptr> errors(threads);
   for (size_t w = 0; w < threads; ++w) {
@@ -100,18 +100,18 @@ void RemoveStaleShards(const std::string& dir, const std::string& name,
 void TabletopOptions::Check() const {
   wm::Check(!out_dir.empty(), "an output directory is required", {.key = "--out"});
   wm::Check(std::regex_match(name, std::regex("[a-z][a-z0-9_]*")),
-        "dataset name '" + name + "' must be snake_case ([a-z][a-z0-9_]*), as TFDS requires",
-        {.key = "--name"});
+            "dataset name '" + name + "' must be snake_case ([a-z][a-z0-9_]*), as TFDS requires",
+            {.key = "--name"});
   wm::Check(std::regex_match(version, std::regex("[0-9]+\\.[0-9]+\\.[0-9]+")),
-        "dataset version '" + version + "' must be MAJOR.MINOR.PATCH, e.g. 1.0.0",
-        {.key = "--version"});
+            "dataset version '" + version + "' must be MAJOR.MINOR.PATCH, e.g. 1.0.0",
+            {.key = "--version"});
   wm::Check(train_episodes >= 0, "must be >= 0", {.key = "--train-episodes"});
   wm::Check(val_episodes >= 0, "must be >= 0", {.key = "--val-episodes"});
   wm::Check(train_episodes + val_episodes >= 1, "at least one episode is needed",
-        {.key = "--train-episodes"});
+            {.key = "--train-episodes"});
   wm::Check(files >= 1 && files <= 99999, "must be in 1..99999", {.key = "--files"});
   wm::Check(size >= 64 && size <= 256,
-        "image size " + std::to_string(size) + " is outside 64..256 pixels", {.key = "--size"});
+            "image size " + std::to_string(size) + " is outside 64..256 pixels", {.key = "--size"});
   wm::Check(max_steps >= 1 && max_steps <= 1000, "must be in 1..1000", {.key = "--max-steps"});
   wm::Check(!policies.empty(), "at least one policy is needed", {.key = "--policies"});
   for (const std::string& p : policies) ParsePolicyKind(p);

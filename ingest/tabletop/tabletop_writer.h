@@ -14,15 +14,15 @@
 namespace wm::tabletop {
 
 struct TabletopOptions {
-  std::string out_dir;                 // required; the dataset goes under <out_dir>/<name>/
-  std::string name = "wm_tabletop";    // TFDS dataset name: [a-z][a-z0-9_]*
-  std::string version = "1.0.0";      // TFDS version: MAJOR.MINOR.PATCH
-  int train_episodes = 48;             // episodes in the "train" split (0 omits the split)
-  int val_episodes = 16;               // episodes in the "val" split (0 omits the split)
-  int files = 2;                       // TFRecord files per split (fewer if fewer episodes)
-  int size = 128;                      // image side in pixels, 64..256
-  int max_steps = 40;                  // step limit per episode, 1..1000
-  uint64_t seed = 0;                   // dataset seed; every episode derives its own from it
+  std::string out_dir;               // required; the dataset goes under <out_dir>/<name>/
+  std::string name = "wm_tabletop";  // TFDS dataset name: [a-z][a-z0-9_]*
+  std::string version = "1.0.0";     // TFDS version: MAJOR.MINOR.PATCH
+  int train_episodes = 48;           // episodes in the "train" split (0 omits the split)
+  int val_episodes = 16;             // episodes in the "val" split (0 omits the split)
+  int files = 2;                     // TFRecord files per split (fewer if fewer episodes)
+  int size = 128;                    // image side in pixels, 64..256
+  int max_steps = 40;                // step limit per episode, 1..1000
+  uint64_t seed = 0;                 // dataset seed; every episode derives its own from it
   // Policies assigned round-robin by episode index within each split.
   std::vector<std::string> policies = {"expert", "noisy", "random", "wrong_goal"};
 

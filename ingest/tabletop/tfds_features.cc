@@ -34,11 +34,10 @@ OrderedJson ScalarFeature(const std::string& dtype) {
 
 OrderedJson ImageFeature(int size, int channels, const std::string& dtype,
                          const std::string& format) {
-  return {{"pythonClassName", std::string(kTfds) + "image_feature.Image"},
-          {"image",
-           {{"shape", Shape({size, size, channels})},
-            {"dtype", dtype},
-            {"encodingFormat", format}}}};
+  return {
+      {"pythonClassName", std::string(kTfds) + "image_feature.Image"},
+      {"image",
+       {{"shape", Shape({size, size, channels})}, {"dtype", dtype}, {"encodingFormat", format}}}};
 }
 
 OrderedJson TextFeature() {

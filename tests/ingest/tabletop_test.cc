@@ -97,8 +97,7 @@ Scene FixedScene() {
 
 std::string SampleDir() {
   const char* shared = std::getenv("WM_SHARED_DIR");
-  return std::string(shared ? shared : "/work/shared") +
-         "/samples/rlds/fractal20220817_data/0.1.0";
+  return std::string(shared ? shared : "/work/shared") + "/samples/rlds/fractal20220817_data/0.1.0";
 }
 
 }  // namespace
@@ -182,8 +181,9 @@ TEST(TabletopWriter, RecordsReadBackWithConsistentKeysCountsAndImages) {
   EXPECT_EQ(info["splits"][0]["shardLengths"], nlohmann::json({"3", "3"}));
   EXPECT_EQ(info["splits"][1]["shardLengths"], nlohmann::json({"2", "1"}));
   EXPECT_EQ(info["splits"][0]["numBytes"],
-            std::to_string(fs::file_size(summary.dataset_dir + "/wm_tabletop-train.tfrecord-00000-of-00002") +
-                           fs::file_size(summary.dataset_dir + "/wm_tabletop-train.tfrecord-00001-of-00002")));
+            std::to_string(
+                fs::file_size(summary.dataset_dir + "/wm_tabletop-train.tfrecord-00000-of-00002") +
+                fs::file_size(summary.dataset_dir + "/wm_tabletop-train.tfrecord-00001-of-00002")));
   const std::vector<std::string> records = SplitRecords(summary.dataset_dir, "train");
   ASSERT_EQ(records.size(), 6u);
   for (size_t e = 0; e < records.size(); ++e) {
