@@ -58,9 +58,21 @@ void MaybeInjectKill(uint64_t episodes_done) {
   if (env != nullptr && std::strtoull(env, nullptr, 10) == episodes_done) std::raise(SIGKILL);
 }
 
+// Every input file read (a folder episode contributes each file in its directory).
 json HashInputs(const std::vector<EpisodeRef>& refs) {
   std::map<std::string, std::string> files;  // rel -> path, sorted and unique
-  for (const auto& r : refs) files.emplace(r.rel_path, r.path);
+  for (const auto& r : refs) {
+    if (!fs::is_directory(r.path)) {
+      files.emplace(r.rel_path, r.path);
+      continue;
+    }
+    for (const auto& e : fs::recursive_directory_iterator(r.path)) {
+      if (e.is_regular_file()) {
+        files.emplace((fs::path(r.rel_path) / fs::relative(e.path(), r.path)).string(),
+                      e.path().string());
+      }
+    }
+  }
   json inputs = json::array();
   for (const auto& [rel, path] : files) {
     inputs.push_back({{"path", rel}, {"bytes", fs::file_size(path)}, {"sha256", Sha256File(path)}});

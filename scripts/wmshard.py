@@ -12,6 +12,7 @@ import json
 import mmap
 import os
 import re
+import signal
 import struct
 import sys
 
