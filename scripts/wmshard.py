@@ -354,6 +354,7 @@ def check_stats(stats, a, where):
 
 def main(argv=None):
     """CLI entry point; maps every data error to one stderr line and exit status 1."""
+    signal.signal(signal.SIGPIPE, signal.SIG_DFL)  # `wmshard.py ... | head` ends quietly
     p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     p.add_argument("dir", help="dataset directory (holds index.json)")
     mode = p.add_mutually_exclusive_group(required=True)
