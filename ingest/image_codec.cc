@@ -58,7 +58,7 @@ void CheckFrames(EncodedFrames& frames, bool full) {
       Check(enc == frames.encoding, "frame is " + enc + " but earlier frames are " + frames.encoding);
       if (!full && t > 0) continue;
       ImageInfo info = DecodeInfo(f);
-      if (t == 0) {
+      if (t == 0 && frames.height == 0) {
         frames.height = info.height, frames.width = info.width, frames.channels = info.channels;
         frames.dtype = info.dtype;
       }

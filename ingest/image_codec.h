@@ -18,7 +18,8 @@ ImageInfo DecodeInfo(const std::string& encoded);
 std::string SniffEncoding(const std::string& encoded);
 
 // Checks every frame decodes (`full`) or has a valid header magic only (`!full`), that all
-// frames share one shape, and fills height/width/channels/dtype. Errors name the step.
+// frames share one shape, and fills height/width/channels/dtype. A shape already set (declared
+// by the source, e.g. TFDS features.json) must match. Errors name the step.
 void CheckFrames(EncodedFrames& frames, bool full);
 
 // Re-encodes every frame at width x height: INTER_AREA for colour, INTER_NEAREST for label or

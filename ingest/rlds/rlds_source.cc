@@ -42,6 +42,16 @@ std::vector<uint8_t> Flags(const Example& ex, const std::string& key, int64_t t)
   return out;
 }
 
+// What features.json promises about every frame, checked when the frames are decoded.
+void DeclareShape(const FeatureSpec& spec, EncodedFrames& frames) {
+  const auto& s = spec.shape;
+  if (s.size() != 3 || s[0] <= 0 || s[1] <= 0 || s[2] <= 0) return;  // unknown or variable
+  frames.height = static_cast<int>(s[0]);
+  frames.width = static_cast<int>(s[1]);
+  frames.channels = static_cast<int>(s[2]);
+  frames.dtype = spec.dtype.empty() ? "uint8" : spec.dtype;
+}
+
 std::string FirstText(const Example& ex, const std::string& key) {
   std::vector<std::string> v = ex.Bytes(key);
   return v.empty() ? "" : v.front();
@@ -62,6 +72,8 @@ RldsSource::RldsSource(const std::string& path, const std::string& split,
           {.file = mapping_.file});
   };
   require(mapping_.image, "image");
+  if (mapping_.depth) require(*mapping_.depth, "depth");
+  if (mapping_.segmentation) require(*mapping_.segmentation, "segmentation");
   int width = 0;
   for (const auto& part : mapping_.action) {
     if (part.key.empty()) {
@@ -124,10 +136,12 @@ Episode RldsSource::MapExample(const std::string& bytes) const {
   Check(t > 0, "episode has no steps (empty image list)", {.key = mapping_.image});
   e.num_steps = t;
   e.images["image"] = std::move(image);
+  DeclareShape(dataset_.features.at(mapping_.image), e.images["image"]);
   auto optional_frames = [&](const std::optional<std::string>& key, const char* name) {
     if (!key) return;
     EncodedFrames f;
     f.frames = ex.Bytes(*key);
+    DeclareShape(dataset_.features.at(*key), f);
     Check(static_cast<int64_t>(f.frames.size()) == t,
           "holds " + std::to_string(f.frames.size()) + " frames, expected " + std::to_string(t),
           {.key = *key});

@@ -189,8 +189,9 @@ Frame RenderFrame(const Scene& scene, int size, const RenderOptions& options) {
     for (Vec3& c : corners) c = c - light * (c.z / light.z);  // shadow on the table plane
     shadow_bounds.push_back(ProjectBounds(corners, cam, k, size));
   }
-  Frame frame{size, std::vector<uint8_t>(size * size * 3), std::vector<uint16_t>(size * size),
-              std::vector<uint8_t>(size * size)};
+  const size_t pixels = static_cast<size_t>(size) * size;
+  Frame frame{size, std::vector<uint8_t>(3 * pixels), std::vector<uint16_t>(pixels),
+              std::vector<uint8_t>(pixels)};
   for (int v = 0; v < size; ++v) {
     for (int u = 0; u < size; ++u) {
       const Vec3 dir = Normalized(cam.right * ((u - k.cx) / k.fx) + cam.down * ((v - k.cy) / k.fy) +

@@ -11,7 +11,7 @@ namespace {
 constexpr double kPi = std::numbers::pi;
 
 struct NamedColour {
-  const char* name;
+  const char* name = nullptr;
   Vec3 rgb;
 };
 // No green among block or table colours: green is the goal's colour.

@@ -50,6 +50,7 @@ std::string Describe(const TabletopOptions& o) {
 std::vector<Rollout> RollOutAll(const TabletopOptions& o, const std::string& split, int64_t first,
                                 int count) {
   std::vector<Rollout> rollouts;
+  rollouts.reserve(count);
   for (int i = 0; i < count; ++i) {
     rollouts.push_back(
         RollOut(EpisodeSeed(o.seed, split, first + i), o.PolicyForEpisode(first + i), o.max_steps));
@@ -86,13 +87,18 @@ std::vector<std::string> EncodeAll(const std::vector<Rollout>& rollouts, int siz
 void RemoveStaleShards(const std::string& dir, const std::string& name,
                        const std::set<std::string>& written) {
   const std::regex shard_name(name + "-[a-z0-9_]+\\.tfrecord-[0-9]{5}-of-[0-9]{5}");
-  for (const auto& entry : fs::directory_iterator(dir)) {
+  std::error_code ec;
+  for (const auto& entry : fs::directory_iterator(dir, ec)) {
     const std::string file = entry.path().filename().string();
     if (std::regex_match(file, shard_name) && !written.count(file)) {
       spdlog::info("removing stale shard {} from an earlier run", file);
-      fs::remove(entry.path());
+      if (!fs::remove(entry.path(), ec) || ec) {
+        throw Error("cannot remove a stale shard: " + ec.message(),
+                    {.file = entry.path().string()});
+      }
     }
   }
+  if (ec) throw Error("cannot list the dataset directory: " + ec.message(), {.file = dir});
 }
 
 }  // namespace

@@ -75,6 +75,9 @@ int main(int argc, char** argv) {
   } catch (const wm::Error& e) {
     spdlog::error("{}", e.what());
     return 1;
+  } catch (const std::exception& e) {  // a library or OS failure that escaped the wm::Error net
+    spdlog::error("unexpected error: {}", e.what());
+    return 1;
   }
   return 0;
 }
