@@ -139,5 +139,25 @@ class IngestPipeline(unittest.TestCase):
         self.assertEqual(index["num_episodes"], 11)
 
 
+class ExternalFractalSample(unittest.TestCase):
+    """The OXE fractal sample written outside wmkit, through the CLI, read by the Python reader."""
+
+    def test_every_episode_matches_expected_json(self):
+        data = os.path.join(SRC, "tests", "data", "rlds")
+        with tempfile.TemporaryDirectory() as tmp:
+            out = os.path.join(tmp, "fractal")
+            ingest(os.path.join(data, "fractal20220817_data"), out)
+            got = json.loads(run([PY, f"{SRC}/scripts/wmshard.py", out, "--all", "--json"]).stdout)
+        with open(os.path.join(data, "fractal20220817_data.expected.json")) as f:
+            expected = json.load(f)
+        self.assertEqual(len(got), len(expected))
+        for g, x in zip(got, expected):
+            self.assertEqual(g["num_steps"], x["num_steps"])
+            np.testing.assert_array_equal(np.float32(g["actions"]), np.float32(x["actions"]))
+            np.testing.assert_array_equal(np.float32(g["rewards"]), np.float32(x["rewards"]))
+            self.assertEqual(g["language_instruction"], x["language_instruction"])
+            self.assertEqual(g["image_shape"], x["image_shape"])
+
+
 if __name__ == "__main__":
     unittest.main(verbosity=2)
