@@ -1,9 +1,4 @@
 # Input readers of wm_ingest beyond RLDS: robomimic/LIBERO HDF5 and image folders. Included by
 # ingest/CMakeLists.txt after wm_ingest is defined (OpenCV comes with wm_ingest's own links).
 target_sources(wm_ingest PRIVATE hdf5/hdf5_file.cc hdf5/hdf5_source.cc folder/folder_source.cc)
-if(TARGET hdf5::hdf5)
-  target_link_libraries(wm_ingest PRIVATE hdf5::hdf5)
-else()
-  target_include_directories(wm_ingest PRIVATE ${HDF5_C_INCLUDE_DIRS})
-  target_link_libraries(wm_ingest PRIVATE ${HDF5_C_LIBRARIES})
-endif()
+target_link_libraries(wm_ingest PRIVATE wm_hdf5)

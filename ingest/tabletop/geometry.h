@@ -19,6 +19,10 @@ inline Vec3 Cross(const Vec3& a, const Vec3& b) {
 }
 inline double Norm(const Vec3& a) { return std::sqrt(Dot(a, a)); }
 inline Vec3 Normalized(const Vec3& a) { return a * (1.0 / Norm(a)); }
+// Distance in the table plane (x, y), ignoring height.
+inline double HorizontalDistance(const Vec3& a, const Vec3& b) {
+  return std::sqrt((a.x - b.x) * (a.x - b.x) + (a.y - b.y) * (a.y - b.y));
+}
 
 // Rotation matrix stored by columns: col[i] is the body's i-th axis expressed in world frame.
 struct Mat3 {

@@ -14,8 +14,6 @@ constexpr double kGraspZ = 0.012;  // fingertips 1.2 cm above the table: around 
 constexpr double kCarryZ = 0.05;   // carried block bottom ~4 cm up: inside the goal volume
 constexpr double kAligned = 0.012;
 
-double HorizontalDistance(const Vec3& a, const Vec3& b) { return std::hypot(a.x - b.x, a.y - b.y); }
-
 // Either pair of opposite block faces can be grasped, so yaw error is taken modulo 90 degrees.
 double QuarterTurnError(double target, double current) {
   return std::remainder(target - current, std::numbers::pi / 2);

@@ -18,6 +18,9 @@ struct Solid {
   Vec3 half;
   Vec3 albedo;
   Label label;
+  // Vertical box reaching above the view (the arm link): bounded by its part below the top of
+  // the view frustum, since its corners lie behind the camera.
+  bool clip_to_view = false;
 };
 
 // Pixel rectangle [u0, u1) x [v0, v1) outside which a solid (or its shadow) cannot appear.
@@ -92,7 +95,8 @@ std::vector<Solid> BuildSolids(const Scene& scene, bool draw_robot) {
                     RotationFromRpy(0, 0, s.ee_rpy.z),
                     {kRodHalfWidth, kRodHalfWidth, half_length},
                     {0.75, 0.75, 0.78},
-                    kLabelRobot});
+                    kLabelRobot,
+                    /*clip_to_view=*/true});
   return solids;
 }
 
@@ -114,6 +118,21 @@ Rect ProjectBounds(const std::vector<Vec3>& points, const CameraPose& cam,
   return {lo(u_min), lo(v_min), hi(u_max), hi(v_max)};
 }
 
+// Lowers each corner of a vertical box to where its vertical edge leaves the view through the
+// top plane of the frustum (never below its own bottom); the result bounds the visible part.
+void ClipToViewTop(std::vector<Vec3>& corners, const CameraPose& cam, const CameraIntrinsics& k) {
+  const Vec3 top_edge = cam.forward - cam.down * (k.cy / k.fy);  // ray through image row 0
+  Vec3 outward = Normalized(Cross(top_edge, cam.right));
+  if (Dot(outward, cam.down) > 0) outward = outward * -1.0;
+  if (outward.z <= 1e-6) return;  // the top plane is vertical or tilted back: no clipping
+  double bottom = corners[0].z;
+  for (const Vec3& c : corners) bottom = std::min(bottom, c.z);
+  for (Vec3& c : corners) {
+    const double crossing = c.z - Dot(c - cam.position, outward) / outward.z;
+    c.z = std::max(bottom, std::min(c.z, crossing + 0.005));
+  }
+}
+
 std::vector<Vec3> Corners(const Solid& s) {
   std::vector<Vec3> corners;
   for (int i = 0; i < 8; ++i) {
@@ -132,7 +151,7 @@ double HashNoise(int64_t a, int64_t b) {
 
 Vec3 TableAlbedo(const Vec3& p, const Scene& scene, Label* label) {
   const Appearance& look = scene.look;
-  const double goal_distance = std::hypot(p.x - scene.state.goal.x, p.y - scene.state.goal.y);
+  const double goal_distance = HorizontalDistance(p, scene.state.goal);
   if (goal_distance < kGoalRadius) {
     *label = kLabelGoal;
     return look.goal_rgb * (goal_distance > kGoalRadius - 0.006 ? 0.6 : 1.0);  // dark rim
@@ -158,7 +177,7 @@ Vec3 TableAlbedo(const Vec3& p, const Scene& scene, Label* label) {
 }
 
 uint8_t ToByte(double v) {
-  return static_cast<uint8_t>(std::lround(std::clamp(v, 0.0, 1.0) * 255));
+  return static_cast<uint8_t>(std::clamp(v, 0.0, 1.0) * 255 + 0.5);  // round half up
 }
 
 }  // namespace
@@ -184,8 +203,15 @@ Frame RenderFrame(const Scene& scene, int size, const RenderOptions& options) {
   const std::vector<Solid> solids = BuildSolids(scene, options.draw_robot);
   std::vector<Rect> bounds, shadow_bounds;
   for (const Solid& s : solids) {
+    if (!options.cull) {
+      bounds.push_back({0, 0, size, size});
+      shadow_bounds.push_back({0, 0, size, size});
+      continue;
+    }
     std::vector<Vec3> corners = Corners(s);
-    bounds.push_back(ProjectBounds(corners, cam, k, size));
+    std::vector<Vec3> visible = corners;
+    if (s.clip_to_view) ClipToViewTop(visible, cam, k);
+    bounds.push_back(ProjectBounds(visible, cam, k, size));
     for (Vec3& c : corners) c = c - light * (c.z / light.z);  // shadow on the table plane
     shadow_bounds.push_back(ProjectBounds(corners, cam, k, size));
   }

@@ -36,6 +36,9 @@ struct Frame {
 struct RenderOptions {
   bool draw_robot = true;  // false renders the same scene without the arm and gripper
   bool shadows = true;     // hard shadows of block and robot from the directional light
+  // Tests rays only against solids whose screen bounds hold the pixel. Speed only: false is the
+  // brute-force reference, which must give identical images.
+  bool cull = true;
 };
 
 Frame RenderFrame(const Scene& scene, int size, const RenderOptions& options = {});

@@ -29,7 +29,6 @@ constexpr const char* kInstructionTemplates[] = {
 
 double Clamp(double v, double lo, double hi) { return std::min(std::max(v, lo), hi); }
 double WrapAngle(double a) { return std::remainder(a, 2 * kPi); }
-double HorizontalDistance(const Vec3& a, const Vec3& b) { return std::hypot(a.x - b.x, a.y - b.y); }
 
 std::string FormatInstruction(const char* tmpl, const std::string& colour) {
   std::string s = tmpl;

@@ -2,6 +2,8 @@
 
 #include <cstdlib>
 #include <fstream>
+
+#include "core/error.h"
 #include <unistd.h>
 
 namespace wm::test {
@@ -48,20 +50,24 @@ Episode MakeEpisode(int steps, uint64_t seed, const std::string& key) {
   return e;
 }
 
-std::string SourceDir() {
-  const char* env = std::getenv("WM_SOURCE_DIR");
-#ifdef WM_DEFAULT_SOURCE_DIR
-  if (env == nullptr) return WM_DEFAULT_SOURCE_DIR;
-#endif
-  return env != nullptr ? env : ".";
+namespace {
+std::string EnvOr(const char* name, const char* fallback) {
+  const char* value = std::getenv(name);
+  return value != nullptr ? value : fallback;
 }
+}  // namespace
 
-std::string BinDir() {
-  const char* env = std::getenv("WM_BIN_DIR");
-#ifdef WM_DEFAULT_BIN_DIR
-  if (env == nullptr) return WM_DEFAULT_BIN_DIR;
-#endif
-  return env != nullptr ? env : "build/bin";
+// The defaults are compiled in (tests/core/CMakeLists.txt); ctest sets the variables.
+std::string SourceDir() { return EnvOr("WM_SOURCE_DIR", WM_DEFAULT_SOURCE_DIR); }
+std::string BinDir() { return EnvOr("WM_BIN_DIR", WM_DEFAULT_BIN_DIR); }
+
+std::string ErrorText(const std::function<void()>& f) {
+  try {
+    f();
+  } catch (const Error& e) {
+    return e.what();
+  }
+  return "(no error)";
 }
 
 void FlipByte(const std::string& file, uint64_t offset) {

@@ -1,6 +1,7 @@
 #pragma once
 // Small helpers shared by the C++ tests: temp directories and a synthetic episode.
 #include <filesystem>
+#include <functional>
 #include <random>
 #include <string>
 
@@ -27,6 +28,9 @@ Episode MakeEpisode(int steps, uint64_t seed, const std::string& key = "ep");
 // paths compiled into the test).
 std::string SourceDir();
 std::string BinDir();
+
+// The message of the wm::Error that f() throws, or "(no error)".
+std::string ErrorText(const std::function<void()>& f);
 
 void FlipByte(const std::string& file, uint64_t offset);
 void Truncate(const std::string& file, uint64_t new_size);

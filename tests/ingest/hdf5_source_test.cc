@@ -20,14 +20,7 @@ namespace wm::ingest {
 namespace {
 namespace fs = std::filesystem;
 
-std::string ErrorText(const std::function<void()>& f) {
-  try {
-    f();
-  } catch (const Error& e) {
-    return e.what();
-  }
-  return "(no error)";
-}
+using test::ErrorText;
 
 // Writes `dims`-shaped `data` of `type` at `name`, creating missing groups on the way.
 void WriteDataset(hid_t loc, const std::string& name, hid_t type, std::vector<hsize_t> dims,

@@ -24,14 +24,7 @@ nlohmann::json Expected() {
   return nlohmann::json::parse(ReadFile(SourceDir() + "/tests/data/rlds/fractal20220817_data.expected.json"));
 }
 
-std::string ErrorText(const std::function<void()>& f) {
-  try {
-    f();
-  } catch (const Error& e) {
-    return e.what();
-  }
-  return "(no error)";
-}
+using test::ErrorText;
 
 TEST(TfRecord, ReadsExternallyWrittenFilesWithValidCrcs) {
   // dataset_info.json says shardLengths 3 and 2.

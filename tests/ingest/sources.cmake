@@ -1,12 +1,6 @@
 # Tests of the HDF5 and folder readers; their fixtures are written by the tests themselves
 # (HDF5 C API, cv::imwrite), so they link HDF5 / OpenCV directly.
 wm_add_test(hdf5_source_test SOURCES hdf5_source_test.cc
-  LIBS wm_ingest wm_test_util opencv_core opencv_imgproc opencv_imgcodecs)
-if(TARGET hdf5::hdf5)
-  target_link_libraries(hdf5_source_test PRIVATE hdf5::hdf5)
-else()
-  target_include_directories(hdf5_source_test PRIVATE ${HDF5_C_INCLUDE_DIRS})
-  target_link_libraries(hdf5_source_test PRIVATE ${HDF5_C_LIBRARIES})
-endif()
+  LIBS wm_ingest wm_test_util wm_hdf5 opencv_core opencv_imgproc opencv_imgcodecs)
 wm_add_test(folder_source_test SOURCES folder_source_test.cc
   LIBS wm_ingest wm_test_util opencv_core opencv_imgcodecs)

@@ -356,3 +356,21 @@ TEST(TabletopOptions, CheckRejectsBadValuesNamingTheFlag) {
   o.version = "2.1.0";
   EXPECT_NO_THROW(o.Check());
 }
+
+TEST(TabletopRender, ScreenBoundsCullingNeverChangesAPixel) {
+  Rng rng(11);
+  for (int trial = 0; trial < 12; ++trial) {
+    Scene scene = SampleScene(rng);
+    // Include the workspace corners (near edge, tilted wrist, top) where culling is tightest.
+    scene.state.ee = {rng.Uniform(kEeMin.x, kEeMax.x),
+                      trial < 4 ? kEeMin.y : rng.Uniform(-0.1, 0.4),
+                      trial % 2 ? kEeMax.z : rng.Uniform(kEeMin.z, kEeMax.z)};
+    scene.state.ee_rpy = {rng.Uniform(-kMaxTilt, kMaxTilt), rng.Uniform(-kMaxTilt, kMaxTilt),
+                          rng.Uniform(-3, 3)};
+    const Frame fast = RenderFrame(scene, 64);
+    const Frame reference = RenderFrame(scene, 64, {.cull = false});
+    EXPECT_EQ(fast.rgb, reference.rgb) << "trial " << trial;
+    EXPECT_EQ(fast.depth_mm, reference.depth_mm) << "trial " << trial;
+    EXPECT_EQ(fast.labels, reference.labels) << "trial " << trial;
+  }
+}

@@ -27,12 +27,7 @@ Episode GoodEpisode() {
 }
 
 std::string ErrorOf(Episode e) {
-  try {
-    ValidateEpisode(e, /*full_image_check=*/true);
-  } catch (const Error& err) {
-    return err.what();
-  }
-  return "(no error)";
+  return test::ErrorText([&] { ValidateEpisode(e, /*full_image_check=*/true); });
 }
 
 TEST(Validate, AcceptsAGoodEpisodeAndFillsTheShape) {
