@@ -34,7 +34,7 @@ void Progress::Finish() {
 
 std::string Progress::FormatDuration(double s) {
   if (!std::isfinite(s) || s < 0) return "--:--";
-  auto total = static_cast<long>(s + 0.5);
+  long total = std::lround(s);
   char buf[32];
   if (total >= 3600) {
     std::snprintf(buf, sizeof buf, "%ld:%02ld:%02ld", total / 3600, total / 60 % 60, total % 60);

@@ -28,9 +28,9 @@ std::string Sha256::HexDigest() {
   std::array<unsigned char, EVP_MAX_MD_SIZE> md{};
   unsigned int len = 0;
   EVP_DigestFinal_ex(state_->ctx, md.data(), &len);
-  std::string hex(2 * len, '0');
+  std::string hex(2 * static_cast<size_t>(len), '0');
   static const char* kDigits = "0123456789abcdef";
-  for (unsigned i = 0; i < len; ++i) {
+  for (size_t i = 0; i < len; ++i) {
     hex[2 * i] = kDigits[md[i] >> 4];
     hex[2 * i + 1] = kDigits[md[i] & 15];
   }

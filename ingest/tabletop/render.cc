@@ -176,6 +176,40 @@ Vec3 TableAlbedo(const Vec3& p, const Scene& scene, Label* label) {
   return look.table_rgb * shade;
 }
 
+struct RayHit {
+  double t = std::numeric_limits<double>::infinity();  // distance along the unit ray
+  Vec3 normal = {0, 0, 1};
+  int solid = -1;  // index into the solids, -1 for the table plane
+};
+
+RayHit CastCameraRay(const Vec3& origin, const Vec3& dir, const std::vector<Solid>& solids,
+                     const std::vector<Rect>& bounds, int u, int v) {
+  RayHit hit;
+  if (dir.z < 0) hit.t = -origin.z / dir.z;  // the table plane z = 0
+  for (size_t i = 0; i < solids.size(); ++i) {
+    double t;
+    Vec3 normal;
+    if (bounds[i].Contains(u, v) && HitSolid(solids[i], origin, dir, &t, &normal) && t < hit.t) {
+      hit = {t, normal, static_cast<int>(i)};
+    }
+  }
+  return hit;
+}
+
+// Whether another solid blocks the light at `p`. A box never shadows its own lit faces, and
+// table points only need the solids whose shadow bounds hold the pixel.
+bool InShadow(const Vec3& p, const RayHit& hit, const Vec3& light, const std::vector<Solid>& solids,
+              const std::vector<Rect>& shadow_bounds, int u, int v) {
+  for (size_t j = 0; j < solids.size(); ++j) {
+    if (static_cast<int>(j) == hit.solid) continue;
+    if (hit.solid < 0 && !shadow_bounds[j].Contains(u, v)) continue;
+    double t;
+    Vec3 normal;
+    if (HitSolid(solids[j], p + hit.normal * 1e-5, light, &t, &normal)) return true;
+  }
+  return false;
+}
+
 uint8_t ToByte(double v) {
   return static_cast<uint8_t>(std::clamp(v, 0.0, 1.0) * 255 + 0.5);  // round half up
 }
@@ -222,35 +256,22 @@ Frame RenderFrame(const Scene& scene, int size, const RenderOptions& options) {
     for (int u = 0; u < size; ++u) {
       const Vec3 dir = Normalized(cam.right * ((u - k.cx) / k.fx) + cam.down * ((v - k.cy) / k.fy) +
                                   cam.forward);
-      double t = dir.z < 0 ? -cam.position.z / dir.z : std::numeric_limits<double>::infinity();
-      int hit = -1;  // -1: the table plane
-      Vec3 normal = {0, 0, 1};
-      for (size_t i = 0; i < solids.size(); ++i) {
-        double ti;
-        Vec3 ni;
-        if (bounds[i].Contains(u, v) && HitSolid(solids[i], cam.position, dir, &ti, &ni) &&
-            ti < t) {
-          t = ti, normal = ni, hit = static_cast<int>(i);
-        }
-      }
+      const RayHit hit = CastCameraRay(cam.position, dir, solids, bounds, u, v);
       const size_t px = static_cast<size_t>(v) * size + u;
-      if (!std::isfinite(t)) continue;  // sky: black, depth 0 (unknown); never in view
-      const Vec3 p = cam.position + dir * t;
+      if (!std::isfinite(hit.t)) continue;  // sky: black, depth 0 (unknown); never in view
+      const Vec3 p = cam.position + dir * hit.t;
       Label label = kLabelTable;
-      const Vec3 albedo = hit < 0 ? TableAlbedo(p, scene, &label) : solids[hit].albedo;
-      if (hit >= 0) label = solids[hit].label;
-      double diffuse = std::max(0.0, Dot(normal, light));
-      for (size_t j = 0; options.shadows && diffuse > 0 && j < solids.size(); ++j) {
-        if (static_cast<int>(j) == hit || (hit < 0 && !shadow_bounds[j].Contains(u, v))) continue;
-        double tj;
-        Vec3 nj;
-        if (HitSolid(solids[j], p + normal * 1e-5, light, &tj, &nj)) diffuse = 0;
+      const Vec3 albedo = hit.solid < 0 ? TableAlbedo(p, scene, &label) : solids[hit.solid].albedo;
+      if (hit.solid >= 0) label = solids[hit.solid].label;
+      double diffuse = std::max(0.0, Dot(hit.normal, light));
+      if (options.shadows && diffuse > 0 && InShadow(p, hit, light, solids, shadow_bounds, u, v)) {
+        diffuse = 0;
       }
       const Vec3 colour = albedo * (look.ambient + look.light_intensity * diffuse);
       frame.rgb[3 * px] = ToByte(colour.x);
       frame.rgb[3 * px + 1] = ToByte(colour.y);
       frame.rgb[3 * px + 2] = ToByte(colour.z);
-      const double depth_mm = std::round(t * Dot(dir, cam.forward) * 1000);
+      const double depth_mm = std::round(hit.t * Dot(dir, cam.forward) * 1000);  // Z, not range
       frame.depth_mm[px] = static_cast<uint16_t>(std::clamp(depth_mm, 0.0, 65535.0));
       frame.labels[px] = label;
     }

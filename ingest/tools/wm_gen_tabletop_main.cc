@@ -20,7 +20,6 @@ Examples:
   wm-gen-tabletop --out data/rlds
   wm-gen-tabletop --out data/rlds --train-episodes 200 --size 64 --policies expert,random
 
---version alone prints the tool version; --version X.Y.Z sets the dataset version.
 Exit codes: 0 success, 1 invalid option or write failure, 2 usage error.)";
 
 }  // namespace
@@ -29,12 +28,10 @@ int main(int argc, char** argv) {
   CLI::App app{"wm-gen-tabletop: synthetic tabletop pick-and-place dataset (TFDS/RLDS layout)"};
   app.footer(kFooter);
   wm::tabletop::TabletopOptions opts;
-  std::string version_arg;
   app.add_option("--out", opts.out_dir, "Output directory (the dataset goes to OUT/NAME/VERSION)");
   app.add_option("--name", opts.name, "TFDS dataset name")->capture_default_str();
-  auto* version = app.add_option("--version", version_arg,
-                                 "Dataset version (default 1.0.0); alone: print tool version")
-                      ->expected(0, 1);
+  app.set_version_flag("--version", wm::VersionString("wm-gen-tabletop"));
+  app.add_option("--dataset-version", opts.version, "TFDS dataset version")->capture_default_str();
   app.add_option("--train-episodes", opts.train_episodes, "Episodes in the train split")
       ->capture_default_str();
   app.add_option("--val-episodes", opts.val_episodes, "Episodes in the val split")
@@ -51,13 +48,6 @@ int main(int argc, char** argv) {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {
     return app.exit(e) == 0 ? 0 : 2;  // --help is a ParseError too
-  }
-  if (version->count() > 0) {
-    if (version_arg.empty()) {
-      std::cout << wm::VersionString("wm-gen-tabletop") << "\n";
-      return 0;
-    }
-    opts.version = version_arg;
   }
   wm::InitLogging("info");
   try {
