@@ -11,12 +11,15 @@ import sys
 import tempfile
 import unittest
 
+import cv2
 import jsonschema
 import numpy as np
 
 SRC = os.environ.get("WM_SOURCE_DIR", os.path.join(os.path.dirname(__file__), "..", ".."))
 BIN = os.environ.get("WM_BIN_DIR", os.path.join(SRC, "build", "bin"))
 PY = "/usr/bin/python3"
+sys.path.insert(0, os.path.join(SRC, "scripts"))
+import wmshard  # noqa: E402
 
 
 def run(args, env=None, check=True):
@@ -119,6 +122,25 @@ class IngestPipeline(unittest.TestCase):
         b = json.load(open(os.path.join(merged, "index.json")))
         self.assertEqual(a["action_stats"], b["action_stats"])
         self.assertEqual(a["num_steps"], b["num_steps"])
+
+    def test_resize_reencodes_every_stream(self):
+        out = os.path.join(self.tmp, "resized")
+        ingest(self.raw, out, "--resize", "32x24", "--max-episodes", "2")
+        with open(os.path.join(out, "index.json")) as f:
+            index = json.load(f)
+        features = index["features"]
+        self.assertEqual(features["image"]["shape"], [24, 32, 3])
+        self.assertEqual(features["depth"]["shape"], [24, 32, 1])
+        self.assertEqual(features["segmentation"]["shape"], [24, 32, 1])
+        run([PY, f"{SRC}/scripts/wmshard.py", out, "--verify"])
+        # Labels are resized with nearest neighbour: no new label values appear.
+        shard = wmshard.Shard(os.path.join(out, index["shards"][0]["file"]))
+        meta, body = shard.record(0)
+        seg = next(s for s in meta["sections"] if s["name"] == "segmentation")
+        for blob in wmshard.read_section(body, seg, "test"):
+            labels = cv2.imdecode(np.frombuffer(blob, np.uint8), cv2.IMREAD_UNCHANGED)
+            self.assertEqual(labels.shape, (24, 32))
+            self.assertTrue(set(np.unique(labels)) <= {0, 1, 2, 3})
 
     def test_truncated_tfrecord_fails_or_is_skipped_and_counted(self):
         bad = os.path.join(self.tmp, "bad_raw")
