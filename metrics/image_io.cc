@@ -1,0 +1,147 @@
+#include "metrics/image_io.h"
+
+#include <algorithm>
+#include <array>
+#include <filesystem>
+#include <opencv2/core.hpp>
+#include <opencv2/imgcodecs.hpp>
+#include <opencv2/imgproc.hpp>
+#include <opencv2/videoio.hpp>
+
+#include "core/error.h"
+
+namespace wm::metrics {
+namespace {
+namespace fs = std::filesystem;
+
+std::string LowerExtension(const std::string& path) {
+  std::string ext = fs::path(path).extension().string();
+  std::transform(ext.begin(), ext.end(), ext.begin(), [](unsigned char c) { return std::tolower(c); });
+  return ext;
+}
+
+bool IsImageFile(const fs::path& path) {
+  static const std::array<const char*, 11> kExtensions = {
+      ".png", ".jpg", ".jpeg", ".bmp", ".tif", ".tiff", ".webp", ".ppm", ".pgm", ".pnm", ".exr"};
+  const std::string ext = LowerExtension(path.string());
+  return std::find(kExtensions.begin(), kExtensions.end(), ext) != kExtensions.end();
+}
+
+// An OpenCV matrix (1, 3 or 4 channels, BGR order) as an RGB or grey Image.
+Image FromMat(const cv::Mat& decoded, const std::string& source) {
+  cv::Mat mat;
+  switch (decoded.channels()) {
+    case 1: mat = decoded; break;
+    case 3: cv::cvtColor(decoded, mat, cv::COLOR_BGR2RGB); break;
+    case 4: cv::cvtColor(decoded, mat, cv::COLOR_BGRA2RGB); break;
+    default:
+      throw Error("unsupported channel count " + std::to_string(decoded.channels()) +
+                      " (expected grey, RGB or RGBA)",
+                  {.file = source});
+  }
+  double range = 0;
+  switch (mat.depth()) {
+    case CV_8U: range = 255.0; break;
+    case CV_16U: range = 65535.0; break;
+    case CV_32F: range = 1.0; break;
+    default: throw Error("unsupported pixel depth (expected 8-bit, 16-bit or float)", {.file = source});
+  }
+  cv::Mat values;
+  mat.convertTo(values, CV_64F);
+  values = values.isContinuous() ? values : values.clone();
+  return Image::FromDouble(values.ptr<double>(), values.rows, values.cols, values.channels(),
+                           range);
+}
+
+Frames LoadFolder(const std::string& folder) {
+  Frames frames;
+  for (const auto& file : ListImageFiles(folder)) {
+    frames.images.push_back(LoadImage(file));
+    frames.sources.push_back(file);
+  }
+  return frames;
+}
+
+Frames LoadVideo(const std::string& path) {
+  cv::VideoCapture capture(path);
+  if (!capture.isOpened()) {
+    throw Error("cannot open video (missing, not a video, or no decoder for its codec)",
+                {.file = path});
+  }
+  Frames frames;
+  cv::Mat frame;
+  while (capture.read(frame) && !frame.empty()) {
+    const std::string source = path + "#frame " + std::to_string(frames.images.size());
+    frames.images.push_back(FromMat(frame, source));
+    frames.sources.push_back(source);
+  }
+  Check(!frames.images.empty(), "video has no decodable frame", {.file = path});
+  return frames;
+}
+
+void CheckSameShapeAs(const Image& first, const std::string& first_source, const Image& image,
+                      const std::string& source) {
+  try {
+    CheckSameShape(first, image);
+  } catch (const Error& e) {
+    throw Error(e.message() + " (" + first_source + " vs this file)", {.file = source});
+  }
+}
+
+}  // namespace
+
+Image LoadImage(const std::string& path) {
+  Check(fs::is_regular_file(path), "image file not found", {.file = path});
+  cv::Mat decoded = cv::imread(path, cv::IMREAD_UNCHANGED);
+  Check(!decoded.empty(), "cannot decode image (corrupt or unsupported format)", {.file = path});
+  return FromMat(decoded, path);
+}
+
+std::vector<std::string> ListImageFiles(const std::string& folder) {
+  Check(fs::is_directory(folder), "not a folder", {.file = folder});
+  std::vector<std::string> files;
+  std::error_code ec;
+  for (const auto& entry : fs::directory_iterator(folder, ec)) {
+    if (entry.is_regular_file() && IsImageFile(entry.path())) files.push_back(entry.path().string());
+  }
+  Check(!ec, "cannot list folder: " + ec.message(), {.file = folder});
+  Check(!files.empty(), "folder holds no image files (.png, .jpg, ...)", {.file = folder});
+  std::sort(files.begin(), files.end());
+  return files;
+}
+
+bool IsVideoFile(const std::string& path) {
+  static const std::array<const char*, 11> kExtensions = {
+      ".mp4", ".avi", ".mov", ".mkv", ".webm", ".m4v", ".mpg", ".mpeg", ".wmv", ".flv", ".gif"};
+  const std::string ext = LowerExtension(path);
+  return std::find(kExtensions.begin(), kExtensions.end(), ext) != kExtensions.end();
+}
+
+Frames LoadFrames(const std::string& path) {
+  Frames frames;
+  if (fs::is_directory(path)) {
+    frames = LoadFolder(path);
+  } else if (IsVideoFile(path)) {
+    frames = LoadVideo(path);
+  } else {
+    frames.images.push_back(LoadImage(path));
+    frames.sources.push_back(path);
+  }
+  for (size_t i = 1; i < frames.images.size(); ++i) {
+    CheckSameShapeAs(frames.images[0], frames.sources[0], frames.images[i], frames.sources[i]);
+  }
+  return frames;
+}
+
+void CheckPaired(const Frames& a, const Frames& b) {
+  Check(a.images.size() == b.images.size(),
+        "frame counts differ: " + std::to_string(a.images.size()) + " (" +
+            (a.sources.empty() ? "" : a.sources[0]) + ", ...) vs " +
+            std::to_string(b.images.size()) + " (" + (b.sources.empty() ? "" : b.sources[0]) +
+            ", ...)");
+  for (size_t i = 0; i < a.images.size(); ++i) {
+    CheckSameShapeAs(b.images[i], b.sources[i], a.images[i], a.sources[i]);
+  }
+}
+
+}  // namespace wm::metrics

@@ -1,0 +1,39 @@
+#pragma once
+// Loading frames for the metrics: one image file, a folder of frames, or a video file (OpenCV
+// decoders; OpenCV stays inside image_io.cc). Colour images come out as RGB.
+#include <string>
+#include <vector>
+
+#include "metrics/image.h"
+
+namespace wm::metrics {
+
+// One image file (PNG, JPEG, BMP, TIFF, ... as OpenCV reads them): grey stays 1 channel, colour
+// becomes RGB, an alpha channel is dropped. 8-bit -> data_range 255, 16-bit -> 65535, float ->
+// 1.0. Throws wm::Error naming the file when it cannot be read.
+Image LoadImage(const std::string& path);
+
+// Image files in a folder (by extension, not recursive), sorted by file name. Throws wm::Error
+// naming the folder when it cannot be listed or holds no image.
+std::vector<std::string> ListImageFiles(const std::string& folder);
+
+// Whether `path` names a video by its extension (.mp4, .avi, .mov, .mkv, .webm, .m4v, .mpg,
+// .mpeg, .wmv, .flv, .gif).
+bool IsVideoFile(const std::string& path);
+
+// A sequence of frames and where each came from ("dir/0001.png", "clip.mp4#frame 7").
+struct Frames {
+  std::vector<Image> images;
+  std::vector<std::string> sources;
+};
+
+// A folder (its images sorted by name), a video file (every frame, RGB, data_range 255), or a
+// single image (one frame). Throws wm::Error naming the file when one is unreadable, a folder
+// is empty, or a frame's shape differs from the first frame's.
+Frames LoadFrames(const std::string& path);
+
+// Throws wm::Error naming the first pair of sources whose shapes or data ranges differ, or both
+// inputs' frame counts when they differ.
+void CheckPaired(const Frames& a, const Frames& b);
+
+}  // namespace wm::metrics
