@@ -115,8 +115,10 @@ int main(int argc, char** argv) {
     const wmm::FrameMetrics mean = wmm::MeanMetrics(results);
     const double rate = shape.count / best;
     if (json) {
-      nlohmann::json out = {{"pairs", shape.count},     {"threads", threads},
-                            {"seconds", best},          {"pairs_per_s", rate},
+      nlohmann::json out = {{"pairs", shape.count},
+                            {"threads", threads},
+                            {"seconds", best},
+                            {"pairs_per_s", rate},
                             {"mean", wmm::ToJson(mean)}};
       std::cout << out.dump() << "\n";
     } else {

@@ -35,15 +35,14 @@ Eigen::VectorXd PsdEigenvalues(const Eigen::SelfAdjointEigenSolver<Eigen::Matrix
 }  // namespace
 
 GaussianFit FitGaussian(const FeatureSet& f) {
-  Check(f.rows >= 2, "a Gaussian fit needs at least 2 feature rows, got " +
-                         std::to_string(f.rows));
+  Check(f.rows >= 2, "a Gaussian fit needs at least 2 feature rows, got " + std::to_string(f.rows));
   Check(f.dim > 0 && f.values.size() == static_cast<size_t>(f.rows * f.dim),
         "feature set of " + std::to_string(f.rows) + "x" + std::to_string(f.dim) + " holds " +
             std::to_string(f.values.size()) + " values");
   Eigen::Map<const RowMajorMatrix> x(f.values.data(), f.rows, f.dim);  // [N, D]
-  const Eigen::RowVectorXd mu = x.colwise().mean();                   // [1, D]
-  const Eigen::MatrixXd centered = x.rowwise() - mu;                  // [N, D]
-  Eigen::MatrixXd cov(f.dim, f.dim);                                  // [D, D]
+  const Eigen::RowVectorXd mu = x.colwise().mean();                    // [1, D]
+  const Eigen::MatrixXd centered = x.rowwise() - mu;                   // [N, D]
+  Eigen::MatrixXd cov(f.dim, f.dim);                                   // [D, D]
   cov.setZero();
   cov.selfadjointView<Eigen::Lower>().rankUpdate(centered.transpose(), 1.0 / (f.rows - 1.0));
   cov = cov.selfadjointView<Eigen::Lower>();
@@ -60,8 +59,8 @@ GaussianFit FitGaussian(const FeatureSet& f) {
 double FrechetDistance(const GaussianFit& a, const GaussianFit& b) {
   CheckFit(a, "1");
   CheckFit(b, "2");
-  Check(a.dim == b.dim, "feature dimensions differ: " + std::to_string(a.dim) + " vs " +
-                            std::to_string(b.dim));
+  Check(a.dim == b.dim,
+        "feature dimensions differ: " + std::to_string(a.dim) + " vs " + std::to_string(b.dim));
   const int64_t d = a.dim;
   Eigen::Map<const Eigen::VectorXd> mu1(a.mean.data(), d), mu2(b.mean.data(), d);
   Eigen::Map<const RowMajorMatrix> s1(a.covariance.data(), d, d), s2(b.covariance.data(), d, d);
@@ -78,15 +77,14 @@ double FrechetDistance(const GaussianFit& a, const GaussianFit& b) {
   Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> eig_m(m, Eigen::EigenvaluesOnly);
   const double trace_sqrt = PsdEigenvalues(eig_m).cwiseSqrt().sum();
 
-  const double distance =
-      (mu1 - mu2).squaredNorm() + s1.trace() + s2.trace() - 2.0 * trace_sqrt;
+  const double distance = (mu1 - mu2).squaredNorm() + s1.trace() + s2.trace() - 2.0 * trace_sqrt;
   // A distance is >= 0; for identical fits rounding can leave about -1e-12.
   return std::max(distance, 0.0);
 }
 
 double FrechetDistance(const FeatureSet& a, const FeatureSet& b) {
-  Check(a.dim == b.dim, "feature dimensions differ: " + std::to_string(a.dim) + " vs " +
-                            std::to_string(b.dim));
+  Check(a.dim == b.dim,
+        "feature dimensions differ: " + std::to_string(a.dim) + " vs " + std::to_string(b.dim));
   return FrechetDistance(FitGaussian(a), FitGaussian(b));
 }
 

@@ -24,8 +24,7 @@ Image Image::FromUint8(const uint8_t* data, int height, int width, int channels)
   return Copy(data, height, width, channels, 255.0);
 }
 
-Image Image::FromFloat(const float* data, int height, int width, int channels,
-                       double data_range) {
+Image Image::FromFloat(const float* data, int height, int width, int channels, double data_range) {
   return Copy(data, height, width, channels, data_range);
 }
 
@@ -47,8 +46,8 @@ void CheckImage(const Image& image) {
   Check(image.pixels.size() == image.size(),
         "image " + ShapeString(image) + " holds " + std::to_string(image.pixels.size()) +
             " values, expected " + std::to_string(image.size()));
-  Check(image.data_range > 0, "image data range must be positive, got " +
-                                  std::to_string(image.data_range));
+  Check(image.data_range > 0,
+        "image data range must be positive, got " + std::to_string(image.data_range));
 }
 
 void CheckSameShape(const Image& a, const Image& b) {

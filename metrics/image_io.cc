@@ -16,7 +16,8 @@ namespace fs = std::filesystem;
 
 std::string LowerExtension(const std::string& path) {
   std::string ext = fs::path(path).extension().string();
-  std::transform(ext.begin(), ext.end(), ext.begin(), [](unsigned char c) { return std::tolower(c); });
+  std::transform(ext.begin(), ext.end(), ext.begin(),
+                 [](unsigned char c) { return std::tolower(c); });
   return ext;
 }
 
@@ -31,9 +32,15 @@ bool IsImageFile(const fs::path& path) {
 Image FromMat(const cv::Mat& decoded, const std::string& source) {
   cv::Mat mat;
   switch (decoded.channels()) {
-    case 1: mat = decoded; break;
-    case 3: cv::cvtColor(decoded, mat, cv::COLOR_BGR2RGB); break;
-    case 4: cv::cvtColor(decoded, mat, cv::COLOR_BGRA2RGB); break;
+    case 1:
+      mat = decoded;
+      break;
+    case 3:
+      cv::cvtColor(decoded, mat, cv::COLOR_BGR2RGB);
+      break;
+    case 4:
+      cv::cvtColor(decoded, mat, cv::COLOR_BGRA2RGB);
+      break;
     default:
       throw Error("unsupported channel count " + std::to_string(decoded.channels()) +
                       " (expected grey, RGB or RGBA)",
@@ -41,10 +48,17 @@ Image FromMat(const cv::Mat& decoded, const std::string& source) {
   }
   double range = 0;
   switch (mat.depth()) {
-    case CV_8U: range = 255.0; break;
-    case CV_16U: range = 65535.0; break;
-    case CV_32F: range = 1.0; break;
-    default: throw Error("unsupported pixel depth (expected 8-bit, 16-bit or float)", {.file = source});
+    case CV_8U:
+      range = 255.0;
+      break;
+    case CV_16U:
+      range = 65535.0;
+      break;
+    case CV_32F:
+      range = 1.0;
+      break;
+    default:
+      throw Error("unsupported pixel depth (expected 8-bit, 16-bit or float)", {.file = source});
   }
   cv::Mat values;
   mat.convertTo(values, CV_64F);
@@ -102,7 +116,8 @@ std::vector<std::string> ListImageFiles(const std::string& folder) {
   std::vector<std::string> files;
   std::error_code ec;
   for (const auto& entry : fs::directory_iterator(folder, ec)) {
-    if (entry.is_regular_file() && IsImageFile(entry.path())) files.push_back(entry.path().string());
+    if (entry.is_regular_file() && IsImageFile(entry.path()))
+      files.push_back(entry.path().string());
   }
   Check(!ec, "cannot list folder: " + ec.message(), {.file = folder});
   Check(!files.empty(), "folder holds no image files (.png, .jpg, ...)", {.file = folder});

@@ -1,9 +1,8 @@
 #pragma once
-// Internal to wm_metrics: the vectorised loops behind the pixel metrics. SSIM statistics
-// (Wang et al. 2004) are filtered exactly as
-// scikit-image 0.19 does with gaussian_weights=True, sigma=1.5, use_sample_covariance=False:
-// scipy.ndimage.gaussian_filter, truncate=3.5 (11 taps), mode 'reflect', first along rows
-// (axis 0) then along columns (axis 1), each channel on its own.
+// Internal to wm_metrics: the vectorised loops behind the pixel metrics. The SSIM statistics
+// (Wang et al. 2004) are filtered exactly as scikit-image 0.19 does with gaussian_weights=True,
+// sigma=1.5, use_sample_covariance=False: scipy.ndimage.gaussian_filter, truncate=3.5 (11 taps),
+// mode 'reflect', first along rows (axis 0) then along columns (axis 1), each channel on its own.
 #include <cstddef>
 #include <vector>
 
@@ -51,8 +50,8 @@ struct SsimRowSums {
 // The SSIM statistics of output rows y .. y + rows - 1 (rows <= kMaxRows) of `a` and `b` (same
 // shape, width >= kSsimWindow) with C1 = (K1 R)^2, C2 = (K2 R)^2, into sums[0 .. rows). Writes
 // the SSIM map of each whole row (width * channels values, interleaved) to map_rows[r] when
-// `map_rows` is not null; cs is only summed when `want_cs`. Rows are done in pairs because
-// neighbours share 10 of their 11 input rows.
+// `map_rows` is not null; cs is only summed when `want_cs`. Rows go in pairs: two neighbours
+// read 12 input rows together instead of 22 apart, and square each input once.
 constexpr int kMaxRows = 2;
 void SsimRows(const GridView& a, const GridView& b, int y, int rows, double c1, double c2,
               bool want_cs, double* const* map_rows, SsimRowSums* sums);

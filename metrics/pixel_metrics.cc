@@ -34,8 +34,10 @@ internal::SsimRowSums ChannelMeans(const GridView& a, const GridView& b, double 
   constexpr int kStep = internal::kMaxRows;
   internal::ParallelFor((rows + kStep - 1) / kStep, threads, [&](int64_t item) {
     const int first = static_cast<int>(item) * kStep, count = std::min(kStep, rows - first);
-    double* map_rows[kStep];
-    for (int r = 0; r < count; ++r) map_rows[r] = map + (y0 + first + r) * row_values;
+    double* map_rows[kStep] = {};
+    if (map != nullptr) {
+      for (int r = 0; r < count; ++r) map_rows[r] = map + (y0 + first + r) * row_values;
+    }
     internal::SsimRows(a, b, y0 + first, count, c1, c2, want_cs,
                        map != nullptr ? map_rows : nullptr, &row_sums[first]);
   });
@@ -126,8 +128,8 @@ FrameMetrics CompareFrame(const Image& a, const Image& b, const MetricOptions& o
 
 std::vector<FrameMetrics> CompareFrames(const std::vector<Image>& a, const std::vector<Image>& b,
                                         const MetricOptions& options) {
-  Check(a.size() == b.size(), "frame counts differ: " + std::to_string(a.size()) + " vs " +
-                                  std::to_string(b.size()));
+  Check(a.size() == b.size(),
+        "frame counts differ: " + std::to_string(a.size()) + " vs " + std::to_string(b.size()));
   const int64_t n = static_cast<int64_t>(a.size());
   const int threads = internal::ResolveThreads(options.threads);
   // Frames are the coarsest independent items; leftover threads go inside each frame.

@@ -190,8 +190,17 @@ def lpips_state():
     except ImportError as e:
         raise ImportError(f"{e}: run `pip install lpips` (needs internet for the AlexNet "
                           "weights too), or use --random-seed S for test weights") from e
-    model = lpips.LPIPS(net="alex", version="0.1", verbose=False).eval()
+    try:
+        model = lpips.LPIPS(net="alex", version="0.1", verbose=False).eval()
+    except TypeError:  # versions without `verbose`
+        model = lpips.LPIPS(net="alex", version="0.1").eval()
     state = {k: v.detach().cpu().numpy() for k, v in model.state_dict().items()}
+    # lpips >= 0.1.3 also registers the lin layers as nn.ModuleList `lins`: the same tensors
+    # under a second name. Keep the linK names (the ones every version has).
+    for k in range(5):
+        dup = state.pop(f"lins.{k}.model.1.weight", None)
+        if dup is not None and not np.array_equal(dup, state.get(f"lin{k}.model.1.weight")):
+            raise ValueError(f"lins.{k}.model.1.weight differs from lin{k}.model.1.weight")
     meta = {"source": "lpips package", "lpips": getattr(lpips, "__version__", "unknown"),
             "trunk": "torchvision alexnet ImageNet weights"}
     return state, meta, model

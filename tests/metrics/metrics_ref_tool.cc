@@ -141,8 +141,8 @@ int main(int argc, char** argv) {
       out["ms_ssim"] = multiscale ? nlohmann::json(wm::metrics::MsSsim(a, b, threads)) : nullptr;
       if (!map_path.empty()) WriteNpy(map_path, map);
     } else {
-      out["frechet"] = wm::metrics::FrechetDistance(LoadNpyFeatures(a_path),
-                                                    LoadNpyFeatures(b_path));
+      out["frechet"] =
+          wm::metrics::FrechetDistance(LoadNpyFeatures(a_path), LoadNpyFeatures(b_path));
     }
     std::cout << out.dump() << "\n";
   } catch (const wm::Error& e) {

@@ -8,7 +8,8 @@ lin 1x1 conv, spatial mean, sum). Checks, on random and structured 64x64 pairs p
   - C++ distances and per-layer terms == PyTorch within 1e-5 absolute;
   - C++ relu1..relu5 == torchvision.models.alexnet().features cut after indices 1, 4, 7, 9, 11
     (the lpips slices), and the reference's own taps == torchvision's;
-  - uint8 .npy, float32 [-1, 1] .npy and raw RGB inputs give the same distances.
+  - uint8 .npy, float32 [-1, 1] .npy and raw RGB inputs give the same distances;
+  - the archive header validates against schemas/lpips-weights.schema.json.
 """
 import json
 import os
@@ -18,6 +19,7 @@ import sys
 import tempfile
 
 import crc32c
+import jsonschema
 import numpy as np
 import torch
 import torch.nn.functional as F
@@ -50,10 +52,35 @@ def read_archive(path):
         raw = blob[start + e["offset"]:start + e["offset"] + e["length"]]
         assert crc32c.crc32c(raw) == e["crc32c"], name
         out[name] = torch.from_numpy(np.frombuffer(raw, "<f4").reshape(e["shape"]).copy())
-    return out, header["meta"]
+    return out, header
 
 
 CONVS = [(1, 0, 4, 2), (2, 3, 1, 2), (3, 6, 1, 1), (4, 8, 1, 1), (5, 10, 1, 1)]  # slice, idx, s, p
+
+
+def check_schema(header):
+    """The exporter's header satisfies schemas/lpips-weights.schema.json, which rejects the
+    mistakes it exists to catch."""
+    with open(os.path.join(SOURCE, "schemas", "lpips-weights.schema.json")) as f:
+        schema = json.load(f)
+    jsonschema.validate(header, schema)
+    check(True, "archive header validates against schemas/lpips-weights.schema.json")
+    tensors = header["tensors"]
+    bads = {
+        "missing lin tensor": {**header, "tensors": {k: v for k, v in tensors.items()
+                                                      if k != "lin2.model.1.weight"}},
+        "transposed conv weight": {**header, "tensors": {**tensors, "net.slice2.3.weight": {
+            **tensors["net.slice2.3.weight"], "shape": [64, 192, 5, 5]}}},
+        "unaligned offset": {**header, "tensors": {**tensors, "extra": {
+            "dtype": "float32", "shape": [1], "offset": 4, "length": 4, "crc32c": 0}}},
+        "vgg meta": {**header, "meta": {**header["meta"], "net": "vgg"}},
+    }
+    for what, bad in bads.items():
+        try:
+            jsonschema.validate(bad, schema)
+            check(False, f"schema rejects {what}")
+        except jsonschema.ValidationError:
+            check(True, f"schema rejects {what}")
 
 
 def reference_features(w, x):
@@ -140,8 +167,8 @@ def main():
         weights = os.path.join(tmp, "lpips-rand0.wmt")
         subprocess.run([sys.executable, os.path.join(SOURCE, "scripts/export_lpips_weights.py"),
                         "--random-seed", "0", "--out", weights], check=True, capture_output=True)
-        w, meta = read_archive(weights)
-        check(meta.get("net") == "alex" and meta.get("version") == "0.1", "archive meta")
+        w, header = read_archive(weights)
+        check_schema(header)
         check(all((w[f"lin{k}.model.1.weight"] >= 0).all() for k in range(5)),
               "lin weights are non-negative")
         # lpips/lpips.py ScalingLayer: the exporter must write these exact constants.

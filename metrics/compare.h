@@ -1,0 +1,27 @@
+#pragma once
+// What `wm-metrics` does: load reference and prediction frames (files, folders or videos), pair
+// them, compute the asked-for metrics per frame and their means, and format JSON or CSV.
+#include <nlohmann/json.hpp>
+#include <string>
+#include <vector>
+
+namespace wm::metrics {
+
+struct CompareOptions {
+  std::string ref, pred;  // image file, folder of frames (paired by sorted name) or video
+  std::vector<std::string> metrics = {"mse", "psnr", "ssim"};  // also ms_ssim, lpips
+  std::string lpips_weights;  // wmkit tensor archive (scripts/export_lpips_weights.py)
+  std::string device = "cpu";  // LPIPS device
+  int threads = 0;             // 0: all hardware threads
+  bool per_frame = false;      // add per-frame values
+  void Check() const;          // throws wm::Error naming the offending option
+};
+
+// {"mse": .., "psnr": .., ..., "frames": N, ["per_frame": [{"source": .., "psnr": ..}, ...]]};
+// +inf PSNR is "inf" (JSON has no infinity).
+nlohmann::json CompareFrameSets(const CompareOptions& options);
+
+// One CSV: a header and a row of means, or with per-frame values one row per frame + "mean".
+std::string FormatCsv(const nlohmann::json& result, const std::vector<std::string>& metrics);
+
+}  // namespace wm::metrics
