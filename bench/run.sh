@@ -1,5 +1,8 @@
 #!/usr/bin/env bash
-# `make bench`: ingest throughput vs the OpenCV decode bound on a generated 128x128 tabletop set.
+# `make bench`: each benchmark prints wmkit's speed beside a reference measured in the same run.
+#   1. ingest throughput vs the OpenCV decode bound (generated 128x128 tabletop set)
+#   2. SSIM + PSNR vs scikit-image on 256x256 RGB pairs
+#   3. LPIPS vs the PyTorch reference on the same (random) weights
 set -euo pipefail
 BIN=${1:-build/bin}
 WORK=${BENCH_DIR:-/tmp/wmkit-bench}
@@ -7,4 +10,9 @@ if [ ! -f "$WORK/raw/wm_tabletop/1.0.0/dataset_info.json" ]; then
   "$BIN/wm-gen-tabletop" --out "$WORK/raw" --train-episodes 96 --val-episodes 4 --size 128 \
     --max-steps 40 --seed 1 > /dev/null 2>&1
 fi
+echo "== ingest"
 "$BIN/ingest_bench" --input "$WORK/raw/wm_tabletop/1.0.0" --threads "$(nproc)" --repeats 3
+echo "== metrics: SSIM + PSNR"
+/usr/bin/python3 bench/metrics_bench.py --bin "$BIN"
+echo "== metrics: LPIPS"
+/usr/bin/python3 bench/lpips_bench.py --bin "$BIN"
