@@ -21,7 +21,8 @@ namespace {
 struct AlexNetTrunkImpl : torch::nn::Module {
   AlexNetTrunkImpl() {
     using torch::nn::Conv2dOptions;
-    conv1 = register_module("conv1", torch::nn::Conv2d(Conv2dOptions(3, 64, 11).stride(4).padding(2)));
+    conv1 =
+        register_module("conv1", torch::nn::Conv2d(Conv2dOptions(3, 64, 11).stride(4).padding(2)));
     conv2 = register_module("conv2", torch::nn::Conv2d(Conv2dOptions(64, 192, 5).padding(2)));
     conv3 = register_module("conv3", torch::nn::Conv2d(Conv2dOptions(192, 384, 3).padding(1)));
     conv4 = register_module("conv4", torch::nn::Conv2d(Conv2dOptions(384, 256, 3).padding(1)));
@@ -31,17 +32,16 @@ struct AlexNetTrunkImpl : torch::nn::Module {
   std::array<torch::Tensor, kLpipsLayers> forward(const torch::Tensor& x) {  // x: [N, 3, H, W]
     std::array<torch::Tensor, kLpipsLayers> relu;
     relu[0] = conv1->forward(x).relu_();                           // [N, 64, H1, W1]
-    torch::Tensor h = torch::max_pool2d(relu[0], {3, 3}, {2, 2});       // [N, 64, H2, W2]
+    torch::Tensor h = torch::max_pool2d(relu[0], {3, 3}, {2, 2});  // [N, 64, H2, W2]
     relu[1] = conv2->forward(h).relu_();                           // [N, 192, H2, W2]
-    h = torch::max_pool2d(relu[1], {3, 3}, {2, 2});                     // [N, 192, H3, W3]
+    h = torch::max_pool2d(relu[1], {3, 3}, {2, 2});                // [N, 192, H3, W3]
     relu[2] = conv3->forward(h).relu_();                           // [N, 384, H3, W3]
     relu[3] = conv4->forward(relu[2]).relu_();                     // [N, 256, H3, W3]
     relu[4] = conv5->forward(relu[3]).relu_();                     // [N, 256, H3, W3]
     return relu;
   }
 
-  torch::nn::Conv2d conv1{nullptr}, conv2{nullptr}, conv3{nullptr}, conv4{nullptr},
-      conv5{nullptr};
+  torch::nn::Conv2d conv1{nullptr}, conv2{nullptr}, conv3{nullptr}, conv4{nullptr}, conv5{nullptr};
 };
 TORCH_MODULE(AlexNetTrunk);
 
@@ -70,7 +70,7 @@ struct LpipsNetImpl : torch::nn::Module {
     const auto features = trunk->forward(x);
     std::vector<torch::Tensor> terms;
     for (int l = 0; l < kLpipsLayers; ++l) {
-      const torch::Tensor f = Normalize(features[l]);                  // [2B, C, h, w]
+      const torch::Tensor f = Normalize(features[l]);  // [2B, C, h, w]
       const torch::Tensor diff = (f.narrow(0, 0, batch) - f.narrow(0, batch, batch)).pow(2);
       terms.push_back(lins[l]->forward(diff).mean({2, 3}).view({batch}));  // [B]
     }
@@ -95,7 +95,7 @@ void Load(const TensorArchiveReader& archive, const std::string& name, torch::Te
   target.copy_(torch::from_blob(const_cast<float*>(values.data()), shape, torch::kFloat32));
 }
 
-// Tensor names are the lpips state-dict names (docs/metrics-lpips.md, "Tensor names").
+// Tensor names are the lpips state-dict names (docs/metrics-lpips.md, "LPIPS tensor names").
 void LoadWeights(const TensorArchiveReader& archive, LpipsNetImpl& net) {
   const nlohmann::json& meta = archive.meta();
   for (const auto& [field, expected] : {std::pair{"net", "alex"}, std::pair{"version", "0.1"}}) {
@@ -182,8 +182,8 @@ struct Lpips::State {
   }
 
   template <typename T>
-  torch::Tensor Layers(const std::vector<const T*>& a, const std::vector<const T*>& b,
-                       int height, int width, torch::ScalarType dtype) {
+  torch::Tensor Layers(const std::vector<const T*>& a, const std::vector<const T*>& b, int height,
+                       int width, torch::ScalarType dtype) {
     CheckPairs(a.size(), b.size(), height, width);
     torch::NoGradGuard no_grad;
     std::vector<torch::Tensor> chunks;
@@ -224,7 +224,7 @@ const LpipsOptions& Lpips::options() const { return state_->options; }
 
 namespace {
 std::vector<double> SumLayers(const torch::Tensor& layers) {  // [N, 5] float64 on CPU
-  const torch::Tensor sum = layers.sum(1).contiguous();         // [N]
+  const torch::Tensor sum = layers.sum(1).contiguous();       // [N]
   return {sum.data_ptr<double>(), sum.data_ptr<double>() + sum.numel()};
 }
 }  // namespace

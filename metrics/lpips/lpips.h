@@ -41,6 +41,8 @@ struct LpipsFeatureMap {
   std::vector<float> data;
 };
 
+// One object holds the network on its device; calls on it are not meant to run concurrently
+// (each pass already uses torch's intra-op threads).
 class Lpips {
  public:
   // Loads and validates the weights (names, shapes, dtypes, CRCs, lin weights >= 0). Throws
@@ -60,9 +62,9 @@ class Lpips {
   std::vector<double> DistanceFloat(const std::vector<const float*>& a,
                                     const std::vector<const float*>& b, int height, int width);
   // Per-layer terms (relu1..relu5) of each pair; Distance() is their sum.
-  std::vector<std::array<double, kLpipsLayers>> LayerDistances(
-      const std::vector<const uint8_t*>& a, const std::vector<const uint8_t*>& b, int height,
-      int width);
+  std::vector<std::array<double, kLpipsLayers>> LayerDistances(const std::vector<const uint8_t*>& a,
+                                                               const std::vector<const uint8_t*>& b,
+                                                               int height, int width);
   // relu1..relu5 of one uint8 image, before normalisation (for checking the layer taps).
   std::vector<LpipsFeatureMap> Features(const uint8_t* image, int height, int width);
 

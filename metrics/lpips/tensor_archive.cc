@@ -66,8 +66,8 @@ ArchiveTensor ParseEntry(const std::string& name, const nlohmann::json& e, const
     const uint32_t crc = Crc32c(t.data, t.length);
     if (crc != stored_crc) {
       char buf[96];
-      std::snprintf(buf, sizeof(buf), "CRC32C mismatch: stored 0x%08x, computed 0x%08x",
-                    stored_crc, crc);
+      std::snprintf(buf, sizeof(buf), "CRC32C mismatch: stored 0x%08x, computed 0x%08x", stored_crc,
+                    crc);
       throw Error(buf);
     }
   } catch (const nlohmann::json::exception& ex) {
@@ -82,24 +82,36 @@ ArchiveTensor ParseEntry(const std::string& name, const nlohmann::json& e, const
 
 std::string DTypeName(DType dtype) {
   switch (dtype) {
-    case DType::kFloat32: return "float32";
-    case DType::kFloat64: return "float64";
-    case DType::kFloat16: return "float16";
-    case DType::kInt32: return "int32";
-    case DType::kInt64: return "int64";
-    case DType::kUInt8: return "uint8";
+    case DType::kFloat32:
+      return "float32";
+    case DType::kFloat64:
+      return "float64";
+    case DType::kFloat16:
+      return "float16";
+    case DType::kInt32:
+      return "int32";
+    case DType::kInt64:
+      return "int64";
+    case DType::kUInt8:
+      return "uint8";
   }
   return "?";
 }
 
 size_t DTypeSize(DType dtype) {
   switch (dtype) {
-    case DType::kFloat32: return 4;
-    case DType::kFloat64: return 8;
-    case DType::kFloat16: return 2;
-    case DType::kInt32: return 4;
-    case DType::kInt64: return 8;
-    case DType::kUInt8: return 1;
+    case DType::kFloat32:
+      return 4;
+    case DType::kFloat64:
+      return 8;
+    case DType::kFloat16:
+      return 2;
+    case DType::kInt32:
+      return 4;
+    case DType::kInt64:
+      return 8;
+    case DType::kUInt8:
+      return 1;
   }
   return 0;
 }
@@ -130,8 +142,8 @@ TensorArchiveReader::TensorArchiveReader(std::string path) : path_(std::move(pat
   const uint8_t* p = mapping_->file.data();
   const uint64_t size = mapping_->file.size();
   const ErrorContext at_file{.file = path_};
-  Check(size >= kPreambleSize, "too short for a tensor archive (" + std::to_string(size) +
-                                   " bytes)", at_file);
+  Check(size >= kPreambleSize,
+        "too short for a tensor archive (" + std::to_string(size) + " bytes)", at_file);
   Check(std::memcmp(p, kTensorArchiveMagic.data(), 8) == 0,
         "not a wmkit tensor archive (magic is not WMTENSR1)", at_file);
   const uint64_t header_length = GetU64(p + 8);
@@ -166,8 +178,8 @@ TensorArchiveReader::TensorArchiveReader(std::string path) : path_(std::move(pat
   Check(header.contains("tensors") && header["tensors"].is_object(),
         "header lacks a 'tensors' object", {.file = path_, .key = "tensors"});
   for (const auto& [name, entry] : header["tensors"].items()) {
-    tensors_.emplace(name, ParseEntry(name, entry, p + data_start, data_length,
-                                      {.file = path_, .key = name}));
+    tensors_.emplace(
+        name, ParseEntry(name, entry, p + data_start, data_length, {.file = path_, .key = name}));
   }
   meta_ = header.contains("meta") ? header["meta"] : nlohmann::json::object();
 }
@@ -195,21 +207,21 @@ std::span<const float> TensorArchiveReader::Float32(const std::string& name,
   const ArchiveTensor& t = Get(name);
   const ErrorContext at{.file = path_, .key = name};
   Check(t.dtype == DType::kFloat32, "dtype is " + DTypeName(t.dtype) + ", expected float32", at);
-  Check(t.shape == shape,
-        "shape is " + ShapeString(t.shape) + ", expected " + ShapeString(shape), at);
+  Check(t.shape == shape, "shape is " + ShapeString(t.shape) + ", expected " + ShapeString(shape),
+        at);
   return {reinterpret_cast<const float*>(t.data), static_cast<size_t>(t.numel())};
 }
 
 void TensorArchiveWriter::Add(const std::string& name, DType dtype, std::vector<int64_t> shape,
                               const void* data, size_t bytes) {
   Check(!entries_.count(name), "duplicate tensor name", {.key = name});
-  for (int64_t d : shape) Check(d >= 0, "negative dimension in " + ShapeString(shape), {.key = name});
+  for (int64_t d : shape)
+    Check(d >= 0, "negative dimension in " + ShapeString(shape), {.key = name});
   Check(bytes == static_cast<size_t>(NumelOf(shape)) * DTypeSize(dtype),
         std::to_string(bytes) + " bytes do not match shape " + ShapeString(shape) + " of " +
             DTypeName(dtype),
         {.key = name});
-  entries_[name] = {dtype, std::move(shape),
-                    std::string(static_cast<const char*>(data), bytes)};
+  entries_[name] = {dtype, std::move(shape), std::string(static_cast<const char*>(data), bytes)};
 }
 
 void TensorArchiveWriter::AddFloat32(const std::string& name, std::vector<int64_t> shape,
@@ -223,8 +235,10 @@ void TensorArchiveWriter::Write(const std::string& path) const {
   std::string data;
   for (const auto& [name, e] : entries_) {  // std::map: sorted names, reproducible bytes
     data.resize(AlignUp(data.size()), '\0');
-    tensors[name] = {{"dtype", DTypeName(e.dtype)}, {"shape", e.shape},
-                     {"offset", data.size()},       {"length", e.bytes.size()},
+    tensors[name] = {{"dtype", DTypeName(e.dtype)},
+                     {"shape", e.shape},
+                     {"offset", data.size()},
+                     {"length", e.bytes.size()},
                      {"crc32c", Crc32c(e.bytes)}};
     data += e.bytes;
   }

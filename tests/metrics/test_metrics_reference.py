@@ -60,7 +60,8 @@ def reference_frechet(f1, f2):
     mu1, mu2 = f1.mean(axis=0), f2.mean(axis=0)
     s1, s2 = np.cov(f1, rowvar=False), np.cov(f2, rowvar=False)
     covmean, _ = scipy.linalg.sqrtm(s1 @ s2, disp=False)
-    return float(((mu1 - mu2) ** 2).sum() + np.trace(s1) + np.trace(s2) - 2 * np.trace(covmean.real))
+    trace = np.trace(s1) + np.trace(s2) - 2 * np.trace(covmean.real)
+    return float(((mu1 - mu2) ** 2).sum() + trace)
 
 
 def jpeg(image, quality):

@@ -76,10 +76,10 @@ Images LoadImages(const std::string& path, const std::string& size) {
             "raw RGB input needs --size HxW", {.file = path});
   im.bytes = wm::ReadFile(path);
   const int64_t frame = int64_t{im.height} * im.width * 3;
-  wm::Check(im.bytes.size() % frame == 0,
-            std::to_string(im.bytes.size()) + " bytes is not a whole number of " + size +
-                " RGB frames",
-            {.file = path});
+  wm::Check(
+      im.bytes.size() % frame == 0,
+      std::to_string(im.bytes.size()) + " bytes is not a whole number of " + size + " RGB frames",
+      {.file = path});
   im.count = static_cast<int64_t>(im.bytes.size()) / frame;
   return im;
 }
@@ -146,12 +146,10 @@ int main(int argc, char** argv) {
     const double seconds =
         std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count() /
         std::max(repeat, 1);
-    nlohmann::json out = {{"pairs", a.count},
-                          {"height", a.height},
-                          {"width", a.width},
-                          {"distances", distances},
-                          {"seconds", seconds},
-                          {"pairs_per_second", seconds > 0 ? a.count / seconds : 0.0}};
+    nlohmann::json out = {
+        {"pairs", a.count},   {"height", a.height},
+        {"width", a.width},   {"distances", distances},
+        {"seconds", seconds}, {"pairs_per_second", seconds > 0 ? a.count / seconds : 0.0}};
     if (per_layer && !a.is_float) {
       out["layers"] = lpips.LayerDistances(a.U8(), b.U8(), a.height, a.width);
     }

@@ -37,7 +37,8 @@ Array Read(const std::string& path) {
     pos = 10;
   } else {
     Check(major <= 3 && file.size() >= 12, ".npy version not supported", {.file = path});
-    for (int i = 3; i >= 0; --i) header_len = header_len << 8 | static_cast<unsigned char>(file[8 + i]);
+    for (int i = 3; i >= 0; --i)
+      header_len = header_len << 8 | static_cast<unsigned char>(file[8 + i]);
     pos = 12;
   }
   Check(pos + header_len <= file.size(), ".npy header runs past the end", {.file = path});
@@ -59,8 +60,8 @@ Array Read(const std::string& path) {
   }
   const size_t bytes = static_cast<size_t>(a.numel()) * ItemSize(a.descr, path);
   Check(file.size() - pos - header_len == bytes,
-        "data size " + std::to_string(file.size() - pos - header_len) + " != " +
-            std::to_string(bytes) + " expected from shape and dtype",
+        "data size " + std::to_string(file.size() - pos - header_len) +
+            " != " + std::to_string(bytes) + " expected from shape and dtype",
         {.file = path});
   a.bytes = file.substr(pos + header_len);
   return a;

@@ -46,7 +46,8 @@ Image Gradient(int h, int w, int phase) {
   Image im(static_cast<size_t>(h) * w * 3);
   for (int y = 0; y < h; ++y) {
     for (int x = 0; x < w; ++x) {
-      for (int c = 0; c < 3; ++c) im[(y * w + x) * 3 + c] = static_cast<uint8_t>((x * 4 + y * c + phase) % 256);
+      for (int c = 0; c < 3; ++c)
+        im[(y * w + x) * 3 + c] = static_cast<uint8_t>((x * 4 + y * c + phase) % 256);
     }
   }
   return im;

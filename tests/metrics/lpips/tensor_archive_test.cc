@@ -35,8 +35,8 @@ void WriteSample(const std::string& path) {
 uint64_t DataOffset(const std::string& path, const std::string& name) {
   TensorArchiveReader r(path);
   const ArchiveTensor& t = r.Get(name);
-  const size_t at =
-      MappedFile(path).view().find(std::string_view(reinterpret_cast<const char*>(t.data), t.length));
+  const size_t at = MappedFile(path).view().find(
+      std::string_view(reinterpret_cast<const char*>(t.data), t.length));
   EXPECT_NE(at, std::string_view::npos);
   return at;
 }
@@ -46,8 +46,8 @@ TEST(TensorArchiveTest, RoundTrip) {
   const std::string path = dir / "a.wmt";
   WriteSample(path);
   TensorArchiveReader r(path);
-  EXPECT_EQ(r.Names(), (std::vector<std::string>{"mask", "net.slice1.0.bias",
-                                                 "net.slice1.0.weight", "step"}));
+  EXPECT_EQ(r.Names(),
+            (std::vector<std::string>{"mask", "net.slice1.0.bias", "net.slice1.0.weight", "step"}));
   std::span<const float> conv = r.Float32("net.slice1.0.weight", {2, 3, 3, 3});
   ASSERT_EQ(conv.size(), 54u);
   for (size_t i = 0; i < conv.size(); ++i) EXPECT_EQ(conv[i], 0.25f * i - 3.0f);
