@@ -19,14 +19,7 @@ namespace {
 using ::testing::AllOf;
 using ::testing::HasSubstr;
 
-std::string ErrorOf(const std::function<void()>& fn) {
-  try {
-    fn();
-  } catch (const Error& e) {
-    return e.what();
-  }
-  return "(no error)";
-}
+std::string ErrorOf(const std::function<void()>& fn) { return test::ErrorText(fn); }
 
 void WritePng(const std::string& path, int h, int w, cv::Scalar bgr = {10, 20, 30}) {
   ASSERT_TRUE(cv::imwrite(path, cv::Mat(h, w, CV_8UC3, bgr)));

@@ -11,6 +11,7 @@
 
 #include "core/error.h"
 #include "metrics/frechet.h"
+#include "tests/core/test_util.h"
 
 namespace wm::metrics {
 namespace {
@@ -46,14 +47,7 @@ double ConstantLuminance(double x, double y) {
   return (2 * x * y + c1) / (x * x + y * y + c1);
 }
 
-std::string ErrorOf(const std::function<void()>& fn) {
-  try {
-    fn();
-  } catch (const Error& e) {
-    return e.what();
-  }
-  return "(no error)";
-}
+std::string ErrorOf(const std::function<void()>& fn) { return test::ErrorText(fn); }
 
 TEST(PixelMetrics, MseAndPsnrByHand) {
   const uint8_t a[] = {0, 10, 20, 30}, b[] = {1, 12, 20, 26};  // differences 1, 2, 0, 4
