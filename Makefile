@@ -38,7 +38,7 @@ ingest: build
 	@$(BIN)/wm-shard verify $(OUT)
 
 tokenize train eval report:
-	@echo "make $@: not yet — arrives with its issue (see README, Status)"; exit 0
+	@echo "make $@: not yet — arrives with its issue (see README, Status; wm-tokenize train works by hand)"; exit 0
 
 bench: build
 	@bash bench/run.sh $(BIN)

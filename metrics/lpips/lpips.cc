@@ -11,7 +11,7 @@
 #endif
 
 #include "core/error.h"
-#include "metrics/lpips/tensor_archive.h"
+#include "core/tensor_archive.h"
 
 namespace wm::metrics {
 namespace {

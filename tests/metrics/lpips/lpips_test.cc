@@ -10,7 +10,7 @@
 #include <random>
 
 #include "core/error.h"
-#include "metrics/lpips/tensor_archive.h"
+#include "core/tensor_archive.h"
 #include "tests/core/test_util.h"
 
 namespace wm::metrics {

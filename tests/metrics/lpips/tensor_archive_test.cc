@@ -1,4 +1,4 @@
-#include "metrics/lpips/tensor_archive.h"
+#include "core/tensor_archive.h"
 
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>

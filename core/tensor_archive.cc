@@ -1,4 +1,4 @@
-#include "metrics/lpips/tensor_archive.h"
+#include "core/tensor_archive.h"
 
 #include <algorithm>
 #include <bit>

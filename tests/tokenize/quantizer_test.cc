@@ -1,0 +1,116 @@
+// VectorQuantizer and VqVae: nearest-code choice, straight-through gradients, loss values,
+// dead-code re-seeding, and the presets building a model of the right shape.
+#include <gtest/gtest.h>
+
+#include "tests/core/test_util.h"
+#include "tokenize/adamw.h"
+#include "tokenize/vqvae.h"
+
+namespace wm::tokenize {
+namespace {
+
+// Four codes on the axes of R^2; two latents in a [1, 2, 1, 2] map.
+VectorQuantizer AxisQuantizer(bool l2_normalize) {
+  VectorQuantizer q(QuantizerOptions{.num_codes = 4, .dim = 2, .l2_normalize = l2_normalize});
+  torch::NoGradGuard no_grad;
+  q->codebook.copy_(torch::tensor({1.f, 0.f, 0.f, 1.f, -1.f, 0.f, 0.f, -1.f}).view({4, 2}));
+  return q;
+}
+
+torch::Tensor Latents(std::vector<float> xy) {  // [(x0, y0), (x1, y1)] -> [1, 2, 1, 2]
+  return torch::tensor(xy).view({1, 2, 2}).permute({2, 0, 1}).unsqueeze(0).contiguous();
+}
+
+TEST(Quantizer, PicksNearestCodeAndPassesGradientsStraightThrough) {
+  VectorQuantizer q = AxisQuantizer(false);
+  torch::Tensor z = Latents({0.9f, 0.2f, -0.1f, -2.f}).requires_grad_(true);  // [1, 2, 1, 2]
+  QuantizerOutput out = q->forward(z);
+  EXPECT_EQ(out.indices.flatten()[0].item<int64_t>(), 0);
+  EXPECT_EQ(out.indices.flatten()[1].item<int64_t>(), 3);
+  EXPECT_TRUE(torch::allclose(out.z_q, Latents({1.f, 0.f, 0.f, -1.f})));
+  // mean over 4 elements of (0.1^2 + 0.2^2 + 0.1^2 + 1^2)
+  EXPECT_NEAR(out.codebook_loss.item<double>(), 1.06 / 4, 1e-6);
+  EXPECT_NEAR(out.commitment.item<double>(), 1.06 / 4, 1e-6);
+  EXPECT_NEAR(out.usage, 0.5, 1e-12);
+  EXPECT_NEAR(out.perplexity, 2.0, 1e-6);
+  (out.z_q * torch::tensor({1.f, 2.f}).view({1, 2, 1, 1})).sum().backward();
+  // d(z_q)/d(z_e) = identity: the gradient reaches z_e unchanged, per channel 1 and 2.
+  EXPECT_TRUE(torch::allclose(z.grad(), torch::tensor({1.f, 1.f, 2.f, 2.f}).view({1, 2, 1, 2})));
+  EXPECT_FALSE(q->codebook.grad().defined() && q->codebook.grad().abs().sum().item<float>() > 0);
+}
+
+TEST(Quantizer, CommitmentAndCodebookLossesTrainTheirOwnSide) {
+  VectorQuantizer q = AxisQuantizer(false);
+  torch::Tensor z = Latents({0.9f, 0.2f, -0.1f, -2.f}).requires_grad_(true);
+  QuantizerOutput out = q->forward(z);
+  out.codebook_loss.backward();
+  EXPECT_FALSE(z.grad().defined());  // the codebook loss only moves codes
+  EXPECT_GT(q->codebook.grad().abs().sum().item<float>(), 0);
+}
+
+TEST(Quantizer, L2NormalisedLookupUsesDirectionNotLength) {
+  VectorQuantizer q = AxisQuantizer(true);
+  // (5, 0.1) is far from code 0 in Euclidean terms but points the same way.
+  QuantizerOutput out = q->forward(Latents({5.f, 0.1f, -3.f, 0.5f}));
+  EXPECT_EQ(out.indices.flatten()[0].item<int64_t>(), 0);
+  EXPECT_EQ(out.indices.flatten()[1].item<int64_t>(), 2);
+  EXPECT_NEAR(out.z_q.flatten()[0].item<float>(), 1.f, 1e-6);
+}
+
+TEST(Quantizer, ReseedsCodesUnusedForLongEnoughFromBatchLatents) {
+  VectorQuantizer q = AxisQuantizer(false);
+  std::mt19937_64 rng(7);
+  QuantizerOutput out = q->forward(Latents({0.9f, 0.2f, 0.8f, 0.1f}));  // both pick code 0
+  EXPECT_EQ(q->UpdateUsageAndReseed(out, /*dead_after=*/2, rng), 0);
+  EXPECT_EQ(q->steps_since_used[1].item<int64_t>(), 1);
+  EXPECT_EQ(q->UpdateUsageAndReseed(out, 2, rng), 3);  // codes 1, 2, 3 reached 2 steps
+  EXPECT_TRUE(torch::allclose(q->codebook[0], torch::tensor({1.f, 0.f})));
+  for (int k = 1; k < 4; ++k) {
+    torch::Tensor row = q->codebook[k];
+    const bool from_batch = torch::allclose(row, torch::tensor({0.9f, 0.2f})) ||
+                            torch::allclose(row, torch::tensor({0.8f, 0.1f}));
+    EXPECT_TRUE(from_batch) << "code " << k;
+    EXPECT_EQ(q->steps_since_used[k].item<int64_t>(), 0);
+  }
+}
+
+TEST(VqVae, Meta64PresetBuildsAndMapsFramesToTokens) {
+  TokenizerConfig c = LoadTokenizerConfig(test::SourceDir() + "/configs/tokenizer/meta64.yaml");
+  torch::manual_seed(0);
+  VqVae model(c.model);
+  torch::NoGradGuard no_grad;
+  VqVaeOutput out = model->forward(torch::zeros({1, 3, 64, 64}));
+  EXPECT_EQ(out.quant.indices.sizes(), (std::vector<int64_t>{1, 16, 16}));  // patch 4
+  EXPECT_EQ(out.reconstruction.sizes(), (std::vector<int64_t>{1, 3, 64, 64}));
+  EXPECT_EQ(model->quantizer->codebook.sizes(), (std::vector<int64_t>{1024, 32}));
+}
+
+TEST(VqVae, TinyPresetGivesEightByEightTokens) {
+  TokenizerConfig c = LoadTokenizerConfig(test::SourceDir() + "/configs/tokenizer/tiny.yaml");
+  VqVae model(c.model);
+  torch::NoGradGuard no_grad;
+  VqVaeOutput out = model->forward(torch::zeros({2, 3, 64, 64}));
+  EXPECT_EQ(out.quant.indices.sizes(), (std::vector<int64_t>{2, 8, 8}));
+  EXPECT_EQ(out.reconstruction.sizes(), (std::vector<int64_t>{2, 3, 64, 64}));
+}
+
+TEST(AdamW, MatchesLibTorchAdamW) {
+  torch::manual_seed(3);
+  torch::Tensor init = torch::randn({4, 3});
+  torch::Tensor a = init.clone().requires_grad_(true), b = init.clone().requires_grad_(true);
+  AdamW ours({{"w", a}}, {.lr = 0.01, .beta1 = 0.9, .beta2 = 0.9, .weight_decay = 0.1});
+  torch::optim::AdamW ref({b},
+                          torch::optim::AdamWOptions(0.01).betas({0.9, 0.9}).weight_decay(0.1));
+  for (int step = 0; step < 5; ++step) {
+    ours.ZeroGrad();
+    ref.zero_grad();
+    (a * a * (step + 1)).sum().backward();
+    (b * b * (step + 1)).sum().backward();
+    ours.Step();
+    ref.step();
+  }
+  EXPECT_TRUE(torch::allclose(a, b, 1e-6, 1e-7)) << (a - b).abs().max().item<float>();
+}
+
+}  // namespace
+}  // namespace wm::tokenize

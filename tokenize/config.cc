@@ -1,0 +1,149 @@
+#include "tokenize/config.h"
+
+#include <yaml-cpp/yaml.h>
+
+#include <set>
+#include <sstream>
+
+#include "core/atomic_file.h"
+#include "core/error.h"
+
+namespace wm::tokenize {
+namespace {
+
+// Calls f(section, key, field) for every field: the one list of names shared by the YAML
+// reader, the JSON writer and the JSON reader.
+template <class Config, class F>
+void VisitFields(Config& c, F&& f) {
+  auto& m = c.model;
+  f("model", "image_size", m.image_size);
+  f("model", "patch_size", m.patch_size);
+  f("model", "encoder_channels", m.encoder_channels);
+  f("model", "encoder_layers", m.encoder_layers);
+  f("model", "decoder_channels", m.decoder_channels);
+  f("model", "decoder_layers", m.decoder_layers);
+  f("model", "latent_dim", m.latent_dim);
+  f("model", "num_codes", m.num_codes);
+  f("model", "l2_normalize", m.l2_normalize);
+  f("model", "beta", m.beta);
+  f("model", "dead_code_steps", m.dead_code_steps);
+  auto& t = c.train;
+  f("train", "batch_size", t.batch_size);
+  f("train", "steps", t.steps);
+  f("train", "max_lr", t.max_lr);
+  f("train", "min_lr", t.min_lr);
+  f("train", "warmup_steps", t.warmup_steps);
+  f("train", "beta1", t.beta1);
+  f("train", "beta2", t.beta2);
+  f("train", "weight_decay", t.weight_decay);
+  f("train", "grad_clip", t.grad_clip);
+  f("train", "seed", t.seed);
+  f("train", "threads", t.threads);
+  f("train", "checkpoint_every", t.checkpoint_every);
+  f("train", "log_every", t.log_every);
+  f("data", "image_key", c.data.image_key);
+}
+
+std::string Key(const std::string& section, const std::string& key) { return section + "." + key; }
+
+}  // namespace
+
+TokenizerConfig ParseTokenizerConfig(const std::string& yaml_text, const std::string& file) {
+  YAML::Node root;
+  try {
+    root = YAML::Load(yaml_text);
+  } catch (const YAML::Exception& e) {
+    throw Error("invalid YAML: " + std::string(e.what()), {.file = file});
+  }
+  TokenizerConfig config;
+  if (root.IsNull()) return config;
+  Check(root.IsMap(), "expected a mapping at the top level", {.file = file});
+  std::map<std::string, std::set<std::string>> known;
+  VisitFields(config, [&](const char* section, const char* key, auto& field) {
+    known[section].insert(key);
+    YAML::Node s = root[section];
+    if (!s) return;
+    Check(s.IsMap(), "expected a mapping", {.file = file, .key = section});
+    YAML::Node v = s[key];
+    if (!v) return;
+    using T = std::decay_t<decltype(field)>;
+    try {
+      Check(v.IsScalar(), "expected a scalar", {.file = file, .key = Key(section, key)});
+      field = v.as<T>();
+    } catch (const YAML::Exception&) {
+      throw Error("cannot read '" + v.Scalar() + "' as " +
+                      (std::is_same_v<T, bool>       ? "a boolean"
+                       : std::is_integral_v<T>       ? "an integer"
+                       : std::is_floating_point_v<T> ? "a number"
+                                                     : "a string"),
+                  {.file = file, .key = Key(section, key)});
+    }
+  });
+  for (const auto& top : root) {
+    const std::string section = top.first.as<std::string>();
+    Check(known.count(section) > 0, "unknown section (expected model, train or data)",
+          {.file = file, .key = section});
+    for (const auto& kv : top.second) {
+      const std::string key = kv.first.as<std::string>();
+      Check(known[section].count(key) > 0, "unknown key (see docs/tokenizer.md)",
+            {.file = file, .key = Key(section, key)});
+    }
+  }
+  ValidateConfig(config, file);
+  return config;
+}
+
+TokenizerConfig LoadTokenizerConfig(const std::string& path) {
+  return ParseTokenizerConfig(ReadFile(path), path);
+}
+
+nlohmann::json ConfigToJson(const TokenizerConfig& config) {
+  nlohmann::json j;
+  VisitFields(config, [&](const char* section, const char* key, const auto& field) {
+    j[section][key] = field;
+  });
+  return j;
+}
+
+TokenizerConfig ConfigFromJson(const nlohmann::json& j) {
+  TokenizerConfig config;
+  VisitFields(config, [&](const char* section, const char* key, auto& field) {
+    if (j.contains(section) && j[section].contains(key)) j[section][key].get_to(field);
+  });
+  return config;
+}
+
+void ValidateConfig(const TokenizerConfig& c, const std::string& file) {
+  auto require = [&](bool ok, const char* key, const std::string& what) {
+    Check(ok, what, {.file = file, .key = key});
+  };
+  const ModelConfig& m = c.model;
+  const bool pow2 = m.patch_size > 0 && (m.patch_size & (m.patch_size - 1)) == 0;
+  require(pow2, "model.patch_size", "must be a power of 2");
+  require(m.image_size > 0 && m.image_size % m.patch_size == 0, "model.image_size",
+          "must be a positive multiple of model.patch_size");
+  require(m.encoder_channels > 0, "model.encoder_channels", "must be > 0");
+  require(m.decoder_channels > 0, "model.decoder_channels", "must be > 0");
+  require(m.encoder_layers >= 0, "model.encoder_layers", "must be >= 0");
+  require(m.decoder_layers >= 0, "model.decoder_layers", "must be >= 0");
+  require(m.latent_dim > 0, "model.latent_dim", "must be > 0");
+  require(m.num_codes >= 2, "model.num_codes", "must be >= 2");
+  require(m.beta >= 0, "model.beta", "must be >= 0");
+  require(m.dead_code_steps >= 0, "model.dead_code_steps", "must be >= 0");
+  const TrainConfig& t = c.train;
+  require(t.batch_size > 0, "train.batch_size", "must be > 0");
+  require(t.steps > 0, "train.steps", "must be > 0");
+  require(t.max_lr > 0, "train.max_lr", "must be > 0");
+  require(t.min_lr >= 0 && t.min_lr <= t.max_lr, "train.min_lr", "must be in [0, max_lr]");
+  require(t.warmup_steps >= 0, "train.warmup_steps", "must be >= 0");
+  require(t.beta1 >= 0 && t.beta1 < 1, "train.beta1", "must be in [0, 1)");
+  require(t.beta2 >= 0 && t.beta2 < 1, "train.beta2", "must be in [0, 1)");
+  require(t.weight_decay >= 0, "train.weight_decay", "must be >= 0");
+  require(t.grad_clip >= 0, "train.grad_clip", "must be >= 0");
+  require(t.threads > 0, "train.threads", "must be > 0");
+  require(t.checkpoint_every > 0, "train.checkpoint_every", "must be > 0");
+  require(t.log_every > 0, "train.log_every", "must be > 0");
+  require(!c.data.image_key.empty(), "data.image_key", "must not be empty");
+}
+
+}  // namespace wm::tokenize

@@ -1,0 +1,45 @@
+#pragma once
+// Training loop of the VQ-VAE tokenizer (torch-free interface; the work is in trainer.cc).
+// RUN_DIR layout (docs/tokenizer.md):
+//   checkpoint.wmt   model + AdamW moments, meta: step, RNG states (wmkit tensor archive)
+//   checkpoint.json  manifest: config, config hash, data hashes, provenance, step, RNG states
+//   metrics.csv      one row every train.log_every steps (has a wall-clock column)
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include "tokenize/config.h"
+
+namespace wm::tokenize {
+
+struct TrainOptions {
+  TokenizerConfig config;
+  std::vector<std::string> data_dirs;  // shard dataset directories (each with index.json)
+  std::string out_dir;                 // RUN_DIR, created if missing
+  std::string device = "cpu";          // "cpu", "cuda" or "cuda:N"
+  bool resume = false;                 // continue from RUN_DIR/checkpoint.wmt
+  // Stop (with a checkpoint) after this many steps of this invocation, 0 = run to
+  // train.steps; for time-sliced jobs. Does not change the schedule.
+  int64_t max_steps_this_run = 0;
+  bool show_progress = true;
+};
+
+struct TrainSummary {
+  int64_t start_step = 0, end_step = 0;
+  double last_loss = 0, first_loss = 0;  // of the first / last step of this invocation
+  double last_recon_l1 = 0, last_perplexity = 0;
+  std::string checkpoint_path;
+};
+
+// Throws wm::Error on bad data, a config that differs from the checkpoint's on --resume, or a
+// RUN_DIR that already holds a checkpoint without --resume.
+TrainSummary TrainTokenizer(const TrainOptions& options);
+
+// lr at `step` (0-based): linear warmup to max_lr over warmup_steps, then cosine to min_lr at
+// train.steps.
+double LearningRateAt(const TrainConfig& train, int64_t step);
+
+// "1.13.0" etc.: the LibTorch this binary was built against.
+std::string TorchVersion();
+
+}  // namespace wm::tokenize

@@ -1,0 +1,144 @@
+#include "tokenize/vqvae.h"
+
+#include <cmath>
+
+namespace wm::tokenize {
+namespace F = torch::nn::functional;
+namespace {
+
+// x + conv1x1(relu(conv3x3(relu(x)))): keeps [B, C, h, w].
+struct ResBlockImpl : torch::nn::Module {
+  explicit ResBlockImpl(int64_t channels) {
+    using torch::nn::Conv2dOptions;
+    conv1 = register_module("conv1",
+                            torch::nn::Conv2d(Conv2dOptions(channels, channels, 3).padding(1)));
+    conv2 = register_module("conv2", torch::nn::Conv2d(Conv2dOptions(channels, channels, 1)));
+  }
+  torch::Tensor forward(const torch::Tensor& x) {
+    return x + conv2->forward(torch::relu(conv1->forward(torch::relu(x))));
+  }
+  torch::nn::Conv2d conv1{nullptr}, conv2{nullptr};
+};
+TORCH_MODULE(ResBlock);
+
+int Log2(int x) {
+  int n = 0;
+  while ((1 << n) < x) ++n;
+  return n;
+}
+
+}  // namespace
+
+VectorQuantizerImpl::VectorQuantizerImpl(QuantizerOptions options) : options(options) {
+  torch::Tensor init = options.l2_normalize
+                           ? torch::randn({options.num_codes, options.dim})
+                           : torch::empty({options.num_codes, options.dim})
+                                 .uniform_(-1.0 / options.num_codes, 1.0 / options.num_codes);
+  codebook = register_parameter("codebook", init);
+  steps_since_used =
+      register_buffer("steps_since_used", torch::zeros({options.num_codes}, torch::kInt64));
+}
+
+QuantizerOutput VectorQuantizerImpl::forward(const torch::Tensor& z_e) {
+  const int64_t B = z_e.size(0), D = z_e.size(1), h = z_e.size(2), w = z_e.size(3);
+  torch::Tensor flat = z_e.permute({0, 2, 3, 1}).reshape({-1, D});  // [N, D], N = B*h*w
+  torch::Tensor codes = codebook;                                   // [K, D]
+  if (options.l2_normalize) {
+    flat = F::normalize(flat, F::NormalizeFuncOptions().dim(1));
+    codes = F::normalize(codes, F::NormalizeFuncOptions().dim(1));
+  }
+  // ||z||^2 - 2 z.e + ||e||^2, without materialising [N, K, D].
+  torch::Tensor dist = flat.pow(2).sum(1, true) - 2 * flat.mm(codes.t()) +
+                       codes.pow(2).sum(1).unsqueeze(0);  // [N, K]
+  QuantizerOutput out;
+  torch::Tensor idx = dist.argmin(1);                 // [N]
+  torch::Tensor q = codes.index_select(0, idx);       // [N, D]
+  out.codebook_loss = F::mse_loss(q, flat.detach());  // VQ-VAE eq. 3, second term
+  out.commitment = F::mse_loss(flat, q.detach());     // VQ-VAE eq. 3, third term (x beta)
+  torch::Tensor st = flat + (q - flat).detach();      // straight-through estimator
+  out.z_q = st.view({B, h, w, D}).permute({0, 3, 1, 2}).contiguous();  // [B, D, h, w]
+  out.indices = idx.view({B, h, w});
+  out.flat_latents = flat.detach();
+  torch::Tensor counts = torch::bincount(idx, {}, options.num_codes).to(torch::kDouble);
+  torch::Tensor p = counts / static_cast<double>(idx.size(0));
+  out.perplexity = torch::exp(-(p * torch::log(p + 1e-10)).sum()).item<double>();
+  out.usage = (counts > 0).sum().item<double>() / static_cast<double>(options.num_codes);
+  return out;
+}
+
+torch::Tensor VectorQuantizerImpl::Lookup(const torch::Tensor& indices) {
+  torch::Tensor codes = codebook;
+  if (options.l2_normalize) codes = F::normalize(codes, F::NormalizeFuncOptions().dim(1));
+  return codes.index_select(0, indices.flatten())
+      .view({indices.size(0), indices.size(1), indices.size(2), options.dim})
+      .permute({0, 3, 1, 2})
+      .contiguous();  // [B, D, h, w]
+}
+
+int64_t VectorQuantizerImpl::UpdateUsageAndReseed(const QuantizerOutput& out, int64_t dead_after,
+                                                  std::mt19937_64& rng) {
+  torch::NoGradGuard no_grad;
+  torch::Tensor used = torch::bincount(out.indices.flatten(), {}, options.num_codes) > 0;
+  steps_since_used.add_(1).masked_fill_(used, 0);
+  if (dead_after <= 0) return 0;
+  torch::Tensor dead = (steps_since_used >= dead_after).nonzero().flatten().cpu();  // [n]
+  const int64_t n = dead.size(0);
+  if (n == 0) return 0;
+  const uint64_t pool = static_cast<uint64_t>(out.flat_latents.size(0));
+  std::vector<int64_t> src(n);
+  for (auto& s : src) s = static_cast<int64_t>(rng() % pool);
+  torch::Tensor src_t = torch::tensor(src, torch::kInt64).to(codebook.device());
+  torch::Tensor dead_t = dead.to(codebook.device());
+  codebook.index_copy_(0, dead_t, out.flat_latents.index_select(0, src_t).to(codebook.dtype()));
+  steps_since_used.index_fill_(0, dead_t, 0);
+  return n;
+}
+
+VqVaeImpl::VqVaeImpl(const ModelConfig& c) : config(c) {
+  using torch::nn::Conv2dOptions;
+  using torch::nn::ConvTranspose2dOptions;
+  const int downs = Log2(c.patch_size);
+  const int64_t ce = c.encoder_channels, cd = c.decoder_channels, d = c.latent_dim;
+  encoder = torch::nn::Sequential(torch::nn::Conv2d(Conv2dOptions(3, ce, 3).padding(1)),
+                                  torch::nn::ReLU());  // [B, Ce, H, W]
+  for (int i = 0; i < downs; ++i) {
+    encoder->push_back(torch::nn::Conv2d(Conv2dOptions(ce, ce, 4).stride(2).padding(1)));
+    encoder->push_back(torch::nn::ReLU());  // halves H and W
+  }
+  for (int i = 0; i < c.encoder_layers; ++i) encoder->push_back(ResBlock(ce));
+  encoder->push_back(torch::nn::ReLU());
+  encoder->push_back(torch::nn::Conv2d(Conv2dOptions(ce, d, 1)));  // [B, D, h, w]
+
+  decoder = torch::nn::Sequential(torch::nn::Conv2d(Conv2dOptions(d, cd, 3).padding(1)));
+  for (int i = 0; i < c.decoder_layers; ++i) decoder->push_back(ResBlock(cd));
+  for (int i = 0; i < downs; ++i) {
+    decoder->push_back(torch::nn::ReLU());
+    decoder->push_back(
+        torch::nn::ConvTranspose2d(ConvTranspose2dOptions(cd, cd, 4).stride(2).padding(1)));
+  }
+  decoder->push_back(torch::nn::ReLU());
+  decoder->push_back(torch::nn::Conv2d(Conv2dOptions(cd, 3, 3).padding(1)));  // [B, 3, H, W]
+
+  register_module("encoder", encoder);
+  register_module("decoder", decoder);
+  quantizer =
+      register_module("quantizer", VectorQuantizer(QuantizerOptions{.num_codes = c.num_codes,
+                                                                    .dim = c.latent_dim,
+                                                                    .l2_normalize = c.l2_normalize,
+                                                                    .beta = c.beta}));
+}
+
+torch::Tensor VqVaeImpl::Encode(const torch::Tensor& images) { return encoder->forward(images); }
+
+torch::Tensor VqVaeImpl::Decode(const torch::Tensor& z_q) { return decoder->forward(z_q); }
+
+VqVaeOutput VqVaeImpl::forward(const torch::Tensor& images) {
+  VqVaeOutput out;
+  out.quant = quantizer->forward(Encode(images));  // z_q: [B, D, h, w]
+  out.reconstruction = Decode(out.quant.z_q);      // [B, 3, H, W]
+  out.recon_l1 = (out.reconstruction - images).abs().mean();
+  out.loss = out.recon_l1 + out.quant.codebook_loss + config.beta * out.quant.commitment;
+  return out;
+}
+
+}  // namespace wm::tokenize

@@ -1,0 +1,64 @@
+#pragma once
+// The VQ-VAE image tokenizer in LibTorch: conv encoder -> latent -> nearest-code quantisation
+// (straight-through) -> conv decoder. Internal header (includes torch); tools and other stages
+// use tokenize/trainer.h.
+#include <torch/torch.h>
+
+#include <random>
+
+#include "tokenize/config.h"
+
+namespace wm::tokenize {
+
+struct QuantizerOptions {
+  int64_t num_codes = 1024;
+  int64_t dim = 32;
+  bool l2_normalize = true;  // cosine lookup; quantised vectors are unit codes
+  double beta = 0.25;
+};
+
+struct QuantizerOutput {
+  torch::Tensor z_q;            // [B, D, h, w] straight-through: forward = code, grad -> z_e
+  torch::Tensor indices;        // [B, h, w] int64
+  torch::Tensor codebook_loss;  // ||sg(z_e) - e||^2 (mean)
+  torch::Tensor commitment;     // ||z_e - sg(e)||^2 (mean), weighted by beta in the loss
+  torch::Tensor flat_latents;   // [B*h*w, D] detached (normalised if l2_normalize): re-seeding
+  double perplexity = 0;        // exp(entropy of the batch's code histogram)
+  double usage = 0;             // fraction of codes used in the batch
+};
+
+struct VectorQuantizerImpl : torch::nn::Module {
+  explicit VectorQuantizerImpl(QuantizerOptions options);
+  QuantizerOutput forward(const torch::Tensor& z_e);   // z_e: [B, D, h, w]
+  torch::Tensor Lookup(const torch::Tensor& indices);  // [B, h, w] -> [B, D, h, w]
+
+  // Dead-code handling: codes not chosen for `dead_after` consecutive steps are replaced by
+  // latents drawn (with `rng`) from this batch. Returns how many codes were re-seeded.
+  int64_t UpdateUsageAndReseed(const QuantizerOutput& out, int64_t dead_after,
+                               std::mt19937_64& rng);
+
+  QuantizerOptions options;
+  torch::Tensor codebook;          // [K, D] parameter
+  torch::Tensor steps_since_used;  // [K] int64 buffer (checkpointed)
+};
+TORCH_MODULE(VectorQuantizer);
+
+struct VqVaeOutput {
+  torch::Tensor reconstruction;  // [B, 3, H, W] in [-1, 1] (not clamped)
+  QuantizerOutput quant;
+  torch::Tensor recon_l1, loss;  // loss = L1 + codebook + beta * commitment
+};
+
+struct VqVaeImpl : torch::nn::Module {
+  explicit VqVaeImpl(const ModelConfig& config);
+  VqVaeOutput forward(const torch::Tensor& images);   // images: [B, 3, H, W] in [-1, 1]
+  torch::Tensor Encode(const torch::Tensor& images);  // -> [B, D, h, w] pre-quantisation
+  torch::Tensor Decode(const torch::Tensor& z_q);     // [B, D, h, w] -> [B, 3, H, W]
+
+  ModelConfig config;
+  torch::nn::Sequential encoder{nullptr}, decoder{nullptr};
+  VectorQuantizer quantizer{nullptr};
+};
+TORCH_MODULE(VqVae);
+
+}  // namespace wm::tokenize
