@@ -12,6 +12,7 @@
 #include "core/paths.h"
 #include "ingest/ingest_options.h"
 #include "ingest/rlds/rlds_source.h"
+#include "ingest/rlds/tfds_dataset.h"
 
 namespace {
 namespace fs = std::filesystem;
@@ -66,10 +67,8 @@ int main(int argc, char** argv) {
     for (auto& [name, f] : e.images) frames.insert(frames.end(), f.frames.begin(), f.frames.end());
   }
   double input_mb = 0;
-  for (const auto& entry : fs::directory_iterator(input)) {
-    if (entry.path().filename().string().find("-" + split + ".tfrecord-") != std::string::npos) {
-      input_mb += static_cast<double>(entry.file_size()) / 1e6;
-    }
+  for (const auto& file : wm::rlds::OpenTfdsDataset(input).SplitFiles(split)) {
+    input_mb += static_cast<double>(fs::file_size(file)) / 1e6;
   }
 
   wm::ingest::IngestOptions o;

@@ -33,19 +33,15 @@ using LoadResult = std::variant<Episode, Error>;
 LoadResult LoadOne(const EpisodeSource& source, const EpisodeRef& ref, const IngestOptions& o) {
   try {
     Episode e = source.Load(ref);
-    try {
-      ValidateEpisode(e, o.full_image_check);
-      if (o.resize_width > 0) {
-        for (auto& [name, frames] : e.images) {
-          ResizeFrames(frames, o.resize_width, o.resize_height, /*nearest=*/name != "image");
-        }
+    ValidateEpisode(e, o.full_image_check);
+    if (o.resize_width > 0) {
+      for (auto& [name, frames] : e.images) {
+        ResizeFrames(frames, o.resize_width, o.resize_height, /*nearest=*/name != "image");
       }
-    } catch (const Error& err) {
-      throw err.WithRecord(ref.record).WithFile(ref.path);
     }
     return e;
   } catch (const Error& err) {
-    return err;
+    return err.WithRecord(ref.record).WithFile(ref.path);  // keeps context Load already set
   } catch (const std::exception& err) {
     return Error(err.what(), {.file = ref.path, .record = ref.record});
   }

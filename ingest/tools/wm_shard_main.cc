@@ -57,13 +57,14 @@ int main(int argc, char** argv) {
     } else if (*dump) {
       wm::shard::DatasetReader reader(dir);
       nlohmann::json out = nlohmann::json::array();
-      for (size_t k = 0; k < reader.num_episodes(); ++k) {
-        if (episode < 0 || k == static_cast<size_t>(episode)) {
+      if (episode >= 0) {  // ReadEpisode names the dataset when K is out of range
+        out = wm::ingest::EpisodeToJson(reader.ReadEpisode(static_cast<size_t>(episode)));
+      } else {
+        for (size_t k = 0; k < reader.num_episodes(); ++k) {
           out.push_back(wm::ingest::EpisodeToJson(reader.ReadEpisode(k)));
         }
       }
-      if (episode >= 0 && out.empty()) reader.Locate(static_cast<size_t>(episode));  // throws
-      std::cout << (episode >= 0 ? out.at(0) : out).dump() << "\n";
+      std::cout << out.dump() << "\n";
     } else if (*merge) {
       auto index = wm::ingest::MergeDatasets(parts, output);
       spdlog::info("merged {} parts: {} episodes in {} shards -> {}", parts.size(),
