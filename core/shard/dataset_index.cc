@@ -12,6 +12,15 @@ namespace wm::shard {
 namespace {
 using nlohmann::json;
 
+double Quantile(const std::vector<double>& sorted, double q) {
+  double h = (static_cast<double>(sorted.size()) - 1.0) * q;
+  auto lo = static_cast<size_t>(std::floor(h));
+  size_t hi = std::min(lo + 1, sorted.size() - 1);
+  return sorted[lo] + (h - static_cast<double>(lo)) * (sorted[hi] - sorted[lo]);
+}
+
+}  // namespace
+
 json StatsToJson(const ActionStats& s) {
   return {{"mean", s.mean}, {"std", s.std}, {"min", s.min},
           {"max", s.max},   {"q01", s.q01}, {"q99", s.q99}};
@@ -27,15 +36,6 @@ ActionStats StatsFromJson(const json& j) {
   s.q99 = j.at("q99").get<ActionStats::Vec>();
   return s;
 }
-
-double Quantile(const std::vector<double>& sorted, double q) {
-  double h = (static_cast<double>(sorted.size()) - 1.0) * q;
-  auto lo = static_cast<size_t>(std::floor(h));
-  size_t hi = std::min(lo + 1, sorted.size() - 1);
-  return sorted[lo] + (h - static_cast<double>(lo)) * (sorted[hi] - sorted[lo]);
-}
-
-}  // namespace
 
 json IndexToJson(const DatasetIndex& x) {
   json shards = json::array();

@@ -41,6 +41,10 @@ struct DatasetIndex {
   nlohmann::json provenance = nlohmann::json::object();
 };
 
+// {"mean", "std", "min", "max", "q01", "q99"}, each a 7-vector; FromJson throws json errors.
+nlohmann::json StatsToJson(const ActionStats& stats);
+ActionStats StatsFromJson(const nlohmann::json& j);
+
 nlohmann::json IndexToJson(const DatasetIndex& index);
 // Validates structure and version; errors name `file` and the offending key.
 DatasetIndex IndexFromJson(const nlohmann::json& j, const std::string& file);

@@ -50,6 +50,38 @@ Episode MakeEpisode(int steps, uint64_t seed, const std::string& key) {
   return e;
 }
 
+std::vector<std::vector<uint32_t>> MakeTokenDataset(const std::string& dir, int episodes,
+                                                    int num_parts, int grid_h, int grid_w,
+                                                    int64_t num_codes, uint64_t seed) {
+  tokens::TokenIndex base;
+  base.dataset = "unit";
+  base.split = "train";
+  base.tokenizer = {.checkpoint_sha256 = "ckpt", .config_hash = "cfg", .num_codes = num_codes,
+                    .grid_h = grid_h, .grid_w = grid_w, .image_size = 8 * grid_h};
+  base.token_dtype = num_codes > 65536 ? "uint32" : "uint16";
+  std::mt19937_64 rng(seed);
+  std::vector<std::vector<uint32_t>> all;
+  for (int part = 0; part < num_parts; ++part) {
+    tokens::TokenPartWriter writer(dir, part, num_parts, base.tokenizer);
+    auto [first, last] = tokens::PartEpisodeRange(episodes, part, num_parts);
+    for (int64_t k = first; k < last; ++k) {
+      Episode e = MakeEpisode(3 + static_cast<int>(k % 4), seed + k, "ep" + std::to_string(k));
+      e.policy_id = "policy" + std::to_string(k % 2);
+      std::vector<uint32_t> t(static_cast<size_t>(e.num_steps * grid_h * grid_w));
+      for (auto& v : t) v = static_cast<uint32_t>(rng() % static_cast<uint64_t>(num_codes));
+      writer.AddEpisode({.num_frames = e.num_steps, .source_episode = k,
+                         .episode_key = e.episode_key, .policy_id = e.policy_id,
+                         .language_instruction = e.language_instruction,
+                         .episode_seed = e.episode_seed},
+                        t, e);
+      all.push_back(std::move(t));
+    }
+    writer.Finish();
+  }
+  tokens::AssembleIndexIfComplete(dir, num_parts, base);
+  return all;
+}
+
 namespace {
 std::string EnvOr(const char* name, const char* fallback) {
   const char* value = std::getenv(name);

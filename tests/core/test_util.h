@@ -6,6 +6,7 @@
 #include <string>
 
 #include "core/episode.h"
+#include "core/tokens/token_dataset.h"
 
 namespace wm::test {
 
@@ -23,6 +24,13 @@ class TempDir {
 
 // A deterministic episode with `steps` steps, actions from `seed`, fake JPEG-magic frames.
 Episode MakeEpisode(int steps, uint64_t seed, const std::string& key = "ep");
+
+// A token dataset in `dir`: `episodes` MakeEpisode episodes of 3..6 steps split over
+// `num_parts` parts, tokens drawn from `seed` on a grid_h x grid_w grid of `num_codes` codes.
+// Returns the tokens written, per episode ([frames * grid_h * grid_w]).
+std::vector<std::vector<uint32_t>> MakeTokenDataset(const std::string& dir, int episodes,
+                                                    int num_parts, int grid_h, int grid_w,
+                                                    int64_t num_codes, uint64_t seed);
 
 // The repository root and the directory of built tools ($WM_SOURCE_DIR / $WM_BIN_DIR, else the
 // paths compiled into the test).

@@ -1,0 +1,32 @@
+#pragma once
+// Byte layout of a token part file (docs/token-format.md is the specification).
+//   [0, 64)   header: "WMTOKEN1", u32 version, u32 token bytes (2|4), u32 grid_h, u32 grid_w,
+//             zeros, u32 CRC32C of bytes [0, 60) at 60
+//   then each section of TokenIndex::parts[i].sections at a 64-byte aligned offset, zero padded.
+#include <cstdint>
+#include <string>
+
+namespace wm::tokens {
+
+inline constexpr char kPartMagic[8] = {'W', 'M', 'T', 'O', 'K', 'E', 'N', '1'};
+inline constexpr size_t kPartHeaderSize = 64;
+inline constexpr size_t kSectionAlignment = 64;
+inline constexpr const char* kTokenIndexFileName = "index.json";
+
+// The per-step sections, in file order after "tokens": name, numpy dtype, values per frame.
+struct StepSectionSpec {
+  const char* name;
+  const char* dtype;
+  int per_frame;
+};
+inline constexpr StepSectionSpec kStepSections[] = {
+    {"actions", "<f4", 7},  {"rewards", "<f4", 1}, {"discounts", "<f4", 1},
+    {"is_first", "|u1", 1}, {"is_last", "|u1", 1}, {"is_terminal", "|u1", 1}};
+
+// "part-00003.json": the part's entry and episodes, merged into index.json.
+std::string PartJsonName(int part);
+
+// Bytes per element of a numpy dtype string used here ("<u2" -> 2).
+size_t DtypeSize(const std::string& dtype);
+
+}  // namespace wm::tokens

@@ -1,0 +1,216 @@
+// index.json of a token dataset: JSON conversion, validation and assembly from part files.
+#include <cstdio>
+#include <filesystem>
+
+#include "core/atomic_file.h"
+#include "core/error.h"
+#include "core/tokens/token_dataset.h"
+#include "core/tokens/token_format.h"
+
+namespace wm::tokens {
+namespace {
+using nlohmann::json;
+namespace fs = std::filesystem;
+
+json TokenizerToJson(const TokenizerInfo& t) {
+  return {{"checkpoint_sha256", t.checkpoint_sha256}, {"config_hash", t.config_hash},
+          {"num_codes", t.num_codes}, {"grid", {t.grid_h, t.grid_w}},
+          {"image_size", t.image_size}, {"image_key", t.image_key}};
+}
+
+TokenizerInfo TokenizerFromJson(const json& j) {
+  TokenizerInfo t;
+  t.checkpoint_sha256 = j.at("checkpoint_sha256").get<std::string>();
+  t.config_hash = j.at("config_hash").get<std::string>();
+  t.num_codes = j.at("num_codes").get<int64_t>();
+  t.grid_h = j.at("grid").at(0).get<int>();
+  t.grid_w = j.at("grid").at(1).get<int>();
+  t.image_size = j.at("image_size").get<int>();
+  t.image_key = j.at("image_key").get<std::string>();
+  return t;
+}
+
+json PartToJson(const PartInfo& p) {
+  json sections = json::object();
+  for (const auto& [name, s] : p.sections) {
+    sections[name] = {{"offset", s.offset}, {"dtype", s.dtype}, {"shape", s.shape},
+                      {"crc32c", s.crc32c}};
+  }
+  return {{"file", p.file},
+          {"bytes", p.bytes},
+          {"sha256", p.sha256},
+          {"num_episodes", p.num_episodes},
+          {"num_frames", p.num_frames},
+          {"sections", sections}};
+}
+
+PartInfo PartFromJson(const json& j) {
+  PartInfo p;
+  p.file = j.at("file").get<std::string>();
+  p.bytes = j.at("bytes").get<uint64_t>();
+  p.sha256 = j.at("sha256").get<std::string>();
+  p.num_episodes = j.at("num_episodes").get<int64_t>();
+  p.num_frames = j.at("num_frames").get<int64_t>();
+  for (const auto& [name, s] : j.at("sections").items()) {
+    p.sections[name] = {s.at("offset").get<uint64_t>(), s.at("dtype").get<std::string>(),
+                        s.at("shape").get<std::vector<int64_t>>(),
+                        s.at("crc32c").get<uint32_t>()};
+  }
+  return p;
+}
+
+json EpisodeToJson(const TokenEpisode& e) {
+  json j = {{"part", e.part},
+            {"frame_offset", e.frame_offset},
+            {"num_frames", e.num_frames},
+            {"source_episode", e.source_episode},
+            {"episode_key", e.episode_key},
+            {"policy_id", e.policy_id},
+            {"language_instruction", e.language_instruction},
+            {"episode_seed", nullptr}};
+  if (e.episode_seed) j["episode_seed"] = *e.episode_seed;
+  return j;
+}
+
+TokenEpisode EpisodeFromJson(const json& j) {
+  TokenEpisode e;
+  e.part = j.at("part").get<int>();
+  e.frame_offset = j.at("frame_offset").get<int64_t>();
+  e.num_frames = j.at("num_frames").get<int64_t>();
+  e.source_episode = j.at("source_episode").get<int64_t>();
+  e.episode_key = j.at("episode_key").get<std::string>();
+  e.policy_id = j.at("policy_id").get<std::string>();
+  e.language_instruction = j.at("language_instruction").get<std::string>();
+  if (!j.at("episode_seed").is_null()) e.episode_seed = j["episode_seed"].get<int64_t>();
+  return e;
+}
+
+json ReadJsonFile(const std::string& path) {
+  json j = json::parse(ReadFile(path), nullptr, /*allow_exceptions=*/false);
+  Check(!j.is_discarded(), "not valid JSON", {.file = path});
+  return j;
+}
+
+}  // namespace
+
+std::string PartFileName(int part) {
+  char name[32];
+  std::snprintf(name, sizeof(name), "part-%05d.wmtok", part);
+  return name;
+}
+
+std::string PartJsonName(int part) {
+  char name[32];
+  std::snprintf(name, sizeof(name), "part-%05d.json", part);
+  return name;
+}
+
+size_t DtypeSize(const std::string& dtype) {
+  if (dtype == "<u2") return 2;
+  if (dtype == "<u4" || dtype == "<f4") return 4;
+  if (dtype == "|u1") return 1;
+  throw Error("unsupported dtype '" + dtype + "'");
+}
+
+std::pair<int64_t, int64_t> PartEpisodeRange(int64_t num_episodes, int part, int num_parts) {
+  return {num_episodes * part / num_parts, num_episodes * (part + 1) / num_parts};
+}
+
+json TokenIndexToJson(const TokenIndex& x) {
+  json parts = json::array(), episodes = json::array();
+  for (const auto& p : x.parts) parts.push_back(PartToJson(p));
+  for (const auto& e : x.episodes) episodes.push_back(EpisodeToJson(e));
+  return {{"format", kTokenFormatName},
+          {"format_version", kTokenFormatVersion},
+          {"dataset", x.dataset},
+          {"split", x.split},
+          {"tokenizer", TokenizerToJson(x.tokenizer)},
+          {"token_dtype", x.token_dtype},
+          {"source", x.source},
+          {"action_stats", shard::StatsToJson(x.action_stats)},
+          {"num_parts", x.num_parts},
+          {"parts", parts},
+          {"num_episodes", x.episodes.size()},
+          {"num_frames", x.num_frames},
+          {"episodes", episodes},
+          {"provenance", x.provenance}};
+}
+
+TokenIndex TokenIndexFromJson(const json& j, const std::string& file) {
+  Check(j.is_object() && j.value("format", "") == kTokenFormatName,
+        std::string("not a wmkit token index (format must be \"") + kTokenFormatName + "\")",
+        {.file = file, .key = "format"});
+  Check(j.value("format_version", 0u) == kTokenFormatVersion,
+        "unknown format_version " + j.value("format_version", json()).dump() +
+            " (this build reads version " + std::to_string(kTokenFormatVersion) + ")",
+        {.file = file, .key = "format_version"});
+  TokenIndex x;
+  std::string key;
+  try {
+    key = "dataset", x.dataset = j.at(key).get<std::string>();
+    key = "split", x.split = j.at(key).get<std::string>();
+    key = "tokenizer", x.tokenizer = TokenizerFromJson(j.at(key));
+    key = "token_dtype", x.token_dtype = j.at(key).get<std::string>();
+    key = "source", x.source = j.at(key);
+    key = "action_stats", x.action_stats = shard::StatsFromJson(j.at(key));
+    key = "num_parts", x.num_parts = j.at(key).get<int>();
+    key = "parts";
+    for (const auto& p : j.at(key)) x.parts.push_back(PartFromJson(p));
+    key = "episodes";
+    for (const auto& e : j.at(key)) x.episodes.push_back(EpisodeFromJson(e));
+    key = "num_frames", x.num_frames = j.at(key).get<int64_t>();
+    key = "provenance", x.provenance = j.at(key);
+  } catch (const json::exception& e) {
+    throw Error(std::string("malformed token index: ") + e.what(), {.file = file, .key = key});
+  }
+  Check(x.token_dtype == "uint16" || x.token_dtype == "uint32",
+        "token_dtype must be uint16 or uint32", {.file = file, .key = "token_dtype"});
+  Check(static_cast<int>(x.parts.size()) == x.num_parts, "parts has not num_parts entries",
+        {.file = file, .key = "parts"});
+  int64_t frames = 0;
+  for (const auto& e : x.episodes) {
+    Check(e.part >= 0 && e.part < x.num_parts, "episode refers to a missing part",
+          {.file = file, .key = "episodes"});
+    frames += e.num_frames;
+  }
+  Check(frames == x.num_frames, "num_frames disagrees with the sum over episodes",
+        {.file = file, .key = "num_frames"});
+  return x;
+}
+
+bool AssembleIndexIfComplete(const std::string& dir, int num_parts, TokenIndex base) {
+  std::vector<json> part_jsons;
+  for (int i = 0; i < num_parts; ++i) {
+    std::string path = (fs::path(dir) / PartJsonName(i)).string();
+    if (!fs::exists(path)) return false;
+    part_jsons.push_back(ReadJsonFile(path));
+  }
+  base.num_parts = num_parts;
+  base.parts.clear();
+  base.episodes.clear();
+  base.num_frames = 0;
+  for (int i = 0; i < num_parts; ++i) {
+    const json& pj = part_jsons[i];
+    std::string path = (fs::path(dir) / PartJsonName(i)).string();
+    // Parts of an earlier run with another tokenizer or sharding must not be mixed in.
+    Check(pj.value("num_parts", 0) == num_parts,
+          "written for " + std::to_string(pj.value("num_parts", 0)) + " parts, not " +
+              std::to_string(num_parts) + " (remove stale part files)",
+          {.file = path, .key = "num_parts"});
+    Check(pj.value("tokenizer_sha256", "") == base.tokenizer.checkpoint_sha256,
+          "written by another tokenizer checkpoint (remove stale part files)",
+          {.file = path, .key = "tokenizer_sha256"});
+    try {
+      base.parts.push_back(PartFromJson(pj.at("part")));
+      for (const auto& e : pj.at("episodes")) base.episodes.push_back(EpisodeFromJson(e));
+    } catch (const json::exception& e) {
+      throw Error(std::string("malformed part file: ") + e.what(), {.file = path});
+    }
+  }
+  for (const auto& e : base.episodes) base.num_frames += e.num_frames;
+  WriteFileAtomically((fs::path(dir) / kTokenIndexFileName).string(),
+                      TokenIndexToJson(base).dump(2) + "\n");
+  return true;
+}
+
+}  // namespace wm::tokens

@@ -1,0 +1,149 @@
+// TokenPartWriter: streams one token part file (tokens first, then the small per-step arrays).
+#include <bit>
+#include <filesystem>
+
+#include "core/atomic_file.h"
+#include "core/crc32c.h"
+#include "core/error.h"
+#include "core/sha256.h"
+#include "core/shard/shard_format.h"
+#include "core/tokens/token_dataset.h"
+#include "core/tokens/token_format.h"
+
+namespace wm::tokens {
+namespace {
+static_assert(std::endian::native == std::endian::little,
+              "token part files are little-endian; this writer assumes a little-endian host");
+
+std::string PartHeader(size_t token_bytes, const TokenizerInfo& t) {
+  std::string h(kPartMagic, sizeof(kPartMagic));
+  shard::PutU32(h, kTokenFormatVersion);
+  shard::PutU32(h, static_cast<uint32_t>(token_bytes));
+  shard::PutU32(h, static_cast<uint32_t>(t.grid_h));
+  shard::PutU32(h, static_cast<uint32_t>(t.grid_w));
+  h.resize(kPartHeaderSize - 4, '\0');
+  shard::PutU32(h, Crc32c(h));
+  return h;
+}
+
+}  // namespace
+
+struct TokenPartWriter::State {
+  std::string dir;
+  int part = 0, num_parts = 1;
+  TokenizerInfo tokenizer;
+  size_t token_bytes = 2;
+  AtomicFileWriter file;
+  Sha256 sha;
+  uint32_t token_crc = 0;
+  int64_t frames = 0;
+  std::vector<TokenEpisode> episodes;
+  std::vector<float> actions, rewards, discounts;
+  std::vector<uint8_t> is_first, is_last, is_terminal;
+  bool finished = false;
+
+  State(std::string d, int p, int n, const TokenizerInfo& t)
+      : dir(std::move(d)), part(p), num_parts(n), tokenizer(t),
+        token_bytes(t.num_codes > 65536 ? 4 : 2),
+        file((std::filesystem::path(dir) / PartFileName(p)).string()) {}
+
+  void Write(const void* data, size_t n) {
+    file.Write(data, n);
+    sha.Update(data, n);
+  }
+  void PadTo(uint64_t offset) {
+    std::string zeros(offset - file.bytes_written(), '\0');
+    Write(zeros.data(), zeros.size());
+  }
+  Section AppendSection(const void* data, size_t bytes, const StepSectionSpec& spec) {
+    uint64_t offset = (file.bytes_written() + kSectionAlignment - 1) / kSectionAlignment *
+                      kSectionAlignment;
+    PadTo(offset);
+    Write(data, bytes);
+    std::vector<int64_t> shape = {frames};
+    if (spec.per_frame > 1) shape.push_back(spec.per_frame);
+    return {offset, spec.dtype, shape, Crc32c(data, bytes)};
+  }
+};
+
+TokenPartWriter::TokenPartWriter(std::string dir, int part, int num_parts,
+                                 const TokenizerInfo& tokenizer)
+    : state_(std::make_unique<State>(std::move(dir), part, num_parts, tokenizer)) {
+  std::string header = PartHeader(state_->token_bytes, tokenizer);
+  state_->Write(header.data(), header.size());
+}
+
+TokenPartWriter::~TokenPartWriter() = default;
+
+void TokenPartWriter::AddEpisode(const TokenEpisode& meta, const std::vector<uint32_t>& tokens,
+                                 const Episode& steps) {
+  State& s = *state_;
+  const int64_t per_frame = int64_t{s.tokenizer.grid_h} * s.tokenizer.grid_w;
+  const std::string& where = meta.episode_key;
+  Check(steps.num_steps == meta.num_frames &&
+            static_cast<int64_t>(tokens.size()) == meta.num_frames * per_frame,
+        "token count " + std::to_string(tokens.size()) + " != num_frames x grid (" +
+            std::to_string(meta.num_frames) + " x " + std::to_string(per_frame) + ")",
+        {.file = where});
+  for (uint32_t t : tokens) {
+    Check(t < static_cast<uint64_t>(s.tokenizer.num_codes), "token id out of range",
+          {.file = where});
+  }
+  if (s.token_bytes == 2) {
+    std::vector<uint16_t> narrow(tokens.begin(), tokens.end());
+    s.Write(narrow.data(), narrow.size() * 2);
+    s.token_crc = Crc32c(narrow.data(), narrow.size() * 2, s.token_crc);
+  } else {
+    s.Write(tokens.data(), tokens.size() * 4);
+    s.token_crc = Crc32c(tokens.data(), tokens.size() * 4, s.token_crc);
+  }
+  TokenEpisode e = meta;
+  e.part = s.part;
+  e.frame_offset = s.frames;
+  s.episodes.push_back(e);
+  s.frames += meta.num_frames;
+  auto append = [](auto& dst, const auto& src) { dst.insert(dst.end(), src.begin(), src.end()); };
+  append(s.actions, steps.actions);
+  append(s.rewards, steps.rewards);
+  append(s.discounts, steps.discounts);
+  append(s.is_first, steps.is_first);
+  append(s.is_last, steps.is_last);
+  append(s.is_terminal, steps.is_terminal);
+}
+
+PartInfo TokenPartWriter::Finish() {
+  State& s = *state_;
+  Check(!s.finished, "Finish called twice", {.file = s.file.path()});
+  PartInfo info;
+  info.file = PartFileName(s.part);
+  info.num_episodes = static_cast<int64_t>(s.episodes.size());
+  info.num_frames = s.frames;
+  info.sections["tokens"] = {kPartHeaderSize, s.token_bytes == 2 ? "<u2" : "<u4",
+                             {s.frames, s.tokenizer.grid_h, s.tokenizer.grid_w}, s.token_crc};
+  const void* data[] = {s.actions.data(),  s.rewards.data(), s.discounts.data(),
+                        s.is_first.data(), s.is_last.data(), s.is_terminal.data()};
+  for (size_t i = 0; i < std::size(kStepSections); ++i) {
+    const StepSectionSpec& spec = kStepSections[i];
+    size_t bytes = static_cast<size_t>(s.frames) * spec.per_frame * DtypeSize(spec.dtype);
+    info.sections[spec.name] = s.AppendSection(data[i], bytes, spec);
+  }
+  info.bytes = s.file.bytes_written();
+  info.sha256 = s.sha.HexDigest();
+  s.file.Commit();
+  s.finished = true;
+
+  TokenIndex one;  // reuse the index's JSON spelling for the part's entries
+  one.parts = {info};
+  one.episodes = s.episodes;
+  nlohmann::json j = TokenIndexToJson(one);
+  nlohmann::json part_json = {{"part_index", s.part},
+                              {"num_parts", s.num_parts},
+                              {"tokenizer_sha256", s.tokenizer.checkpoint_sha256},
+                              {"part", j["parts"][0]},
+                              {"episodes", j["episodes"]}};
+  WriteFileAtomically((std::filesystem::path(s.dir) / PartJsonName(s.part)).string(),
+                      part_json.dump(2) + "\n");
+  return info;
+}
+
+}  // namespace wm::tokens

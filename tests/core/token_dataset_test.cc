@@ -1,0 +1,118 @@
+// Token datasets: write parts, assemble index.json, read back through the memory map, and
+// refuse corrupt, truncated or mixed-up files with an error naming the file and section.
+#include <gtest/gtest.h>
+
+#include <filesystem>
+
+#include "core/atomic_file.h"
+#include "core/error.h"
+#include "core/tokens/token_dataset.h"
+#include "tests/core/test_util.h"
+
+namespace wm::tokens {
+namespace {
+namespace fs = std::filesystem;
+using test::ErrorText;
+using test::MakeEpisode;
+using test::MakeTokenDataset;
+
+TEST(TokenDataset, RoundTripsTokensAndStepsAcrossParts) {
+  test::TempDir dir;
+  auto written = MakeTokenDataset(dir.path().string(), 7, 3, 2, 3, 1024, 5);
+  TokenDataset d(dir.path().string());
+  ASSERT_EQ(d.num_episodes(), 7);
+  EXPECT_EQ(d.index().num_parts, 3);
+  EXPECT_EQ(d.tokens_per_frame(), 6);
+  for (int64_t k = 0; k < 7; ++k) {
+    const TokenEpisode& e = d.episode(k);
+    Episode expected = MakeEpisode(3 + static_cast<int>(k % 4), 5 + k, "ep" + std::to_string(k));
+    EXPECT_EQ(e.episode_key, expected.episode_key);
+    EXPECT_EQ(e.source_episode, k);
+    EXPECT_EQ(e.policy_id, "policy" + std::to_string(k % 2));
+    std::vector<int64_t> tokens(written[k].size());
+    d.CopyTokens(k, 0, e.num_frames, tokens.data());
+    EXPECT_TRUE(std::equal(tokens.begin(), tokens.end(), written[k].begin()));
+    for (int64_t i = 0; i < e.num_frames * 7; ++i) EXPECT_EQ(d.actions(k)[i], expected.actions[i]);
+    for (int64_t t = 0; t < e.num_frames; ++t) {
+      EXPECT_EQ(d.rewards(k)[t], expected.rewards[t]);
+      EXPECT_EQ(d.is_first(k)[t], expected.is_first[t]);
+      EXPECT_EQ(d.is_last(k)[t], expected.is_last[t]);
+      EXPECT_EQ(d.is_terminal(k)[t], expected.is_terminal[t]);
+    }
+  }
+  // A sub-range starts at the right frame.
+  std::vector<int64_t> tail(6);
+  d.CopyTokens(6, 2, 1, tail.data());
+  EXPECT_TRUE(std::equal(tail.begin(), tail.end(), written[6].begin() + 12));
+}
+
+TEST(TokenDataset, WideTokensUseUint32) {
+  test::TempDir dir;
+  auto written = MakeTokenDataset(dir.path().string(), 2, 1, 2, 2, 100000, 1);
+  TokenDataset d(dir.path().string());
+  EXPECT_EQ(d.index().token_dtype, "uint32");
+  std::vector<int64_t> tokens(written[1].size());
+  d.CopyTokens(1, 0, d.episode(1).num_frames, tokens.data());
+  EXPECT_TRUE(std::equal(tokens.begin(), tokens.end(), written[1].begin()));
+}
+
+TEST(TokenDataset, IndexAppearsOnlyWhenAllPartsExist) {
+  test::TempDir dir;
+  MakeTokenDataset(dir.path().string(), 4, 2, 2, 2, 16, 1);
+  fs::remove(dir / "index.json");
+  fs::remove(dir / "part-00001.json");
+  TokenIndex base;
+  base.tokenizer.checkpoint_sha256 = "ckpt";
+  EXPECT_FALSE(AssembleIndexIfComplete(dir.path().string(), 2, base));
+  EXPECT_FALSE(fs::exists(dir / "index.json"));
+  EXPECT_NE(ErrorText([&] { TokenDataset d(dir.path().string()); }).find("index.json is missing"),
+            std::string::npos);
+  // Parts written by a different tokenizer are refused, not mixed in.
+  MakeTokenDataset(dir.path().string(), 4, 2, 2, 2, 16, 1);
+  base.tokenizer.checkpoint_sha256 = "other";
+  EXPECT_NE(ErrorText([&] { AssembleIndexIfComplete(dir.path().string(), 2, base); })
+                .find("another tokenizer checkpoint"),
+            std::string::npos);
+}
+
+TEST(TokenDataset, CorruptionIsDetectedAndNamed) {
+  test::TempDir dir;
+  MakeTokenDataset(dir.path().string(), 3, 1, 2, 2, 16, 2);
+  const std::string part = dir / "part-00000.wmtok";
+  const uint64_t size = fs::file_size(part);
+  test::FlipByte(part, 64 + 3);  // inside the tokens section
+  std::string err = ErrorText([&] { TokenDataset d(dir.path().string()); });
+  EXPECT_NE(err.find("part-00000.wmtok"), std::string::npos) << err;
+  EXPECT_NE(err.find("tokens"), std::string::npos) << err;
+  EXPECT_NE(err.find("checksum mismatch"), std::string::npos) << err;
+  test::FlipByte(part, 64 + 3);
+  test::Truncate(part, size - 1);
+  err = ErrorText([&] { TokenDataset d(dir.path().string()); });
+  EXPECT_NE(err.find("bytes, index.json says"), std::string::npos) << err;
+}
+
+TEST(TokenDataset, RejectsOutOfRangeTokens) {
+  test::TempDir dir;
+  TokenizerInfo t{.num_codes = 4, .grid_h = 1, .grid_w = 1};
+  TokenPartWriter w(dir.path().string(), 0, 1, t);
+  Episode e = MakeEpisode(2, 0);
+  std::string err = ErrorText([&] { w.AddEpisode({.num_frames = 2}, {1, 4}, e); });
+  EXPECT_NE(err.find("out of range"), std::string::npos) << err;
+  err = ErrorText([&] { w.AddEpisode({.num_frames = 2}, {1}, e); });
+  EXPECT_NE(err.find("token count"), std::string::npos) << err;
+}
+
+TEST(PartEpisodeRange, CoversEveryEpisodeOnce) {
+  for (int n : {1, 2, 3, 7}) {
+    int64_t next = 0;
+    for (int p = 0; p < n; ++p) {
+      auto [first, last] = PartEpisodeRange(10, p, n);
+      EXPECT_EQ(first, next);
+      next = last;
+    }
+    EXPECT_EQ(next, 10);
+  }
+}
+
+}  // namespace
+}  // namespace wm::tokens
