@@ -1,8 +1,10 @@
 #!/usr/bin/python3
-"""Independent reader/verifier for wmkit shard format v1, written from docs/shard-format.md alone
-so tests can cross-check it against the C++ reader and writer.
+"""Independent reader/verifier for wmkit shard format v1 and token format v1, written from
+docs/shard-format.md and docs/token-format.md alone so tests can cross-check it against the C++
+readers and writers.
 
   wmshard.py DIR --info | --episode K --json | --all --json | --verify
+  wmshard.py --tokens TOKENS_DIR --info | --episode K --json | --all --json | --verify
 
 Bad data never gives a traceback: one stderr line naming file, record and expectation; exit 1.
 """
@@ -352,11 +354,234 @@ def check_stats(stats, a, where):
             fail(where, f"action_stats.{key} is {got}, recomputed from the shards {want.tolist()}")
 
 
+# --- Token datasets (docs/token-format.md): index.json + part-NNNNN.wmtok files of raw arrays ---
+
+TOKEN_FORMAT, TOKEN_MAGIC, TOKEN_ALIGN = "wmkit-tokens", b"WMTOKEN1", 64
+# magic, version, token bytes (2|4), grid_h, grid_w, 36 zero bytes, CRC32C of bytes 0..59
+TOKEN_HEADER = struct.Struct("<8sIIII36sI")
+TOKEN_DTYPES = {"uint16": "<u2", "uint32": "<u4"}
+# Per-step sections, in file order after "tokens": name -> (numpy dtype, shape after F).
+STEP_SECTIONS = {"actions": ("<f4", [7]), "rewards": ("<f4", []), "discounts": ("<f4", []),
+                 "is_first": ("|u1", []), "is_last": ("|u1", []), "is_terminal": ("|u1", [])}
+TOKEN_EPISODE_TYPES = {"part": int, "frame_offset": int, "num_frames": int, "source_episode": int,
+                       "episode_key": str, "policy_id": str, "language_instruction": str}
+TOKEN_PART_KEYS = ("bytes", "num_episodes", "num_frames")
+
+
+def check_token_index(idx, where):
+    """Everything reading needs from index.json, checked before any file is opened, so a lying
+    index is a named error rather than a crash."""
+    if not isinstance(idx, dict) or idx.get("format") != TOKEN_FORMAT:
+        fail(where, f"not a JSON object with format '{TOKEN_FORMAT}'")
+    if idx.get("format_version") != VERSION:
+        fail(where, f"unknown format_version {idx.get('format_version')!r}, this reader supports "
+             f"{VERSION}")
+    tok = idx.get("tokenizer") if isinstance(idx.get("tokenizer"), dict) else {}
+    grid = tok.get("grid")
+    if not (is_int(tok.get("num_codes"), 1) and isinstance(grid, list) and len(grid) == 2
+            and all(is_int(g, 1) for g in grid)):
+        fail(where, "tokenizer must hold num_codes >= 1 and grid [grid_h, grid_w] >= 1")
+    if idx.get("token_dtype") not in TOKEN_DTYPES:
+        fail(where, f"token_dtype {idx.get('token_dtype')!r}, expected uint16 or uint32")
+    parts, n = idx.get("parts"), idx.get("num_parts")
+    if not (is_int(n, 1) and isinstance(parts, list) and len(parts) == n):
+        fail(where, f"num_parts {n!r} must be >= 1 and the length of parts")
+    for j, p in enumerate(parts):
+        if not (isinstance(p, dict) and re.fullmatch(r"part-[0-9]{5,}\.wmtok", str(p.get("file")))
+                and all(is_int(p.get(k)) for k in TOKEN_PART_KEYS)
+                and re.fullmatch(r"[0-9a-f]{64}", str(p.get("sha256")))
+                and isinstance(p.get("sections"), dict)):
+            fail(where, f"parts[{j}]: expected {{file: part-NNNNN.wmtok, bytes, sha256 (64 "
+                 "lowercase hex), num_episodes, num_frames, sections}")
+    episodes = idx.get("episodes")
+    if not isinstance(episodes, list):
+        fail(where, "episodes must be a list")
+    for k, e in enumerate(episodes):
+        if not (isinstance(e, dict) and all(is_int(e.get(key)) if typ is int else
+                                            isinstance(e.get(key), typ)
+                                            for key, typ in TOKEN_EPISODE_TYPES.items())
+                and (e.get("episode_seed", "missing") is None or is_int(e.get("episode_seed"),
+                                                                        -2**63))):
+            fail(where, f"episodes[{k}]: expected {sorted(TOKEN_EPISODE_TYPES)} (non-negative "
+                 "integers and strings) and episode_seed (integer or null)")
+        if not (e["part"] < n and e["num_frames"] >= 1
+                and e["frame_offset"] + e["num_frames"] <= parts[e["part"]]["num_frames"]):
+            fail(where, f"episodes[{k}]: part {e['part']}, frames [{e['frame_offset']}, "
+                 f"+{e['num_frames']}) lie outside the parts (num_frames >= 1 required)")
+    frames = sum(e["num_frames"] for e in episodes)
+    if (idx.get("num_episodes"), idx.get("num_frames")) != (len(episodes), frames):
+        fail(where, f"num_episodes {idx.get('num_episodes')!r} / num_frames "
+             f"{idx.get('num_frames')!r}, the episodes hold {len(episodes)} / {frames}")
+
+
+class TokenPart:
+    """One memory-mapped part file. Opening checks its size against index.json, the header, and
+    every section's place, shape, dtype and CRC32C; arrays are views into the mapping."""
+
+    def __init__(self, directory, entry, token_dtype, grid):
+        self.path, self.entry = os.path.join(directory, entry["file"]), entry
+        F = entry["num_frames"]
+        self.expected = {"tokens": (TOKEN_DTYPES[token_dtype], [F] + grid),
+                         **{name: (dt, [F] + tail) for name, (dt, tail) in STEP_SECTIONS.items()}}
+        self.size = size = os.path.getsize(self.path) if os.path.isfile(self.path) else None
+        if size is None:
+            fail(self.path, "part file is missing")
+        if size != entry["bytes"]:
+            past = [name for name, s in entry["sections"].items() if not isinstance(s, dict)
+                    or not is_int(s.get("offset")) or s["offset"] + self.nbytes(name) > size]
+            fail(self.path, f"file is {size} bytes, index.json says {entry['bytes']} (truncated "
+                 f"or modified)" + (f"; sections past the end: {', '.join(map(repr, past))}"
+                                   if past else ""))
+        if size < TOKEN_HEADER.size:
+            fail(f"{self.path}: header", f"truncated: file is {size} bytes, the header is 64")
+        self.raw = np.memmap(self.path, dtype="u1", mode="r")
+        self._check_header(token_dtype, grid)
+        self.arrays = {name: self._section(name) for name in self.expected}
+
+    def nbytes(self, name):
+        dtype, shape = self.expected.get(name, ("|u1", [0]))
+        return int(np.prod(shape, dtype=object)) * np.dtype(dtype).itemsize
+
+    def _check_header(self, token_dtype, grid):
+        where = f"{self.path}: header"  # version before CRC: a v2 file says "unknown version"
+        magic, version, width, h, w, _, stored = TOKEN_HEADER.unpack_from(self.raw, 0)
+        if magic != TOKEN_MAGIC:
+            fail(where, f"bad magic {magic!r}, expected {TOKEN_MAGIC!r} (not a wmkit token part?)")
+        if version != VERSION:
+            fail(where, f"unknown format version {version}, this reader supports {VERSION}")
+        check_crc(where, stored, self.raw[0:60])
+        if [width, h, w] != [np.dtype(TOKEN_DTYPES[token_dtype]).itemsize] + grid:
+            fail(where, f"token bytes {width}, grid {h}x{w}; index.json says token_dtype "
+                 f"{token_dtype}, grid {grid[0]}x{grid[1]}")
+
+    def _section(self, name):
+        """The section as an ndarray view, after its place, shape, dtype and CRC32C are checked."""
+        where, s = f"{self.path}: section {name!r}", self.entry["sections"].get(name)
+        dtype, shape = self.expected[name]
+        if not isinstance(s, dict):
+            fail(where, "missing from index.json")
+        if s.get("dtype") != dtype or s.get("shape") != shape:
+            fail(where, f"dtype {s.get('dtype')!r}, shape {s.get('shape')!r}; expected {dtype!r}, "
+                 f"{shape} (F = the part's num_frames)")
+        off, n = s.get("offset"), self.nbytes(name)
+        if not (is_int(off, TOKEN_HEADER.size) and off % TOKEN_ALIGN == 0 and off + n <= self.size
+                and is_int(s.get("crc32c")) and s["crc32c"] < 2**32):
+            fail(where, f"offset {off!r} + {n} bytes: expected a multiple of 64 >= 64 inside the "
+                 f"{self.size}-byte file, and a u32 crc32c")
+        check_crc(where, s["crc32c"], self.raw[off:off + n])
+        return self.raw[off:off + n].view(dtype).reshape(shape)
+
+    def check_layout(self):
+        """Sections do not overlap, every other byte after the header is zero padding, and the
+        file's sha256 is what index.json says: every byte is accounted for."""
+        extra = sorted(set(self.entry["sections"]) - set(self.expected))
+        if extra:
+            fail(self.path, f"unknown sections {extra} in index.json")
+        spans = sorted((self.entry["sections"][name]["offset"], self.nbytes(name), name)
+                       for name in self.expected if self.nbytes(name))
+        end = TOKEN_HEADER.size
+        for off, n, name in spans + [(self.size, 0, None)]:
+            if off < end:
+                fail(f"{self.path}: section {name!r}", f"bytes [{off}, {off + n}) overlap the "
+                     "header or another section")
+            stray = np.flatnonzero(self.raw[end:off])
+            if stray.size:
+                at = end + int(stray[0])
+                fail(f"{self.path}: padding", f"byte at offset {at} is 0x{int(self.raw[at]):02x}, "
+                     "expected 0 (bytes outside the header and the sections are zero)")
+            end = off + n
+        sha = hashlib.sha256(self.raw).hexdigest()
+        if sha != self.entry["sha256"]:
+            fail(self.path, f"sha256 {sha}, index.json says {self.entry['sha256']}")
+
+
+class TokenDataset:
+    """A token dataset directory: index.json (checked on open) plus lazily opened parts."""
+
+    def __init__(self, directory):
+        self.dir, self._parts = directory, {}
+        where = self.index_path = os.path.join(directory, "index.json")
+        try:
+            with open(where, "rb") as f:
+                self.index = json.loads(f.read().decode("utf-8"))
+        except OSError as e:
+            fail(where, f"cannot read ({e.strerror}): not a wmkit token dataset (an unfinished "
+                 "or sharded wm-tokenize encode? index.json appears once every part is written)")
+        except ValueError as e:
+            fail(where, f"not UTF-8 JSON: {e}")
+        check_token_index(self.index, where)
+        self.num_episodes = len(self.index["episodes"])
+
+    def part(self, j):
+        if j not in self._parts:
+            idx = self.index
+            self._parts[j] = TokenPart(self.dir, idx["parts"][j], idx["token_dtype"],
+                                       idx["tokenizer"]["grid"])
+        return self._parts[j]
+
+    def episode(self, k):
+        """Episode k: metadata from index.json and every per-step array, as a JSON-ready dict."""
+        if not 0 <= k < self.num_episodes:
+            fail(self.index_path, f"episode {k} out of range: dataset has {self.num_episodes} "
+                 "episodes")
+        e = self.index["episodes"][k]
+        arrays, a = self.part(e["part"]).arrays, e["frame_offset"]
+        frames = {name: arr[a:a + e["num_frames"]].tolist() for name, arr in arrays.items()}
+        return {"episode_index": k, "file": self.index["parts"][e["part"]]["file"],
+                **{key: e[key] for key in (*TOKEN_EPISODE_TYPES, "episode_seed")}, **frames}
+
+
+def verify_tokens(ds):
+    """Check everything docs/token-format.md specifies; return the episode count."""
+    idx, where = ds.index, ds.index_path
+    for j, entry in enumerate(idx["parts"]):
+        part = ds.part(j)
+        part.check_layout()
+        eps = [e for e in idx["episodes"] if e["part"] == j]
+        offsets = [sum(e["num_frames"] for e in eps[:i]) for i in range(len(eps) + 1)]
+        if [e["frame_offset"] for e in eps] != offsets[:-1] or offsets[-1] != entry["num_frames"] \
+                or len(eps) != entry["num_episodes"]:
+            fail(where, f"parts[{j}]: its {len(eps)} episodes must tile frames [0, "
+                 f"{entry['num_frames']}) in order and number num_episodes "
+                 f"{entry['num_episodes']}")
+        tokens = part.arrays["tokens"]
+        if tokens.size and int(tokens.max()) >= idx["tokenizer"]["num_codes"]:
+            fail(f"{part.path}: section 'tokens'", f"token id {int(tokens.max())} >= num_codes "
+                 f"{idx['tokenizer']['num_codes']}")
+        check_part_json(ds, j)
+    order = [(e["part"], e["source_episode"]) for e in idx["episodes"]]
+    if order != sorted(order) or len({s for _, s in order}) != len(order):
+        fail(where, "episodes must be in source order: parts ascending, source_episode strictly "
+             "increasing")
+    return ds.num_episodes
+
+
+def check_part_json(ds, j):
+    """part-NNNNN.json, when still present, must be what index.json was assembled from."""
+    path = os.path.join(ds.dir, f"part-{j:05d}.json")
+    if not os.path.isfile(path):
+        return
+    try:
+        with open(path, "rb") as f:
+            pj = json.loads(f.read().decode("utf-8"))
+    except ValueError as e:
+        fail(path, f"not UTF-8 JSON: {e}")
+    idx = ds.index
+    want = {"part_index": j, "num_parts": idx["num_parts"],
+            "tokenizer_sha256": idx["tokenizer"].get("checkpoint_sha256"),
+            "part": idx["parts"][j], "episodes": [e for e in idx["episodes"] if e["part"] == j]}
+    bad = [key for key in want if not isinstance(pj, dict) or pj.get(key) != want[key]]
+    if bad:
+        fail(path, f"disagrees with index.json in {bad} (a stale part from another run?)")
+
+
 def main(argv=None):
     """CLI entry point; maps every data error to one stderr line and exit status 1."""
     signal.signal(signal.SIGPIPE, signal.SIG_DFL)  # `wmshard.py ... | head` ends quietly
     p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    p.add_argument("dir", help="dataset directory (holds index.json)")
+    p.add_argument("dir", nargs="?", help="shard dataset directory (holds index.json)")
+    p.add_argument("--tokens", metavar="DIR", help="a token dataset directory instead "
+                   "(docs/token-format.md; wm-tokenize encode writes it)")
     mode = p.add_mutually_exclusive_group(required=True)
     mode.add_argument("--info", action="store_true", help="print index.json")
     mode.add_argument("--episode", type=int, metavar="K", help="print global episode K (0-based)")
@@ -364,18 +589,26 @@ def main(argv=None):
     mode.add_argument("--verify", action="store_true", help="check the whole dataset")
     p.add_argument("--json", action="store_true", help="JSON output (the only format)")
     args = p.parse_args(argv)
+    if (args.dir is None) == (args.tokens is None):
+        p.error("give either a shard dataset DIR or --tokens DIR")
     try:
-        ds = Dataset(args.dir)
+        if args.tokens is not None:
+            ds, check = TokenDataset(args.tokens), verify_tokens
+            episode = ds.episode
+        else:
+            ds, check = Dataset(args.dir), verify
+            episode = lambda k: ds.episode(k)[0]  # noqa: E731
         if args.verify:
-            print(f"OK {verify(ds)} episodes")
+            print(f"OK {check(ds)} episodes")
             return 0
-        out = ds.index if args.info else [ds.episode(k)[0] for k in range(ds.num_episodes)] \
-            if args.all else ds.episode(args.episode)[0]
+        out = ds.index if args.info else [episode(k) for k in range(ds.num_episodes)] \
+            if args.all else episode(args.episode)
     except ShardError as e:
         print(f"wmshard: error: {e}", file=sys.stderr)
         return 1
     except Exception as e:  # a reader bug or an unforeseen corruption: still no traceback
-        print(f"wmshard: error: {args.dir}: unexpected {type(e).__name__}: {e}", file=sys.stderr)
+        print(f"wmshard: error: {args.tokens or args.dir}: unexpected {type(e).__name__}: {e}",
+              file=sys.stderr)
         return 1
     print(json.dumps(out, indent=2 if args.info else None))
     return 0

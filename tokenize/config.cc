@@ -21,6 +21,7 @@ void VisitFields(Config& c, F&& f) {
   f("model", "encoder_channels", m.encoder_channels);
   f("model", "encoder_layers", m.encoder_layers);
   f("model", "decoder_channels", m.decoder_channels);
+  f("model", "min_channels", m.min_channels);
   f("model", "decoder_layers", m.decoder_layers);
   f("model", "latent_dim", m.latent_dim);
   f("model", "num_codes", m.num_codes);
@@ -41,6 +42,8 @@ void VisitFields(Config& c, F&& f) {
   f("train", "threads", t.threads);
   f("train", "checkpoint_every", t.checkpoint_every);
   f("train", "log_every", t.log_every);
+  f("train", "val_every", t.val_every);
+  f("train", "val_frames", t.val_frames);
   f("data", "image_key", c.data.image_key);
 }
 
@@ -124,6 +127,7 @@ void ValidateConfig(const TokenizerConfig& c, const std::string& file) {
           "must be a positive multiple of model.patch_size");
   require(m.encoder_channels > 0, "model.encoder_channels", "must be > 0");
   require(m.decoder_channels > 0, "model.decoder_channels", "must be > 0");
+  require(m.min_channels >= 0, "model.min_channels", "must be >= 0");
   require(m.encoder_layers >= 0, "model.encoder_layers", "must be >= 0");
   require(m.decoder_layers >= 0, "model.decoder_layers", "must be >= 0");
   require(m.latent_dim > 0, "model.latent_dim", "must be > 0");
@@ -143,6 +147,8 @@ void ValidateConfig(const TokenizerConfig& c, const std::string& file) {
   require(t.threads > 0, "train.threads", "must be > 0");
   require(t.checkpoint_every > 0, "train.checkpoint_every", "must be > 0");
   require(t.log_every > 0, "train.log_every", "must be > 0");
+  require(t.val_every >= 0, "train.val_every", "must be >= 0");
+  require(t.val_frames > 0, "train.val_frames", "must be > 0");
   require(!c.data.image_key.empty(), "data.image_key", "must not be empty");
 }
 

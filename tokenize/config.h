@@ -16,6 +16,8 @@ struct ModelConfig {
   int encoder_layers = 1;     // residual blocks at token resolution (Table 4 "num_layers")
   int decoder_channels = 64;  // conv width of the decoder (Table 4 "Decoder d_model")
   int decoder_layers = 1;     // residual blocks at token resolution in the decoder
+  int min_channels = 0;       // width halves per level above token resolution, down to this
+                              // (0: constant width); cheap full-resolution layers on CPU
   int latent_dim = 32;        // code vector size
   int num_codes = 1024;       // codebook size
   bool l2_normalize = true;   // nearest code by cosine: latents and codes are L2-normalised
@@ -36,6 +38,8 @@ struct TrainConfig {
   int threads = 1;  // LibTorch intra-op threads; fixed so CPU runs are reproducible
   int64_t checkpoint_every = 500;
   int64_t log_every = 10;  // metrics.csv row period
+  int64_t val_every = 0;   // val.csv period in steps with --val-data (0: only at the end)
+  int val_frames = 64;     // validation frames (fixed, drawn once from the val data)
 };
 
 struct DataConfig {

@@ -2,7 +2,6 @@
 
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
-#include <sstream>
 
 #include "core/error.h"
 #include "core/shard/dataset_reader.h"
@@ -31,66 +30,93 @@ void DecodeFrame(const std::string& encoded, int size, float* out) {
   }
 }
 
+uint64_t Mix64(uint64_t x) {
+  x += 0x9E3779B97F4A7C15ull;
+  x = (x ^ (x >> 30)) * 0xBF58476D1CE4E5B9ull;
+  x = (x ^ (x >> 27)) * 0x94D049BB133111EBull;
+  return x ^ (x >> 31);
+}
+
 FrameSampler::FrameSampler(const std::vector<std::string>& dataset_dirs, std::string image_key,
-                           int size, uint64_t seed)
-    : image_key_(std::move(image_key)), size_(size), rng_(seed) {
+                           int size, uint64_t seed, std::vector<double> weights)
+    : image_key_(std::move(image_key)), size_(size), seed_(seed) {
   Check(!dataset_dirs.empty(), "no datasets given (--data)");
-  uint64_t total = 0;
   for (const std::string& dir : dataset_dirs) {
     readers_.push_back(std::make_unique<shard::DatasetReader>(dir));
-    const auto& index = readers_.back()->index();
-    Check(index.num_steps > 0, "dataset has no frames", {.file = dir});
-    total += index.num_steps;
-    steps_prefix_.push_back(total);
+    Check(readers_.back()->index().num_steps > 0, "dataset has no frames", {.file = dir});
   }
+  if (weights.empty()) weights = step_counts();
+  Check(weights.size() == readers_.size(), "one mixture weight per dataset is needed");
+  double total = 0;
+  for (double w : weights) total += w;
+  double acc = 0;
+  for (double w : weights) weights_prefix_.push_back((acc += w) / total);
+  weights_prefix_.back() = 1.0;
 }
 
 FrameSampler::~FrameSampler() = default;
 
-void FrameSampler::NextBatch(int batch_size, std::vector<float>& batch) {
-  const size_t frame_floats = 3ull * size_ * size_;
-  batch.resize(frame_floats * batch_size);
+std::vector<FrameRef> FrameSampler::BatchRefs(int64_t step, int batch_size) const {
+  std::vector<FrameRef> refs(static_cast<size_t>(batch_size));
   for (int b = 0; b < batch_size; ++b) {
-    const uint64_t r = rng_() % steps_prefix_.back();
-    size_t d = 0;
-    while (r >= steps_prefix_[d]) ++d;
-    const shard::DatasetReader& reader = *readers_[d];
-    const size_t k = rng_() % reader.num_episodes();
+    const uint64_t key = Mix64(seed_ ^ Mix64(static_cast<uint64_t>(step) * 0x10000ull + b));
+    const double u = static_cast<double>(Mix64(key + 1) >> 11) * 0x1.0p-53;  // [0, 1)
+    FrameRef& r = refs[b];
+    while (r.dataset + 1 < weights_prefix_.size() && u >= weights_prefix_[r.dataset]) ++r.dataset;
+    const shard::DatasetReader& reader = *readers_[r.dataset];
+    // `x % n` has a bias below n / 2^64: negligible, and identical on every platform.
+    r.episode = Mix64(key + 2) % reader.num_episodes();
+    const auto [shard, local] = reader.Locate(r.episode);
+    r.step = Mix64(key + 3) % reader.shard(shard).entries()[local].num_steps;
+  }
+  return refs;
+}
+
+void FrameSampler::Load(const std::vector<FrameRef>& refs, float* out) const {
+  const size_t frame_floats = 3ull * size_ * size_;
+  std::vector<bool> done(refs.size(), false);
+  for (size_t i = 0; i < refs.size(); ++i) {
+    if (done[i]) continue;
+    const shard::DatasetReader& reader = *readers_[refs[i].dataset];
+    const size_t k = refs[i].episode;
     Episode episode = reader.ReadEpisode(k);
     auto it = episode.images.find(image_key_);
     Check(it != episode.images.end() && !it->second.frames.empty(),
           "episode has no image stream '" + image_key_ + "'",
           {.file = reader.dir(), .record = static_cast<int64_t>(k), .record_label = "episode"});
-    const auto& frames = it->second.frames;
-    const size_t t = rng_() % frames.size();
-    try {
-      DecodeFrame(frames[t], size_, batch.data() + frame_floats * b);
-    } catch (const Error& e) {
-      throw e.WithFile(reader.dir()).WithRecord(static_cast<int64_t>(k), "episode");
+    for (size_t j = i; j < refs.size(); ++j) {  // every slot drawn from this episode
+      if (done[j] || refs[j].dataset != refs[i].dataset || refs[j].episode != k) continue;
+      try {
+        DecodeFrame(it->second.frames.at(refs[j].step), size_, out + frame_floats * j);
+      } catch (const Error& e) {
+        throw e.WithFile(reader.dir()).WithRecord(static_cast<int64_t>(k), "episode");
+      }
+      done[j] = true;
     }
   }
 }
 
-std::string FrameSampler::rng_state() const {
-  std::ostringstream s;
-  s << rng_;
-  return s.str();
+std::vector<std::string> FrameSampler::dataset_names() const {
+  std::vector<std::string> names;
+  for (const auto& r : readers_) names.push_back(r->index().dataset);
+  return names;
 }
 
-void FrameSampler::set_rng_state(const std::string& state) {
-  std::istringstream s(state);
-  s >> rng_;
-  Check(!s.fail(), "corrupt sampler RNG state");
+std::vector<double> FrameSampler::step_counts() const {
+  std::vector<double> counts;
+  for (const auto& r : readers_) counts.push_back(static_cast<double>(r->index().num_steps));
+  return counts;
 }
 
 nlohmann::json FrameSampler::DataProvenance() const {
   nlohmann::json out = nlohmann::json::array();
-  for (const auto& reader : readers_) {
-    const auto& index = reader->index();
+  for (size_t d = 0; d < readers_.size(); ++d) {
+    const auto& index = readers_[d]->index();
     nlohmann::json shards = nlohmann::json::array();
     for (const auto& s : index.shards) shards.push_back({{"file", s.file}, {"sha256", s.sha256}});
     out.push_back({{"dataset", index.dataset},
                    {"split", index.split},
+                   {"weight", weights_prefix_[d] - (d ? weights_prefix_[d - 1] : 0.0)},
                    {"index_config_hash", index.provenance.value("config_hash", "")},
                    {"num_steps", index.num_steps},
                    {"shards", shards}});

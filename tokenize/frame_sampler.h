@@ -1,13 +1,13 @@
 #pragma once
-// Random training frames from one or more shard datasets. A frame is drawn by picking a
-// dataset with probability proportional to its step count, then an episode uniformly, then a
-// step uniformly; only the sampled frames are decoded, so memory is bounded by the batch.
-// Randomness is one std::mt19937_64 used through its raw outputs (`x % n`, whose bias is below
-// n / 2^64) because std::uniform_int_distribution differs between standard libraries.
+// Training frames from one or more shard datasets. A frame is drawn by picking a dataset with
+// probability proportional to its weight (a mixture file, else its step count), then an
+// episode uniformly, then a step uniformly. The draw for (batch step, slot) is a pure function
+// of (seed, step, slot) through a SplitMix64 hash, so batches can be prepared ahead on another
+// thread, and a resumed run draws the same frames, without any RNG state to carry.
+// Only the sampled frames are decoded, so memory is bounded by the batch.
 #include <cstdint>
 #include <memory>
 #include <nlohmann/json.hpp>
-#include <random>
 #include <string>
 #include <vector>
 
@@ -21,29 +21,40 @@ namespace wm::tokenize {
 // and writes planar floats in [-1, 1] to out[3 * size * size] ([3, H, W]).
 void DecodeFrame(const std::string& encoded, int size, float* out);
 
+// SplitMix64's finaliser (Steele et al. 2014): a bijective 64-bit mix; hashes counters.
+uint64_t Mix64(uint64_t x);
+
+struct FrameRef {
+  size_t dataset = 0, episode = 0, step = 0;
+};
+
 class FrameSampler {
  public:
+  // `weights`: one per dataset (any positive scale), empty = proportional to num_steps.
   FrameSampler(const std::vector<std::string>& dataset_dirs, std::string image_key, int size,
-               uint64_t seed);
+               uint64_t seed, std::vector<double> weights = {});
   ~FrameSampler();
 
-  // Fills batch[B * 3 * size * size] ([B, 3, H, W]) with B freshly sampled frames.
-  void NextBatch(int batch_size, std::vector<float>& batch);
+  // The frames of training batch `step` (slots 0..batch_size-1).
+  std::vector<FrameRef> BatchRefs(int64_t step, int batch_size) const;
+  // Decodes `refs` into out[refs.size() * 3 * size * size] ([B, 3, H, W]); reads each episode
+  // once. Const and thread-safe: the readers are read-only memory maps.
+  void Load(const std::vector<FrameRef>& refs, float* out) const;
 
-  // The RNG state as text (operator<< of std::mt19937_64), for checkpoints and resume.
-  std::string rng_state() const;
-  void set_rng_state(const std::string& state);
+  std::vector<std::string> dataset_names() const;
+  std::vector<double> step_counts() const;
 
-  // Per dataset: {"dataset", "split", "index_config_hash", "num_steps", "shards": [{"file",
-  // "sha256"}]} for manifests; no paths, so manifests do not depend on where data lives.
+  // Per dataset: {"dataset", "split", "weight", "index_config_hash", "num_steps", "shards":
+  // [{"file", "sha256"}]} for manifests; no paths, so manifests do not depend on where data
+  // lives.
   nlohmann::json DataProvenance() const;
 
  private:
   std::vector<std::unique_ptr<shard::DatasetReader>> readers_;
-  std::vector<uint64_t> steps_prefix_;  // cumulative num_steps over datasets
+  std::vector<double> weights_prefix_;  // cumulative normalised weights, last = 1
   std::string image_key_;
   int size_;
-  std::mt19937_64 rng_;
+  uint64_t seed_;
 };
 
 }  // namespace wm::tokenize

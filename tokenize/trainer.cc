@@ -6,6 +6,7 @@
 #include <cmath>
 #include <filesystem>
 #include <fstream>
+#include <future>
 #include <numbers>
 #include <optional>
 #include <sstream>
@@ -19,6 +20,9 @@
 #include "core/tensor_archive.h"
 #include "tokenize/adamw.h"
 #include "tokenize/frame_sampler.h"
+#include "tokenize/mixture.h"
+#include "tokenize/module_archive.h"
+#include "tokenize/validation.h"
 #include "tokenize/vqvae.h"
 
 namespace wm::tokenize {
@@ -28,8 +32,10 @@ namespace {
 constexpr const char* kCheckpoint = "checkpoint.wmt";
 constexpr const char* kManifest = "checkpoint.json";
 constexpr const char* kMetrics = "metrics.csv";
+constexpr const char* kValMetrics = "val.csv";
 constexpr const char* kMetricsHeader =
     "step,loss,recon_l1,codebook_loss,commitment,perplexity,usage,reseeded,lr,frames_per_s";
+constexpr const char* kValHeader = "step,psnr,ssim,recon_l1";
 
 std::string RngText(const std::mt19937_64& rng) {
   std::ostringstream s;
@@ -46,47 +52,19 @@ struct TrainState {
   int64_t step = 0;
 };
 
-// Model parameters and buffers by their module path ("encoder.0.weight").
-std::vector<std::pair<std::string, torch::Tensor>> ModelTensors(VqVae& model) {
-  std::vector<std::pair<std::string, torch::Tensor>> out;
-  for (const auto& item : model->named_parameters()) out.emplace_back(item.key(), item.value());
-  for (const auto& item : model->named_buffers()) out.emplace_back(item.key(), item.value());
-  return out;
-}
-
-void AddTensor(TensorArchiveWriter& w, const std::string& name, const torch::Tensor& t) {
-  torch::Tensor c = t.detach().to(torch::kCPU).contiguous();
-  Check(c.scalar_type() == torch::kFloat || c.scalar_type() == torch::kLong,
-        "unsupported tensor type in checkpoint", {.key = name});
-  w.Add(name, c.scalar_type() == torch::kFloat ? DType::kFloat32 : DType::kInt64, c.sizes().vec(),
-        c.data_ptr(), c.numel() * c.element_size());
-}
-
-void LoadTensor(const TensorArchiveReader& r, const std::string& name, torch::Tensor& dst) {
-  const ArchiveTensor& a = r.Get(name);
-  const auto expected_type = dst.scalar_type() == torch::kFloat ? DType::kFloat32 : DType::kInt64;
-  Check(a.dtype == expected_type && a.shape == dst.sizes().vec(),
-        "checkpoint tensor is " + DTypeName(a.dtype) + ShapeString(a.shape) + ", model wants " +
-            ShapeString(dst.sizes().vec()),
-        {.file = r.path(), .key = name});
-  torch::NoGradGuard no_grad;
-  torch::Tensor src = torch::from_blob(const_cast<uint8_t*>(a.data), a.shape,
-                                       torch::TensorOptions().dtype(dst.scalar_type()));
-  dst.copy_(src);
-}
-
 void SaveCheckpoint(const TrainOptions& o, TrainState& s, const std::string& config_hash) {
   TensorArchiveWriter w;
-  for (const auto& [name, t] : ModelTensors(s.model)) AddTensor(w, "model/" + name, t);
+  AddModule(w, "model/", *s.model);
   const auto& params = s.optimizer->parameters();
   for (size_t i = 0; i < params.size(); ++i) {
     AddTensor(w, "adamw/exp_avg/" + params[i].first, s.optimizer->exp_avg()[i]);
     AddTensor(w, "adamw/exp_avg_sq/" + params[i].first, s.optimizer->exp_avg_sq()[i]);
   }
-  const nlohmann::json rng = {{"sampler_mt19937_64", s.sampler->rng_state()},
-                              {"reseed_mt19937_64", RngText(s.reseed_rng)}};
+  // Frame sampling is a pure function of (seed, step); only the dead-code draws carry state.
+  const nlohmann::json rng = {{"reseed_mt19937_64", RngText(s.reseed_rng)}};
   w.SetMeta({{"step", s.step},
              {"adamw_step", s.optimizer->step_count()},
+             {"config", ConfigToJson(o.config)},  // makes the archive loadable on its own
              {"config_hash", config_hash},
              {"rng", rng}});
   const std::string path = (fs::path(o.out_dir) / kCheckpoint).string();
@@ -108,7 +86,7 @@ void LoadCheckpoint(const std::string& path, const std::string& config_hash, Tra
     const nlohmann::json& meta = r.meta();
     Check(meta.value("config_hash", "") == config_hash,
           "checkpoint was trained with a different config; --resume needs the same config");
-    for (auto& [name, t] : ModelTensors(s.model)) LoadTensor(r, "model/" + name, t);
+    LoadModule(r, "model/", *s.model);
     const auto& params = s.optimizer->parameters();
     for (size_t i = 0; i < params.size(); ++i) {
       LoadTensor(r, "adamw/exp_avg/" + params[i].first, s.optimizer->exp_avg()[i]);
@@ -116,7 +94,6 @@ void LoadCheckpoint(const std::string& path, const std::string& config_hash, Tra
     }
     s.step = meta.at("step").get<int64_t>();
     s.optimizer->set_step_count(meta.at("adamw_step").get<int64_t>());
-    s.sampler->set_rng_state(meta.at("rng").at("sampler_mt19937_64").get<std::string>());
     std::istringstream in(meta.at("rng").at("reseed_mt19937_64").get<std::string>());
     in >> s.reseed_rng;
     Check(!in.fail(), "corrupt reseed RNG state", {.key = "meta.rng"});
@@ -128,8 +105,8 @@ void LoadCheckpoint(const std::string& path, const std::string& config_hash, Tra
 }
 
 // Keeps the header and the rows up to `step` so a resumed run's metrics continue cleanly.
-void TruncateMetrics(const std::string& path, int64_t step) {
-  std::string out = std::string(kMetricsHeader) + "\n";
+void TruncateMetrics(const std::string& path, const char* header, int64_t step) {
+  std::string out = std::string(header) + "\n";
   if (fs::exists(path)) {
     std::istringstream in(ReadFile(path));
     std::string line;
@@ -148,6 +125,50 @@ void SetUpTorch(const TrainConfig& t, const torch::Device& device) {
   at::globalContext().setDeterministicAlgorithms(true, /*warn_only=*/device.is_cuda());
   torch::manual_seed(t.seed);
 }
+
+std::unique_ptr<FrameSampler> MakeSampler(const TrainOptions& o,
+                                          const std::vector<std::string>& dirs, uint64_t seed,
+                                          bool use_mixture) {
+  auto sampler = std::make_unique<FrameSampler>(dirs, o.config.data.image_key,
+                                                o.config.model.image_size, seed);
+  if (!use_mixture || o.mixture_file.empty()) return sampler;
+  std::vector<double> weights = MixtureWeights(LoadMixture(o.mixture_file), o.mixture_file,
+                                               sampler->dataset_names(), sampler->step_counts());
+  return std::make_unique<FrameSampler>(dirs, o.config.data.image_key, o.config.model.image_size,
+                                        seed, weights);
+}
+
+// A fixed set of validation frames (drawn once with a seed derived from train.seed) and the
+// val.csv rows scored on it.
+class Validation {
+ public:
+  Validation(const TrainOptions& o, int64_t resume_step)
+      : size_(o.config.model.image_size),
+        path_((fs::path(o.out_dir) / kValMetrics).string()) {
+    auto sampler = MakeSampler(o, o.val_dirs, Mix64(o.config.train.seed ^ 0x76616cull), false);
+    const auto refs = sampler->BatchRefs(0, o.config.train.val_frames);
+    frames_.resize(refs.size() * 3 * size_ * size_);
+    sampler->Load(refs, frames_.data());
+    TruncateMetrics(path_, kValHeader, resume_step);
+  }
+
+  ReconstructionScore Run(VqVae& model, const torch::Device& device, int64_t step) {
+    torch::NoGradGuard no_grad;
+    const int64_t n = static_cast<int64_t>(frames_.size()) / (3 * size_ * size_);
+    torch::Tensor images = torch::from_blob(frames_.data(), {n, 3, size_, size_}).to(device);
+    torch::Tensor recon = model->forward(images).reconstruction.to(torch::kCPU).contiguous();
+    ReconstructionScore score = ScoreReconstruction(frames_.data(), recon.data_ptr<float>(), n,
+                                                    size_);
+    std::ofstream(path_, std::ios::app) << step << ',' << score.psnr << ',' << score.ssim << ','
+                                        << score.l1 << '\n';
+    return score;
+  }
+
+ private:
+  int size_;
+  std::string path_;
+  std::vector<float> frames_;
+};
 
 }  // namespace
 
@@ -186,15 +207,16 @@ TrainSummary TrainTokenizer(const TrainOptions& o) {
                                                      .beta1 = cfg.train.beta1,
                                                      .beta2 = cfg.train.beta2,
                                                      .weight_decay = cfg.train.weight_decay});
-  s.sampler = std::make_unique<FrameSampler>(o.data_dirs, cfg.data.image_key, cfg.model.image_size,
-                                             cfg.train.seed);
+  s.sampler = MakeSampler(o, o.data_dirs, cfg.train.seed, /*use_mixture=*/true);
   s.reseed_rng.seed(cfg.train.seed ^ 0x9E3779B97F4A7C15ull);
   if (o.resume && fs::exists(ckpt)) {
     LoadCheckpoint(ckpt, config_hash, s);
     spdlog::info("resuming {} at step {}", ckpt, s.step);
   }
-  TruncateMetrics(metrics_path, s.step);
+  TruncateMetrics(metrics_path, kMetricsHeader, s.step);
   std::ofstream metrics(metrics_path, std::ios::app);
+  std::optional<Validation> val;
+  if (!o.val_dirs.empty()) val.emplace(o, s.step);
 
   TrainSummary summary;
   summary.start_step = s.step;
@@ -203,15 +225,24 @@ TrainSummary TrainTokenizer(const TrainOptions& o) {
   std::optional<Progress> progress;
   if (o.show_progress) progress.emplace("tokenizer train", stop - s.step, "steps");
   const int B = cfg.train.batch_size, S = cfg.model.image_size;
-  std::vector<float> batch;
+  // The next batch is decoded on another thread while this one trains.
+  auto load = [&s, B, S](int64_t step) {
+    std::vector<float> batch(static_cast<size_t>(B) * 3 * S * S);
+    s.sampler->Load(s.sampler->BatchRefs(step, B), batch.data());
+    return batch;
+  };
+  std::future<std::vector<float>> pending;
+  if (s.step < stop) pending = std::async(std::launch::async, load, s.step);
   auto window_start = std::chrono::steady_clock::now();
   int64_t window_frames = 0;
   while (s.step < stop) {
-    s.sampler->NextBatch(B, batch);
+    std::vector<float> batch = pending.get();
+    if (s.step + 1 < stop) pending = std::async(std::launch::async, load, s.step + 1);
     torch::Tensor images = torch::from_blob(batch.data(), {B, 3, S, S}).to(device, true, true);
     const double lr = LearningRateAt(cfg.train, s.step);
     s.optimizer->set_lr(lr);
     s.optimizer->ZeroGrad();
+    if (s.step == 0) s.model->quantizer->SeedFromLatents(s.model->Encode(images), s.reseed_rng);
     VqVaeOutput out = s.model->forward(images);  // images: [B, 3, S, S]
     out.loss.backward();
     if (cfg.train.grad_clip > 0) {
@@ -243,6 +274,10 @@ TrainSummary TrainTokenizer(const TrainOptions& o) {
         window_start = now;
         window_frames = 0;
       }
+    }
+    if (val && (s.step == cfg.train.steps ||
+                (cfg.train.val_every > 0 && s.step % cfg.train.val_every == 0))) {
+      summary.val = val->Run(s.model, device, s.step);
     }
     if (s.step % cfg.train.checkpoint_every == 0 || s.step == stop) {
       SaveCheckpoint(o, s, config_hash);

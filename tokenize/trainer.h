@@ -4,17 +4,22 @@
 //   checkpoint.wmt   model + AdamW moments, meta: step, RNG states (wmkit tensor archive)
 //   checkpoint.json  manifest: config, config hash, data hashes, provenance, step, RNG states
 //   metrics.csv      one row every train.log_every steps (has a wall-clock column)
+//   val.csv          validation reconstruction PSNR/SSIM/L1 (with --val-data)
 #include <cstdint>
+#include <optional>
 #include <string>
 #include <vector>
 
 #include "tokenize/config.h"
+#include "tokenize/validation.h"
 
 namespace wm::tokenize {
 
 struct TrainOptions {
   TokenizerConfig config;
   std::vector<std::string> data_dirs;  // shard dataset directories (each with index.json)
+  std::string mixture_file;            // configs/mixtures/*.yaml; empty = weight by step count
+  std::vector<std::string> val_dirs;   // validation datasets for val.csv (optional)
   std::string out_dir;                 // RUN_DIR, created if missing
   std::string device = "cpu";          // "cpu", "cuda" or "cuda:N"
   bool resume = false;                 // continue from RUN_DIR/checkpoint.wmt
@@ -28,6 +33,7 @@ struct TrainSummary {
   int64_t start_step = 0, end_step = 0;
   double last_loss = 0, first_loss = 0;  // of the first / last step of this invocation
   double last_recon_l1 = 0, last_perplexity = 0;
+  std::optional<ReconstructionScore> val;  // the last validation, when --val-data was given
   std::string checkpoint_path;
 };
 

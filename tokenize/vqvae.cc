@@ -1,5 +1,6 @@
 #include "tokenize/vqvae.h"
 
+#include <algorithm>
 #include <cmath>
 
 namespace wm::tokenize {
@@ -75,6 +76,16 @@ torch::Tensor VectorQuantizerImpl::Lookup(const torch::Tensor& indices) {
       .contiguous();  // [B, D, h, w]
 }
 
+void VectorQuantizerImpl::SeedFromLatents(const torch::Tensor& z_e, std::mt19937_64& rng) {
+  torch::NoGradGuard no_grad;
+  torch::Tensor flat = z_e.permute({0, 2, 3, 1}).reshape({-1, options.dim});  // [N, D]
+  if (options.l2_normalize) flat = F::normalize(flat, F::NormalizeFuncOptions().dim(1));
+  std::vector<int64_t> src(static_cast<size_t>(options.num_codes));
+  for (auto& s : src) s = static_cast<int64_t>(rng() % static_cast<uint64_t>(flat.size(0)));
+  torch::Tensor src_t = torch::tensor(src, torch::kInt64).to(codebook.device());
+  codebook.copy_(flat.index_select(0, src_t).to(codebook.dtype()));
+}
+
 int64_t VectorQuantizerImpl::UpdateUsageAndReseed(const QuantizerOutput& out, int64_t dead_after,
                                                   std::mt19937_64& rng) {
   torch::NoGradGuard no_grad;
@@ -98,11 +109,18 @@ VqVaeImpl::VqVaeImpl(const ModelConfig& c) : config(c) {
   using torch::nn::Conv2dOptions;
   using torch::nn::ConvTranspose2dOptions;
   const int downs = Log2(c.patch_size);
-  const int64_t ce = c.encoder_channels, cd = c.decoder_channels, d = c.latent_dim;
-  encoder = torch::nn::Sequential(torch::nn::Conv2d(Conv2dOptions(3, ce, 3).padding(1)),
-                                  torch::nn::ReLU());  // [B, Ce, H, W]
-  for (int i = 0; i < downs; ++i) {
-    encoder->push_back(torch::nn::Conv2d(Conv2dOptions(ce, ce, 4).stride(2).padding(1)));
+  const int64_t d = c.latent_dim;
+  // Width `level` resolutions above the token grid: halved per level, floored at min_channels.
+  auto width = [&c](int64_t channels, int level) {
+    return c.min_channels > 0 ? std::max<int64_t>(c.min_channels, channels >> level) : channels;
+  };
+  const int64_t ce = c.encoder_channels, cd = c.decoder_channels;
+  encoder = torch::nn::Sequential(
+      torch::nn::Conv2d(Conv2dOptions(3, width(ce, downs), 3).padding(1)),
+      torch::nn::ReLU());  // [B, Ce(downs), H, W]
+  for (int level = downs; level > 0; --level) {
+    encoder->push_back(torch::nn::Conv2d(
+        Conv2dOptions(width(ce, level), width(ce, level - 1), 4).stride(2).padding(1)));
     encoder->push_back(torch::nn::ReLU());  // halves H and W
   }
   for (int i = 0; i < c.encoder_layers; ++i) encoder->push_back(ResBlock(ce));
@@ -111,13 +129,14 @@ VqVaeImpl::VqVaeImpl(const ModelConfig& c) : config(c) {
 
   decoder = torch::nn::Sequential(torch::nn::Conv2d(Conv2dOptions(d, cd, 3).padding(1)));
   for (int i = 0; i < c.decoder_layers; ++i) decoder->push_back(ResBlock(cd));
-  for (int i = 0; i < downs; ++i) {
+  for (int level = 0; level < downs; ++level) {
     decoder->push_back(torch::nn::ReLU());
-    decoder->push_back(
-        torch::nn::ConvTranspose2d(ConvTranspose2dOptions(cd, cd, 4).stride(2).padding(1)));
+    decoder->push_back(torch::nn::ConvTranspose2d(
+        ConvTranspose2dOptions(width(cd, level), width(cd, level + 1), 4).stride(2).padding(1)));
   }
   decoder->push_back(torch::nn::ReLU());
-  decoder->push_back(torch::nn::Conv2d(Conv2dOptions(cd, 3, 3).padding(1)));  // [B, 3, H, W]
+  decoder->push_back(torch::nn::Conv2d(Conv2dOptions(width(cd, downs), 3, 3).padding(1)));
+  // [B, 3, H, W]
 
   register_module("encoder", encoder);
   register_module("decoder", decoder);

@@ -36,6 +36,10 @@ struct VectorQuantizerImpl : torch::nn::Module {
   // latents drawn (with `rng`) from this batch. Returns how many codes were re-seeded.
   int64_t UpdateUsageAndReseed(const QuantizerOutput& out, int64_t dead_after,
                                std::mt19937_64& rng);
+  // Data-dependent init: every code becomes an encoder output drawn (with `rng`) from
+  // `z_e` [B, D, h, w], so training starts with a codebook that covers the data instead of
+  // collapsing onto a few codes for the first hundred steps.
+  void SeedFromLatents(const torch::Tensor& z_e, std::mt19937_64& rng);
 
   QuantizerOptions options;
   torch::Tensor codebook;          // [K, D] parameter

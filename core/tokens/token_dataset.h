@@ -89,7 +89,9 @@ std::pair<int64_t, int64_t> PartEpisodeRange(int64_t num_episodes, int part, int
 // small per-step arrays are kept and written at Finish(), then the file is fsynced and renamed.
 class TokenPartWriter {
  public:
-  TokenPartWriter(std::string dir, int part, int num_parts, const TokenizerInfo& tokenizer);
+  // `base`: the dataset's tokenizer and source (as for AssembleIndexIfComplete); its RunKey is
+  // recorded so parts of different runs are never assembled together. Creates `dir`.
+  TokenPartWriter(std::string dir, int part, int num_parts, const TokenIndex& base);
   ~TokenPartWriter();  // without Finish() the temp file is removed
 
   // tokens: [num_frames, grid_h, grid_w] codes; per-step arrays as in wm::Episode.
@@ -101,6 +103,9 @@ class TokenPartWriter {
   struct State;
   std::unique_ptr<State> state_;
 };
+
+// Identifies one encode run: hash of the tokenizer, the source data and the part count.
+std::string RunKey(const TokenIndex& base, int num_parts);
 
 // Writes index.json (atomically) from the part-*.json files when all `num_parts` exist;
 // returns false (and writes nothing) while some are missing. `base` supplies dataset, split,

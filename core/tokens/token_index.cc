@@ -4,6 +4,7 @@
 
 #include "core/atomic_file.h"
 #include "core/error.h"
+#include "core/provenance.h"
 #include "core/tokens/token_dataset.h"
 #include "core/tokens/token_format.h"
 
@@ -112,6 +113,12 @@ size_t DtypeSize(const std::string& dtype) {
   throw Error("unsupported dtype '" + dtype + "'");
 }
 
+std::string RunKey(const TokenIndex& base, int num_parts) {
+  return ConfigHash({{"tokenizer", TokenizerToJson(base.tokenizer)},
+                     {"source", base.source},
+                     {"num_parts", num_parts}});
+}
+
 std::pair<int64_t, int64_t> PartEpisodeRange(int64_t num_episodes, int part, int num_parts) {
   return {num_episodes * part / num_parts, num_episodes * (part + 1) / num_parts};
 }
@@ -140,8 +147,9 @@ TokenIndex TokenIndexFromJson(const json& j, const std::string& file) {
   Check(j.is_object() && j.value("format", "") == kTokenFormatName,
         std::string("not a wmkit token index (format must be \"") + kTokenFormatName + "\")",
         {.file = file, .key = "format"});
-  Check(j.value("format_version", 0u) == kTokenFormatVersion,
-        "unknown format_version " + j.value("format_version", json()).dump() +
+  const json version = j.contains("format_version") ? j["format_version"] : json();
+  Check(version.is_number_unsigned() && version.get<uint32_t>() == kTokenFormatVersion,
+        "unknown format_version " + version.dump() +
             " (this build reads version " + std::to_string(kTokenFormatVersion) + ")",
         {.file = file, .key = "format_version"});
   TokenIndex x;
@@ -186,6 +194,7 @@ bool AssembleIndexIfComplete(const std::string& dir, int num_parts, TokenIndex b
     part_jsons.push_back(ReadJsonFile(path));
   }
   base.num_parts = num_parts;
+  base.token_dtype = base.tokenizer.num_codes > 65536 ? "uint32" : "uint16";
   base.parts.clear();
   base.episodes.clear();
   base.num_frames = 0;
@@ -200,6 +209,11 @@ bool AssembleIndexIfComplete(const std::string& dir, int num_parts, TokenIndex b
     Check(pj.value("tokenizer_sha256", "") == base.tokenizer.checkpoint_sha256,
           "written by another tokenizer checkpoint (remove stale part files)",
           {.file = path, .key = "tokenizer_sha256"});
+    Check(pj.value("run_key", "") == RunKey(base, num_parts),
+          "written for other source data or options (remove stale part files)",
+          {.file = path, .key = "run_key"});
+    Check(pj.value("part_index", -1) == i, "part_index differs from the file name",
+          {.file = path, .key = "part_index"});
     try {
       base.parts.push_back(PartFromJson(pj.at("part")));
       for (const auto& e : pj.at("episodes")) base.episodes.push_back(EpisodeFromJson(e));

@@ -31,6 +31,7 @@ std::string PartHeader(size_t token_bytes, const TokenizerInfo& t) {
 struct TokenPartWriter::State {
   std::string dir;
   int part = 0, num_parts = 1;
+  std::string run_key;
   TokenizerInfo tokenizer;
   size_t token_bytes = 2;
   AtomicFileWriter file;
@@ -42,10 +43,15 @@ struct TokenPartWriter::State {
   std::vector<uint8_t> is_first, is_last, is_terminal;
   bool finished = false;
 
-  State(std::string d, int p, int n, const TokenizerInfo& t)
-      : dir(std::move(d)), part(p), num_parts(n), tokenizer(t),
+  State(std::string d, int p, int n, std::string key, const TokenizerInfo& t)
+      : dir(std::move(d)), part(p), num_parts(n), run_key(std::move(key)), tokenizer(t),
         token_bytes(t.num_codes > 65536 ? 4 : 2),
-        file((std::filesystem::path(dir) / PartFileName(p)).string()) {}
+        file((std::filesystem::path(CreatedDir(dir)) / PartFileName(p)).string()) {}
+
+  static std::string CreatedDir(const std::string& d) {
+    std::filesystem::create_directories(d);
+    return d;
+  }
 
   void Write(const void* data, size_t n) {
     file.Write(data, n);
@@ -67,9 +73,10 @@ struct TokenPartWriter::State {
 };
 
 TokenPartWriter::TokenPartWriter(std::string dir, int part, int num_parts,
-                                 const TokenizerInfo& tokenizer)
-    : state_(std::make_unique<State>(std::move(dir), part, num_parts, tokenizer)) {
-  std::string header = PartHeader(state_->token_bytes, tokenizer);
+                                 const TokenIndex& base)
+    : state_(std::make_unique<State>(std::move(dir), part, num_parts, RunKey(base, num_parts),
+                                     base.tokenizer)) {
+  std::string header = PartHeader(state_->token_bytes, base.tokenizer);
   state_->Write(header.data(), header.size());
 }
 
@@ -80,6 +87,12 @@ void TokenPartWriter::AddEpisode(const TokenEpisode& meta, const std::vector<uin
   State& s = *state_;
   const int64_t per_frame = int64_t{s.tokenizer.grid_h} * s.tokenizer.grid_w;
   const std::string& where = meta.episode_key;
+  Check(meta.num_frames > 0, "an episode needs at least one frame", {.file = where});
+  const auto n = static_cast<size_t>(meta.num_frames);
+  Check(steps.actions.size() == n * kActionDim && steps.rewards.size() == n &&
+            steps.discounts.size() == n && steps.is_first.size() == n &&
+            steps.is_last.size() == n && steps.is_terminal.size() == n,
+        "per-step arrays do not have num_frames rows", {.file = where});
   Check(steps.num_steps == meta.num_frames &&
             static_cast<int64_t>(tokens.size()) == meta.num_frames * per_frame,
         "token count " + std::to_string(tokens.size()) + " != num_frames x grid (" +
@@ -138,6 +151,7 @@ PartInfo TokenPartWriter::Finish() {
   nlohmann::json j = TokenIndexToJson(one);
   nlohmann::json part_json = {{"part_index", s.part},
                               {"num_parts", s.num_parts},
+                              {"run_key", s.run_key},
                               {"tokenizer_sha256", s.tokenizer.checkpoint_sha256},
                               {"part", j["parts"][0]},
                               {"episodes", j["episodes"]}};

@@ -62,7 +62,7 @@ std::vector<std::vector<uint32_t>> MakeTokenDataset(const std::string& dir, int 
   std::mt19937_64 rng(seed);
   std::vector<std::vector<uint32_t>> all;
   for (int part = 0; part < num_parts; ++part) {
-    tokens::TokenPartWriter writer(dir, part, num_parts, base.tokenizer);
+    tokens::TokenPartWriter writer(dir, part, num_parts, base);
     auto [first, last] = tokens::PartEpisodeRange(episodes, part, num_parts);
     for (int64_t k = first; k < last; ++k) {
       Episode e = MakeEpisode(3 + static_cast<int>(k % 4), seed + k, "ep" + std::to_string(k));

@@ -70,6 +70,7 @@ TEST(TokenDataset, IndexAppearsOnlyWhenAllPartsExist) {
   // Parts written by a different tokenizer are refused, not mixed in.
   MakeTokenDataset(dir.path().string(), 4, 2, 2, 2, 16, 1);
   base.tokenizer.checkpoint_sha256 = "other";
+  base.tokenizer.num_codes = 16;
   EXPECT_NE(ErrorText([&] { AssembleIndexIfComplete(dir.path().string(), 2, base); })
                 .find("another tokenizer checkpoint"),
             std::string::npos);
@@ -93,13 +94,19 @@ TEST(TokenDataset, CorruptionIsDetectedAndNamed) {
 
 TEST(TokenDataset, RejectsOutOfRangeTokens) {
   test::TempDir dir;
-  TokenizerInfo t{.num_codes = 4, .grid_h = 1, .grid_w = 1};
-  TokenPartWriter w(dir.path().string(), 0, 1, t);
+  TokenIndex base;
+  base.tokenizer = {.num_codes = 4, .grid_h = 1, .grid_w = 1};
+  TokenPartWriter w(dir.path().string(), 0, 1, base);
   Episode e = MakeEpisode(2, 0);
   std::string err = ErrorText([&] { w.AddEpisode({.num_frames = 2}, {1, 4}, e); });
   EXPECT_NE(err.find("out of range"), std::string::npos) << err;
   err = ErrorText([&] { w.AddEpisode({.num_frames = 2}, {1}, e); });
   EXPECT_NE(err.find("token count"), std::string::npos) << err;
+  e.rewards.pop_back();
+  err = ErrorText([&] { w.AddEpisode({.num_frames = 2}, {1, 2}, e); });
+  EXPECT_NE(err.find("per-step arrays"), std::string::npos) << err;
+  err = ErrorText([&] { w.AddEpisode({.num_frames = 0}, {}, MakeEpisode(0, 0)); });
+  EXPECT_NE(err.find("at least one frame"), std::string::npos) << err;
 }
 
 TEST(PartEpisodeRange, CoversEveryEpisodeOnce) {

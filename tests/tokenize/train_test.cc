@@ -3,74 +3,19 @@
 #include <gtest/gtest.h>
 
 #include <filesystem>
-#include <opencv2/imgcodecs.hpp>
-#include <opencv2/imgproc.hpp>
 
 #include "core/atomic_file.h"
 #include "core/error.h"
 #include "core/sha256.h"
-#include "core/shard/dataset_writer.h"
 #include "tests/core/test_util.h"
+#include "tests/tokenize/shapes_fixture.h"
 #include "tokenize/frame_sampler.h"
+#include "tokenize/mixture.h"
 #include "tokenize/trainer.h"
 
 namespace wm::tokenize {
 namespace {
 namespace fs = std::filesystem;
-
-// A 48x48 PNG: a coloured background with a rectangle and a circle that move with `t`.
-std::string ShapeFrame(int episode, int t) {
-  cv::Mat img(48, 48, CV_8UC3, cv::Scalar(40 + 30 * episode, 90, 160 - 20 * episode));
-  cv::rectangle(img, cv::Rect(4 + 3 * t, 6, 14, 10), cv::Scalar(20, 220, 240), cv::FILLED);
-  cv::circle(img, cv::Point(30, 14 + 3 * t), 7, cv::Scalar(230, 40, 60 * episode), cv::FILLED);
-  std::vector<uchar> png;
-  cv::imencode(".png", img, png);
-  return std::string(png.begin(), png.end());
-}
-
-// 3 episodes x 6 steps of PNG frames.
-void WriteShapesDataset(const std::string& dir) {
-  shard::DatasetWriter writer({.dir = dir, .config_hash = "tokenize-test"});
-  for (int e = 0; e < 3; ++e) {
-    Episode ep = test::MakeEpisode(6, e, "shapes" + std::to_string(e));
-    EncodedFrames& f = ep.images["image"];
-    f.encoding = "png";
-    f.height = f.width = 48;
-    f.channels = 3;
-    f.frames.clear();
-    for (int t = 0; t < 6; ++t) f.frames.push_back(ShapeFrame(e, t));
-    writer.Add(ep, e);
-  }
-  shard::DatasetIndex meta;
-  meta.dataset = "shapes";
-  meta.split = "train";
-  writer.Finish(meta);
-}
-
-TokenizerConfig TestConfig() {
-  TokenizerConfig c;
-  c.model = {.image_size = 32,
-             .patch_size = 4,
-             .encoder_channels = 16,
-             .encoder_layers = 1,
-             .decoder_channels = 16,
-             .decoder_layers = 1,
-             .latent_dim = 8,
-             .num_codes = 64,
-             .l2_normalize = true,
-             .beta = 0.25,
-             .dead_code_steps = 5};
-  c.train.batch_size = 4;
-  c.train.steps = 30;
-  c.train.max_lr = 3e-3;
-  c.train.min_lr = 3e-4;
-  c.train.warmup_steps = 3;
-  c.train.threads = 1;
-  c.train.checkpoint_every = 10;
-  c.train.log_every = 5;
-  c.train.seed = 11;
-  return c;
-}
 
 class TrainTest : public ::testing::Test {
  protected:
@@ -94,18 +39,41 @@ class TrainTest : public ::testing::Test {
   test::TempDir dir_;
 };
 
-TEST_F(TrainTest, SamplerDecodesFramesToMinusOneOne) {
+TEST_F(TrainTest, SamplerDrawsAreAPureFunctionOfSeedAndStep) {
   FrameSampler sampler({data_dir()}, "image", 32, 3);
-  std::vector<float> batch;
-  sampler.NextBatch(2, batch);
-  ASSERT_EQ(batch.size(), 2u * 3 * 32 * 32);
+  std::vector<float> batch(2 * 3 * 32 * 32);
+  sampler.Load(sampler.BatchRefs(0, 2), batch.data());
   for (float v : batch) ASSERT_TRUE(v >= -1.f && v <= 1.f);
-  const std::string state = sampler.rng_state();
-  std::vector<float> a, b;
-  sampler.NextBatch(2, a);
-  sampler.set_rng_state(state);
-  sampler.NextBatch(2, b);
-  EXPECT_EQ(a, b);
+  auto key = [](const std::vector<FrameRef>& refs) {
+    std::vector<size_t> k;
+    for (const auto& r : refs) k.insert(k.end(), {r.dataset, r.episode, r.step});
+    return k;
+  };
+  FrameSampler again({data_dir()}, "image", 32, 3);
+  EXPECT_EQ(key(sampler.BatchRefs(7, 16)), key(again.BatchRefs(7, 16)));
+  EXPECT_NE(key(sampler.BatchRefs(7, 16)), key(sampler.BatchRefs(8, 16)));
+  for (const auto& r : sampler.BatchRefs(5, 64)) {
+    EXPECT_LT(r.episode, 3u);
+    EXPECT_LT(r.step, 6u);
+  }
+}
+
+TEST_F(TrainTest, MixtureWeightsSetHowOftenEachDatasetIsDrawn) {
+  const std::string second = dir_ / "second";
+  WriteShapesDataset(second, "second");
+  FrameSampler sampler({data_dir(), second}, "image", 32, 3, {1.0, 3.0});
+  int from_second = 0;
+  for (const auto& r : sampler.BatchRefs(0, 4000)) from_second += r.dataset == 1;
+  EXPECT_NEAR(from_second / 4000.0, 0.75, 0.03);
+  const std::string mix = dir_ / "mix.yaml";
+  WriteFileAtomically(mix, "datasets:\n  - name: shapes\n    weight: 2\n");
+  EXPECT_EQ(MixtureWeights(LoadMixture(mix), mix, {"shapes"}, {18.0}), std::vector<double>{2.0});
+  EXPECT_NE(test::ErrorText([&] { MixtureWeights(LoadMixture(mix), mix, {"second"}, {1.0}); })
+                .find("'second' (given with --data) has no weight"),
+            std::string::npos);
+  WriteFileAtomically(mix, "datasets:\n  - name: shapes\n    weight: -1\n");
+  EXPECT_NE(test::ErrorText([&] { LoadMixture(mix); }).find("datasets[0].weight"),
+            std::string::npos);
 }
 
 TEST_F(TrainTest, LossDecreasesOverThirtySteps) {

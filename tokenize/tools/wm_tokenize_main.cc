@@ -1,4 +1,5 @@
-// wm-tokenize: train the VQ-VAE video tokenizer on shard datasets (docs/tokenizer.md).
+// wm-tokenize: train the VQ-VAE video tokenizer on shard datasets, pre-tokenize datasets into
+// token datasets and decode them for inspection (docs/tokenizer.md, docs/token-format.md).
 // Exit codes: 0 success, 1 a wmkit error (bad config, data, checkpoint), CLI11 codes (>= 100)
 // for a bad command line.
 #include <CLI/CLI.hpp>
@@ -9,6 +10,8 @@
 #include "core/error.h"
 #include "core/log.h"
 #include "core/provenance.h"
+#include "tokenize/decode.h"
+#include "tokenize/encode.h"
 #include "tokenize/trainer.h"
 
 namespace {
@@ -35,6 +38,12 @@ void AddTrain(CLI::App& app, TrainArgs& a) {
       ->required()
       ->check(CLI::ExistingDirectory);
   train->add_option("--out", a.options.out_dir, "Run directory (RUN_DIR)")->required();
+  train->add_option("--val-data", a.options.val_dirs,
+                    "Validation shard datasets: reconstruction PSNR/SSIM to RUN_DIR/val.csv")
+      ->check(CLI::ExistingDirectory);
+  train->add_option("--mixture", a.options.mixture_file,
+                    "Dataset weights (configs/mixtures/*.yaml); default: by step count")
+      ->check(CLI::ExistingFile);
   train->add_option("--steps", a.steps, "Override train.steps");
   train->add_option("--device", a.options.device, "cpu, cuda or cuda:N")->capture_default_str();
   train->add_option("--seed", a.seed, "Override train.seed");
@@ -55,7 +64,60 @@ int RunTrain(TrainArgs& a) {
   spdlog::info("steps {}..{}: loss {:.4f}, recon L1 {:.4f}, perplexity {:.1f}; wrote {}",
                summary.start_step, summary.end_step, summary.last_loss, summary.last_recon_l1,
                summary.last_perplexity, summary.checkpoint_path);
+  if (summary.val) {
+    spdlog::info("validation reconstruction: PSNR {:.2f} dB, SSIM {:.4f}", summary.val->psnr,
+                 summary.val->ssim);
+  }
   return 0;
+}
+
+void AddEncode(CLI::App& app, wm::tokenize::EncodeOptions& o) {
+  CLI::App* encode = app.add_subcommand("encode", "Pre-tokenize a shard dataset");
+  encode->footer(
+      "Example:\n  wm-tokenize encode --checkpoint runs/tok-tiny --data data/tabletop/train \\\n"
+      "    --out data/tabletop-tokens/train\n"
+      "As a Slurm array: add --shard-index $SLURM_ARRAY_TASK_ID --num-shards $SLURM_ARRAY_TASK_COUNT;\n"
+      "index.json appears when the last part is written. A rerun skips finished parts.");
+  encode->add_option("--checkpoint", o.checkpoint, "Tokenizer run directory or checkpoint.wmt")
+      ->required()
+      ->check(CLI::ExistingPath);
+  encode->add_option("--data", o.data_dir, "Shard dataset directory")
+      ->required()
+      ->check(CLI::ExistingDirectory);
+  encode->add_option("--out", o.out_dir, "Token dataset directory (TOKENS_DIR)")->required();
+  encode->add_option("--shard-index", o.shard_index, "This job's part")->capture_default_str();
+  encode->add_option("--num-shards", o.num_shards, "Number of parts")->capture_default_str();
+  encode->add_option("--device", o.device, "cpu, cuda or cuda:N")->capture_default_str();
+  encode->add_option("--threads", o.threads, "LibTorch intra-op threads")->capture_default_str();
+}
+
+int RunEncode(const wm::tokenize::EncodeOptions& o) {
+  const auto s = wm::tokenize::EncodeDataset(o);
+  if (s.skipped) spdlog::info("part {} was already encoded; kept", o.shard_index);
+  spdlog::info("encoded {} episodes, {} frames into {}{}", s.episodes, s.frames, o.out_dir,
+               s.index_written ? " (index.json written)" : " (waiting for other parts)");
+  return 0;
+}
+
+void AddDecode(CLI::App& app, wm::tokenize::DecodeOptions& o) {
+  CLI::App* decode = app.add_subcommand("decode", "Decode an episode's tokens to PNG or MP4");
+  decode->footer(
+      "Example:\n  wm-tokenize decode --checkpoint runs/tok-tiny --tokens data/tabletop-tokens/val \\\n"
+      "    --episode 0 --originals data/tabletop/val --out recon.png\n"
+      "OUT ending in .png: contact sheet (originals above decoded frames with --originals);\n"
+      ".mp4: video (side by side with --originals); anything else: a folder of PNG frames.");
+  decode->add_option("--checkpoint", o.checkpoint, "The tokenizer that wrote the tokens")
+      ->required()
+      ->check(CLI::ExistingPath);
+  decode->add_option("--tokens", o.tokens_dir, "Token dataset directory")
+      ->required()
+      ->check(CLI::ExistingDirectory);
+  decode->add_option("--episode", o.episode, "Episode index")->capture_default_str();
+  decode->add_option("--out", o.out, "Output .png, .mp4 or folder")->required();
+  decode->add_option("--originals", o.originals_dir, "Source shard dataset, for comparison")
+      ->check(CLI::ExistingDirectory);
+  decode->add_option("--columns", o.columns, "Frames per row of the .png")->capture_default_str();
+  decode->add_option("--device", o.device, "cpu, cuda or cuda:N")->capture_default_str();
 }
 
 }  // namespace
@@ -66,10 +128,19 @@ int main(int argc, char** argv) {
   app.require_subcommand(1);
   TrainArgs train;
   AddTrain(app, train);
+  wm::tokenize::EncodeOptions encode;
+  AddEncode(app, encode);
+  wm::tokenize::DecodeOptions decode;
+  AddDecode(app, decode);
   CLI11_PARSE(app, argc, argv);
   wm::InitLogging();
   try {
     if (app.got_subcommand("train")) return RunTrain(train);
+    if (app.got_subcommand("encode")) return RunEncode(encode);
+    if (app.got_subcommand("decode")) {
+      const int64_t n = wm::tokenize::DecodeEpisode(decode);
+      spdlog::info("decoded {} frames of episode {} to {}", n, decode.episode, decode.out);
+    }
   } catch (const std::exception& e) {
     std::cerr << "wm-tokenize: error: " << e.what() << "\n";
     return 1;

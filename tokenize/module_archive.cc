@@ -1,0 +1,43 @@
+#include "tokenize/module_archive.h"
+
+#include "core/error.h"
+
+namespace wm::tokenize {
+
+std::vector<std::pair<std::string, torch::Tensor>> ModuleTensors(const torch::nn::Module& m) {
+  std::vector<std::pair<std::string, torch::Tensor>> out;
+  for (const auto& item : m.named_parameters()) out.emplace_back(item.key(), item.value());
+  for (const auto& item : m.named_buffers()) out.emplace_back(item.key(), item.value());
+  return out;
+}
+
+void AddTensor(TensorArchiveWriter& w, const std::string& name, const torch::Tensor& t) {
+  torch::Tensor c = t.detach().to(torch::kCPU).contiguous();
+  Check(c.scalar_type() == torch::kFloat || c.scalar_type() == torch::kLong,
+        "unsupported tensor type in checkpoint", {.key = name});
+  w.Add(name, c.scalar_type() == torch::kFloat ? DType::kFloat32 : DType::kInt64, c.sizes().vec(),
+        c.data_ptr(), c.numel() * c.element_size());
+}
+
+void LoadTensor(const TensorArchiveReader& r, const std::string& name, torch::Tensor& dst) {
+  const ArchiveTensor& a = r.Get(name);
+  const auto expected_type = dst.scalar_type() == torch::kFloat ? DType::kFloat32 : DType::kInt64;
+  Check(a.dtype == expected_type && a.shape == dst.sizes().vec(),
+        "checkpoint tensor is " + DTypeName(a.dtype) + ShapeString(a.shape) + ", model wants " +
+            ShapeString(dst.sizes().vec()),
+        {.file = r.path(), .key = name});
+  torch::NoGradGuard no_grad;
+  torch::Tensor src = torch::from_blob(const_cast<uint8_t*>(a.data), a.shape,
+                                       torch::TensorOptions().dtype(dst.scalar_type()));
+  dst.copy_(src);
+}
+
+void AddModule(TensorArchiveWriter& w, const std::string& prefix, const torch::nn::Module& m) {
+  for (const auto& [name, t] : ModuleTensors(m)) AddTensor(w, prefix + name, t);
+}
+
+void LoadModule(const TensorArchiveReader& r, const std::string& prefix, torch::nn::Module& m) {
+  for (auto& [name, t] : ModuleTensors(m)) LoadTensor(r, prefix + name, t);
+}
+
+}  // namespace wm::tokenize

@@ -1,0 +1,31 @@
+#pragma once
+// LibTorch modules <-> the wmkit tensor archive (core/tensor_archive.h): named float32/int64
+// tensors, byte-reproducible, instead of torch::save (docs/tokenizer.md says why). Internal
+// header (includes torch); shared by the tokenizer and the dynamics model.
+#include <torch/torch.h>
+
+#include <string>
+#include <utility>
+#include <vector>
+
+#include "core/tensor_archive.h"
+
+namespace wm::tokenize {
+
+// Parameters, then buffers, by module path ("encoder.0.weight"), in registration order.
+std::vector<std::pair<std::string, torch::Tensor>> ModuleTensors(const torch::nn::Module& module);
+
+// Copies a float32 or int64 tensor (any device) into the archive under `name`.
+void AddTensor(TensorArchiveWriter& writer, const std::string& name, const torch::Tensor& t);
+
+// Copies archive tensor `name` into `dst` (same dtype and shape, else wm::Error naming the
+// file, the tensor and both shapes).
+void LoadTensor(const TensorArchiveReader& reader, const std::string& name, torch::Tensor& dst);
+
+// Every ModuleTensors entry as `prefix + path`.
+void AddModule(TensorArchiveWriter& writer, const std::string& prefix,
+               const torch::nn::Module& module);
+void LoadModule(const TensorArchiveReader& reader, const std::string& prefix,
+                torch::nn::Module& module);
+
+}  // namespace wm::tokenize

@@ -1,0 +1,139 @@
+#include "tokenize/tokenizer.h"
+
+#include <algorithm>
+#include <cmath>
+#include <filesystem>
+
+#include "core/error.h"
+#include "core/sha256.h"
+#include "core/tensor_archive.h"
+#include "tokenize/module_archive.h"
+#include "tokenize/vqvae.h"
+
+namespace wm::tokenize {
+namespace fs = std::filesystem;
+namespace {
+
+constexpr int64_t kChunk = 64;  // frames per forward pass: bounds memory on long episodes
+
+std::string CheckpointFile(const std::string& path) {
+  return fs::is_directory(path) ? (fs::path(path) / "checkpoint.wmt").string() : path;
+}
+
+}  // namespace
+
+struct Tokenizer::State {
+  std::string path, sha256, config_hash;
+  TokenizerConfig config;
+  VqVae model{nullptr};
+  torch::Device device{torch::kCPU};
+
+  torch::Tensor Frames(const float* frames, int64_t n) const {
+    const int S = config.model.image_size;
+    return torch::from_blob(const_cast<float*>(frames), {n, 3, S, S}).to(device);
+  }
+};
+
+Tokenizer::Tokenizer(const std::string& checkpoint, const std::string& device)
+    : state_(std::make_unique<State>()) {
+  State& s = *state_;
+  s.path = CheckpointFile(checkpoint);
+  s.device = torch::Device(device);
+  Check(!s.device.is_cuda() || torch::cuda::is_available(),
+        "--device " + device + " requested but CUDA is not available");
+  TensorArchiveReader reader(s.path);
+  try {
+    s.config = ConfigFromJson(reader.meta().at("config"));
+    s.config_hash = reader.meta().at("config_hash").get<std::string>();
+  } catch (const nlohmann::json::exception& e) {
+    throw Error(std::string("not a wmkit tokenizer checkpoint (meta.config): ") + e.what(),
+                {.file = s.path});
+  } catch (const Error& e) {
+    throw e.WithFile(s.path);
+  }
+  s.model = VqVae(s.config.model);
+  LoadModule(reader, "model/", *s.model);
+  s.model->to(s.device);
+  s.model->eval();
+  s.sha256 = Sha256File(s.path);
+}
+
+Tokenizer::~Tokenizer() = default;
+
+const TokenizerConfig& Tokenizer::config() const { return state_->config; }
+const std::string& Tokenizer::checkpoint_path() const { return state_->path; }
+const std::string& Tokenizer::checkpoint_sha256() const { return state_->sha256; }
+const std::string& Tokenizer::config_hash() const { return state_->config_hash; }
+
+std::vector<uint32_t> Tokenizer::Encode(const float* frames, int64_t n) const {
+  torch::NoGradGuard no_grad;
+  const int64_t per_frame = tokens_per_frame(), floats = 3 * int64_t{image_size()} * image_size();
+  std::vector<uint32_t> codes(static_cast<size_t>(n * per_frame));
+  for (int64_t i = 0; i < n; i += kChunk) {
+    const int64_t m = std::min(kChunk, n - i);
+    torch::Tensor z = state_->model->Encode(state_->Frames(frames + i * floats, m));
+    torch::Tensor idx = state_->model->quantizer->forward(z).indices.to(torch::kCPU);  // [m,g,g]
+    const int64_t* p = idx.contiguous().data_ptr<int64_t>();
+    std::copy(p, p + m * per_frame, codes.begin() + i * per_frame);
+  }
+  return codes;
+}
+
+std::vector<float> Tokenizer::Decode(const uint32_t* codes, int64_t n) const {
+  torch::NoGradGuard no_grad;
+  const int g = grid();
+  const int64_t per_frame = tokens_per_frame(), floats = 3 * int64_t{image_size()} * image_size();
+  std::vector<float> frames(static_cast<size_t>(n * floats));
+  for (int64_t i = 0; i < n; i += kChunk) {
+    const int64_t m = std::min(kChunk, n - i);
+    std::vector<int64_t> wide(codes + i * per_frame, codes + (i + m) * per_frame);
+    for (int64_t c : wide) {
+      Check(c >= 0 && c < config().model.num_codes,
+            "token " + std::to_string(c) + " outside the codebook of " +
+                std::to_string(config().model.num_codes),
+            {.file = state_->path});
+    }
+    torch::Tensor idx = torch::tensor(wide, torch::kInt64).view({m, g, g}).to(state_->device);
+    torch::Tensor img = state_->model->Decode(state_->model->quantizer->Lookup(idx));
+    img = img.clamp(-1, 1).to(torch::kCPU).contiguous();  // [m, 3, S, S]
+    std::copy(img.data_ptr<float>(), img.data_ptr<float>() + m * floats,
+              frames.begin() + i * floats);
+  }
+  return frames;
+}
+
+std::vector<float> Tokenizer::Reconstruct(const float* frames, int64_t n) const {
+  std::vector<uint32_t> codes = Encode(frames, n);
+  return Decode(codes.data(), n);
+}
+
+std::vector<FeatureMap> Tokenizer::EncoderFeatures(const float* frames, int64_t n) const {
+  torch::NoGradGuard no_grad;
+  std::vector<FeatureMap> out;
+  torch::Tensor x = state_->Frames(frames, n);
+  auto keep = [&out](const torch::Tensor& t) {
+    torch::Tensor c = t.to(torch::kCPU).contiguous();
+    out.push_back({c.sizes().vec(), std::vector<float>(c.data_ptr<float>(),
+                                                       c.data_ptr<float>() + c.numel())});
+  };
+  for (auto& layer : *state_->model->encoder) {
+    x = layer.forward(x);
+    if (std::dynamic_pointer_cast<torch::nn::ReLUImpl>(layer.ptr())) keep(x);
+  }
+  keep(x);
+  return out;
+}
+
+std::vector<uint8_t> PlanarToRgb8(const float* planar, int size) {
+  const size_t plane = static_cast<size_t>(size) * size;
+  std::vector<uint8_t> rgb(plane * 3);
+  for (size_t i = 0; i < plane; ++i) {
+    for (int c = 0; c < 3; ++c) {
+      const float v = std::round((planar[c * plane + i] + 1.f) * 127.5f);
+      rgb[3 * i + c] = static_cast<uint8_t>(std::clamp(v, 0.f, 255.f));
+    }
+  }
+  return rgb;
+}
+
+}  // namespace wm::tokenize

@@ -1,0 +1,54 @@
+#pragma once
+// A trained tokenizer loaded from its checkpoint: frames -> codes -> frames. Torch-free
+// interface (the model lives behind a pimpl), used by `wm-tokenize encode/decode`, the
+// dynamics model's evaluation and the lpips_style / fvd_style metrics.
+#include <cstdint>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "tokenize/config.h"
+
+namespace wm::tokenize {
+
+// One encoder activation map, [n, channels, height, width] row-major.
+struct FeatureMap {
+  std::vector<int64_t> shape;
+  std::vector<float> values;
+};
+
+class Tokenizer {
+ public:
+  // `checkpoint`: a run directory or its checkpoint.wmt. `device`: "cpu", "cuda", "cuda:N".
+  // Throws wm::Error naming the file when it is missing, corrupt or not a tokenizer.
+  explicit Tokenizer(const std::string& checkpoint, const std::string& device = "cpu");
+  ~Tokenizer();
+  Tokenizer(const Tokenizer&) = delete;
+  Tokenizer& operator=(const Tokenizer&) = delete;
+
+  const TokenizerConfig& config() const;
+  const std::string& checkpoint_path() const;    // the .wmt file
+  const std::string& checkpoint_sha256() const;  // of the .wmt file
+  const std::string& config_hash() const;
+  int image_size() const { return config().model.image_size; }
+  int grid() const { return config().model.image_size / config().model.patch_size; }
+  int64_t tokens_per_frame() const { return int64_t{grid()} * grid(); }
+
+  // frames: [n, 3, S, S] planar RGB floats in [-1, 1] (tokenize::DecodeFrame's layout).
+  std::vector<uint32_t> Encode(const float* frames, int64_t n) const;  // -> [n, g, g]
+  std::vector<float> Decode(const uint32_t* codes, int64_t n) const;   // -> [n, 3, S, S]
+  // Decode(Encode(frames)), clamped to [-1, 1] like Decode.
+  std::vector<float> Reconstruct(const float* frames, int64_t n) const;
+  // The encoder's activations after each non-linearity (and the pre-quantisation latent),
+  // shallow to deep: the feature stack of the lpips_style / fvd_style metrics.
+  std::vector<FeatureMap> EncoderFeatures(const float* frames, int64_t n) const;
+
+ private:
+  struct State;
+  std::unique_ptr<State> state_;
+};
+
+// Planar [3, S, S] floats in [-1, 1] -> interleaved RGB uint8 [S, S, 3] (rounded, clamped).
+std::vector<uint8_t> PlanarToRgb8(const float* planar, int size);
+
+}  // namespace wm::tokenize
