@@ -76,14 +76,15 @@ TEST_F(TrainTest, MixtureWeightsSetHowOftenEachDatasetIsDrawn) {
             std::string::npos);
 }
 
-TEST_F(TrainTest, LossDecreasesOverThirtySteps) {
-  TrainSummary s = TrainTokenizer(Options("run", 30));
-  EXPECT_EQ(s.end_step, 30);
+TEST_F(TrainTest, LossDecreasesOverSixtySteps) {
+  TrainSummary s = TrainTokenizer(Options("run", 60));
+  EXPECT_EQ(s.end_step, 60);
+  // The data-initialised codebook starts the loss low; 60 steps still cut it by > 30%.
   EXPECT_LT(s.last_loss, 0.7 * s.first_loss) << "first " << s.first_loss;
   EXPECT_TRUE(fs::exists(dir_ / "run/checkpoint.json"));
   const std::string csv = ReadFile(dir_ / "run/metrics.csv");
   EXPECT_EQ(csv.rfind("step,loss,recon_l1,", 0), 0u);
-  EXPECT_EQ(std::count(csv.begin(), csv.end(), '\n'), 1 + 6);  // header + every 5 steps
+  EXPECT_EQ(std::count(csv.begin(), csv.end(), '\n'), 1 + 12);  // header + every 5 steps
 }
 
 TEST_F(TrainTest, SameSeedGivesIdenticalCheckpointBytes) {
