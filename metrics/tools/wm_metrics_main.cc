@@ -1,4 +1,5 @@
-// wm-metrics: frame metrics between reference and predicted images, folders or videos.
+// wm-metrics: frame metrics between reference and predicted images, folders or videos (no
+// subcommand), and one subcommand per further metrics family, each in tools/<name>_command.cc.
 #include <CLI/CLI.hpp>
 #include <iostream>
 
@@ -6,6 +7,9 @@
 #include "core/log.h"
 #include "core/provenance.h"
 #include "metrics/compare.h"
+#include "metrics/tools/scaling_command.h"
+#include "metrics/tools/seg_command.h"
+#include "metrics/tools/value_command.h"
 
 namespace {
 constexpr const char* kFooter = R"(
@@ -13,21 +17,39 @@ Examples:
   wm-metrics --ref real.png --pred imagined.png
   wm-metrics --ref real_frames/ --pred rollout_frames/ --metrics psnr,ssim,ms_ssim --per-frame
   wm-metrics --ref real.mp4 --pred rollout.mp4 --metrics psnr,lpips --lpips-weights lpips_alex.wmt --format csv
+  wm-metrics value --returns returns.csv          # value gap, policy ranking (value --help)
+  wm-metrics scaling --points losses.csv          # scaling-law fit (scaling --help)
 
 Folders are paired by sorted file name; videos frame by frame. JSON output is one object with a
 key per metric ({"psnr": 31.2, "ssim": 0.912, ...}); PSNR of identical frames is "inf".
-Definitions: docs/metrics.md, docs/metrics-lpips.md.
+Definitions: docs/metrics.md, docs/metrics-lpips.md, docs/metrics-value.md.
 Exit codes: 0 success, 1 unreadable input, mismatched sizes or counts (message names the file), 2 usage.)";
+
+// The subcommands; each registers its options and runs from its CLI11 callback.
+constexpr void (*kSubcommands[])(CLI::App&) = {wm::metrics::AddValueCommand,
+                                               wm::metrics::AddScalingCommand,
+                                               wm::metrics::AddSegCommand};
+
+// Frame comparison (no subcommand) needs --ref and --pred; they cannot be CLI11-required, which
+// would demand them of every subcommand too, so the same error is raised here.
+void RequireOptions(const CLI::App& app, std::initializer_list<const char*> names) {
+  for (const char* name : names) {
+    if (app.count(name) == 0) throw CLI::RequiredError(name);
+  }
+}
 }  // namespace
 
 int main(int argc, char** argv) {
   wm::metrics::CompareOptions o;
   std::string format = "json";
-  CLI::App app{"wm-metrics: PSNR, SSIM, MS-SSIM, MSE and LPIPS between frames"};
+  CLI::App app{
+      "wm-metrics: PSNR, SSIM, MS-SSIM, MSE and LPIPS between frames; value and scaling metrics "
+      "as subcommands"};
   app.footer(kFooter);
   app.set_version_flag("--version", wm::VersionString("wm-metrics"));
-  app.add_option("--ref", o.ref, "Reference: image, folder of frames or video")->required();
-  app.add_option("--pred", o.pred, "Prediction: image, folder of frames or video")->required();
+  CLI::Option* ref = app.add_option("--ref", o.ref, "Reference: image, folder of frames or video");
+  CLI::Option* pred =
+      app.add_option("--pred", o.pred, "Prediction: image, folder of frames or video");
   app.add_option("--metrics", o.metrics, "Comma-separated: mse,psnr,ssim,ms_ssim,lpips")
       ->delimiter(',')->capture_default_str();
   app.add_option("--lpips-weights", o.lpips_weights, "LPIPS weights (wmkit tensor archive)");
@@ -36,12 +58,20 @@ int main(int argc, char** argv) {
   app.add_flag("--per-frame", o.per_frame, "Also print every frame's values");
   app.add_option("--format", format, "json or csv")->check(CLI::IsMember({"json", "csv"}))
       ->capture_default_str();
-  CLI11_PARSE(app, argc, argv);
+  for (auto add : kSubcommands) add(app);
+  for (CLI::App* sub : app.get_subcommands([](CLI::App*) { return true; })) {
+    sub->excludes(ref)->excludes(pred);
+  }
   wm::InitLogging("warn");
   try {
+    app.parse(argc, argv);  // a subcommand runs in here
+    if (!app.get_subcommands().empty()) return 0;
+    RequireOptions(app, {"--ref", "--pred"});
     nlohmann::json result = wm::metrics::CompareFrameSets(o);
     std::cout << (format == "json" ? result.dump(2) + "\n"
                                    : wm::metrics::FormatCsv(result, o.metrics));
+  } catch (const CLI::ParseError& e) {
+    return app.exit(e);
   } catch (const std::exception& e) {
     spdlog::error("{}", e.what());
     return 1;
