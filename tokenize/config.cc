@@ -2,6 +2,7 @@
 
 #include <yaml-cpp/yaml.h>
 
+#include <algorithm>
 #include <set>
 #include <sstream>
 
@@ -127,7 +128,8 @@ void ValidateConfig(const TokenizerConfig& c, const std::string& file) {
           "must be a positive multiple of model.patch_size");
   require(m.encoder_channels > 0, "model.encoder_channels", "must be > 0");
   require(m.decoder_channels > 0, "model.decoder_channels", "must be > 0");
-  require(m.min_channels >= 0, "model.min_channels", "must be >= 0");
+  require(m.min_channels >= 0 && m.min_channels <= std::min(m.encoder_channels, m.decoder_channels),
+          "model.min_channels", "must be in [0, min(encoder_channels, decoder_channels)]");
   require(m.encoder_layers >= 0, "model.encoder_layers", "must be >= 0");
   require(m.decoder_layers >= 0, "model.decoder_layers", "must be >= 0");
   require(m.latent_dim > 0, "model.latent_dim", "must be > 0");

@@ -124,6 +124,33 @@ std::vector<FeatureMap> Tokenizer::EncoderFeatures(const float* frames, int64_t 
   return out;
 }
 
+std::vector<double> Tokenizer::PerceptualDistance(const float* a, const float* b,
+                                                  int64_t n) const {
+  torch::NoGradGuard no_grad;
+  std::vector<FeatureMap> fa = EncoderFeatures(a, n), fb = EncoderFeatures(b, n);
+  torch::Tensor total = torch::zeros({n}, torch::kDouble);
+  for (size_t l = 0; l < fa.size(); ++l) {
+    auto unit = [](FeatureMap& f) {
+      torch::Tensor x = torch::from_blob(f.values.data(), f.shape).to(torch::kDouble);
+      return x / (x.pow(2).sum(1, true).sqrt() + 1e-10);  // [n, C, h, w], unit over channels
+    };
+    total += (unit(fa[l]) - unit(fb[l])).pow(2).sum(1).mean({1, 2});  // [n]
+  }
+  return std::vector<double>(total.data_ptr<double>(), total.data_ptr<double>() + n);
+}
+
+std::vector<double> Tokenizer::FrameDescriptors(const float* frames, int64_t n,
+                                                int64_t* dim) const {
+  torch::NoGradGuard no_grad;
+  std::vector<torch::Tensor> pooled;
+  for (FeatureMap& f : EncoderFeatures(frames, n)) {
+    pooled.push_back(torch::from_blob(f.values.data(), f.shape).to(torch::kDouble).mean({2, 3}));
+  }
+  torch::Tensor d = torch::cat(pooled, 1).contiguous();  // [n, sum of channels]
+  *dim = d.size(1);
+  return std::vector<double>(d.data_ptr<double>(), d.data_ptr<double>() + d.numel());
+}
+
 std::vector<uint8_t> PlanarToRgb8(const float* planar, int size) {
   const size_t plane = static_cast<size_t>(size) * size;
   std::vector<uint8_t> rgb(plane * 3);

@@ -43,6 +43,15 @@ class Tokenizer {
   // shallow to deep: the feature stack of the lpips_style / fvd_style metrics.
   std::vector<FeatureMap> EncoderFeatures(const float* frames, int64_t n) const;
 
+  // lpips_style (docs/metrics.md): LPIPS's distance over this encoder's features instead of
+  // AlexNet's — per layer, features unit-normalised over channels, squared difference summed
+  // over channels, averaged over space; summed over layers (LPIPS with all "lin" weights 1).
+  // One value per frame pair; a and b are [n, 3, S, S] like Encode's input.
+  std::vector<double> PerceptualDistance(const float* a, const float* b, int64_t n) const;
+  // Per frame, every EncoderFeatures layer averaged over space and concatenated: [n, dim]
+  // (the frame descriptor of fvd_style clips). Returns dim through `dim`.
+  std::vector<double> FrameDescriptors(const float* frames, int64_t n, int64_t* dim) const;
+
  private:
   struct State;
   std::unique_ptr<State> state_;

@@ -9,6 +9,7 @@
 
 #include "core/error.h"
 #include "core/log.h"
+#include "core/malloc_tuning.h"
 #include "core/provenance.h"
 #include "tokenize/decode.h"
 #include "tokenize/encode.h"
@@ -123,6 +124,7 @@ void AddDecode(CLI::App& app, wm::tokenize::DecodeOptions& o) {
 }  // namespace
 
 int main(int argc, char** argv) {
+  wm::KeepLargeAllocationsInHeap();
   CLI::App app{"wm-tokenize: VQ-VAE video tokenizer for wmkit world models"};
   app.set_version_flag("--version", wm::VersionString("wm-tokenize"));
   app.require_subcommand(1);

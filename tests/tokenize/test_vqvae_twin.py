@@ -1,0 +1,222 @@
+#!/usr/bin/python3
+"""The C++ tokenizer against its PyTorch twin (tests/tokenize/vqvae_twin.py).
+
+Two small C++ checkpoints are trained here (wm-tokenize train, 20 steps, 1 thread) on a tabletop
+set from wm-gen-tabletop + wm-ingest: A with the channel schedule (min_channels 8, 2 stride-2
+levels) and L2-normalised lookup, B with Euclidean lookup, constant width and 3 levels. For each,
+the twin loads checkpoint.wmt with its own archive reader and must give, on the set's frames plus
+random frames (tokenizer_ref_tool runs the C++ side):
+  - identical codes (Tokenizer::Encode), reconstructions and encoder features within 1e-5;
+  - the loss terms of one forward pass within 1e-5, and the same parameter gradients;
+  - trained in Python from the same seed and config (torch.optim.AdamW, the same frame draws),
+    a checkpoint equal to the C++ one bit for bit: weights, AdamW moments, dead-code counters
+    and the dead-code RNG state.
+Also: `wm-tokenize encode` stores the twin's codes; corrupt or missing checkpoints fail cleanly.
+"""
+import json
+import os
+import shutil
+import subprocess
+import sys
+import tempfile
+
+import numpy as np
+import torch
+
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+import vqvae_twin as twin  # noqa: E402
+
+SOURCE = twin.SOURCE
+BIN = os.environ.get("WM_BIN_DIR", os.path.join(SOURCE, "build/bin"))
+TOL = 1e-5
+passed, failures = [], []
+
+CONFIGS = {
+    "A (cosine, min_channels 8)": """
+model: {image_size: 32, patch_size: 4, encoder_channels: 32, encoder_layers: 1,
+        decoder_channels: 32, decoder_layers: 1, min_channels: 8, latent_dim: 8,
+        num_codes: 64, l2_normalize: true, beta: 0.25, dead_code_steps: 5}
+train: {batch_size: 8, steps: 20, max_lr: 3.0e-3, min_lr: 3.0e-4, warmup_steps: 3, threads: 1,
+        seed: 3, checkpoint_every: 20, log_every: 5}
+""",
+    "B (euclidean, constant width)": """
+model: {image_size: 32, patch_size: 8, encoder_channels: 16, encoder_layers: 2,
+        decoder_channels: 24, decoder_layers: 1, min_channels: 0, latent_dim: 6,
+        num_codes: 32, l2_normalize: false, beta: 0.5, dead_code_steps: 4}
+train: {batch_size: 6, steps: 20, max_lr: 2.0e-3, min_lr: 1.0e-4, warmup_steps: 5, threads: 1,
+        seed: 7, checkpoint_every: 20, log_every: 5, weight_decay: 1.0e-3, grad_clip: 0.5}
+""",
+}
+
+
+def check(ok, what):
+    print(("ok    " if ok else "FAIL  ") + what)
+    (passed if ok else failures).append(what)
+
+
+def run(args, **kw):
+    return subprocess.run([str(a) for a in args], check=True, capture_output=True, text=True, **kw)
+
+
+def make_dataset(tmp):
+    raw, shards = os.path.join(tmp, "raw"), os.path.join(tmp, "shards")
+    run([os.path.join(BIN, "wm-gen-tabletop"), "--out", raw, "--train-episodes", 2,
+         "--val-episodes", 1, "--size", 64, "--max-steps", 8, "--seed", 0])
+    run([os.path.join(BIN, "wm-ingest"), "--format", "rlds", "--input",
+         os.path.join(raw, "wm_tabletop/1.0.0"), "--split", "train", "--output", shards,
+         "--configs", os.path.join(SOURCE, "configs"), "--log-level", "warn"])
+    return shards
+
+
+def max_diff(a, b):
+    a, b = np.asarray(a, np.float64), np.asarray(b, np.float64)
+    return float(np.abs(a - b).max()) if a.shape == b.shape else float("inf")
+
+
+def compare_inference(label, model, frames, ref_dir, cpp):
+    x = torch.from_numpy(frames)
+    codes = twin.encode(model, x).numpy()
+    cpp_codes = np.load(os.path.join(ref_dir, "codes.npy"))
+    check(cpp_codes.shape == codes.shape and (cpp_codes == codes).all(),
+          f"{label}: codes {list(codes.shape)} identical ({len(np.unique(codes))} distinct)")
+    err = max_diff(np.load(os.path.join(ref_dir, "reconstruction.npy")),
+                   twin.reconstruct(model, x).numpy())
+    check(err <= TOL, f"{label}: reconstruction max |diff| {err:.1e}")
+    feats = twin.encoder_features(model, x)
+    check([list(f.shape) for f in feats] == cpp["features"],
+          f"{label}: encoder feature shapes {[list(f.shape)[1:] for f in feats]}")
+    errs = [max_diff(np.load(os.path.join(ref_dir, f"features_{k}.npy")), f.numpy())
+            for k, f in enumerate(feats)]
+    check(max(errs) <= TOL, f"{label}: encoder features max |diff| {max(errs):.1e}")
+
+
+def compare_losses(label, model, frames, cpp, grads_path):
+    model.train()
+    out = model(torch.from_numpy(frames))
+    out["loss"].backward()
+    ours = {"loss": out["loss"].item(), "recon_l1": out["recon_l1"].item(),
+            "codebook_loss": out["quant"]["codebook_loss"].item(),
+            "commitment": out["quant"]["commitment"].item()}
+    err = max(abs(ours[k] - cpp["losses"][k]) for k in ours)
+    check(err <= TOL, f"{label}: loss terms max |diff| {err:.1e} "
+          f"({', '.join(f'{k} {v:.5f}' for k, v in ours.items())})")
+    check(abs(out["quant"]["perplexity"] - cpp["losses"]["perplexity"]) <= 1e-9 and
+          out["quant"]["usage"] == cpp["losses"]["usage"], f"{label}: perplexity and usage equal")
+    grads, _ = twin.read_archive(grads_path)
+    names = [n for n, _ in model.named_parameters()]
+    ok = sorted(grads) == sorted("grad/" + n for n in names)
+    worst = max(max_diff(grads["grad/" + n], p.grad.numpy()) /
+                max(1e-12, float(p.grad.abs().max())) for n, p in model.named_parameters())
+    check(ok and worst <= 1e-4, f"{label}: gradients of all {len(names)} parameters, max relative "
+          f"|diff| {worst:.1e} (straight-through and stop-gradients agree)")
+
+
+def train_twin(label, run_dir, shards):
+    """The twin trained in Python reproduces the C++ checkpoint bit for bit."""
+    tensors, header = twin.read_archive(os.path.join(run_dir, "checkpoint.wmt"))
+    meta = header["meta"]
+    config, t = meta["config"], meta["config"]["train"]
+    trainer = twin.Trainer(config)
+    sampler = twin.FrameSampler([shards], config["data"]["image_key"],
+                                config["model"]["image_size"], t["seed"])
+    reseeded = []
+    for step in range(meta["step"]):
+        out = trainer.train_step(sampler.load(sampler.batch_refs(step, t["batch_size"])))
+        reseeded.append(out["reseeded"])
+    ours = {**{"model/" + k: v.numpy() for k, v in trainer.model.state_dict().items()},
+            **{k: v.numpy() for k, v in trainer.moments().items()}}
+    same_names = sorted(ours) == sorted(tensors)
+    unequal = [k for k in tensors if k in ours and not np.array_equal(tensors[k], ours[k])]
+    worst = max([max_diff(tensors[k], ours[k]) for k in unequal], default=0.0)
+    check(same_names and not unequal,
+          f"{label}: twin trained {meta['step']} steps == C++ checkpoint, all {len(tensors)} "
+          f"tensors bit for bit (unequal: {unequal[:3]}{'...' if len(unequal) > 3 else ''}, "
+          f"max |diff| {worst:.1e}; codes re-seeded {sum(reseeded)})")
+    state = trainer.reseed_rng
+    text = " ".join(str(x) for x in state.mt) + f" {state.i}"
+    check(text == meta["rng"]["reseed_mt19937_64"], f"{label}: dead-code RNG state equal")
+    check(trainer.optimizer.state[next(trainer.model.parameters())]["step"].item() ==
+          meta["adamw_step"], f"{label}: AdamW step count {meta['adamw_step']}")
+    check(sum(reseeded) > 0, f"{label}: dead codes were re-seeded (the path is exercised)")
+
+
+def check_encode_cli(label, run_dir, shards, tmp, model):
+    """wm-tokenize encode (C++ JPEG decode + Tokenizer) stores the twin's codes."""
+    sys.path.insert(0, os.path.join(SOURCE, "scripts"))
+    import wmshard
+    out = os.path.join(tmp, "tokens")
+    shutil.rmtree(out, ignore_errors=True)
+    run([os.path.join(BIN, "wm-tokenize"), "encode", "--checkpoint", run_dir, "--data", shards,
+         "--out", out])
+    tokens, sampler = wmshard.TokenDataset(out), twin.FrameSampler([shards], "image", 32, 0)
+    ok = True
+    for k in range(tokens.num_episodes):
+        stored = np.array(tokens.episode(k)["tokens"])
+        ok &= np.array_equal(stored, twin.encode(model, torch.from_numpy(sampler.frames(0, k)))
+                             .numpy().reshape(stored.shape))
+    check(ok, f"{label}: wm-tokenize encode stores the twin's codes ({tokens.num_episodes} "
+          "episodes)")
+
+
+def check_errors(run_dir, frames_path, tmp):
+    tool = os.path.join(BIN, "tokenizer_ref_tool")
+    bad = subprocess.run([tool, "--checkpoint", os.path.join(tmp, "absent.wmt"), "--frames",
+                          frames_path], capture_output=True, text=True)
+    check(bad.returncode == 1 and "absent.wmt" in bad.stderr, "missing checkpoint: exit 1, named")
+    short = os.path.join(tmp, "short.f32")
+    with open(short, "wb") as f:
+        f.write(b"\0" * 100)
+    bad = subprocess.run([tool, "--checkpoint", run_dir, "--frames", short],
+                         capture_output=True, text=True)
+    check(bad.returncode == 1 and "short.f32" in bad.stderr, "partial frame file: exit 1, named")
+    corrupt = os.path.join(tmp, "corrupt.wmt")
+    blob = bytearray(open(os.path.join(run_dir, "checkpoint.wmt"), "rb").read())
+    blob[-3] ^= 0x40  # inside the last tensor
+    open(corrupt, "wb").write(bytes(blob))
+    try:
+        twin.read_archive(corrupt)
+        check(False, "twin reader rejects a flipped bit")
+    except AssertionError as e:
+        check("CRC32C" in str(e), f"twin reader rejects a flipped bit ({e})")
+    bad = subprocess.run([tool, "--checkpoint", corrupt, "--frames", frames_path],
+                         capture_output=True, text=True)
+    check(bad.returncode == 1 and "corrupt.wmt" in bad.stderr, "C++ rejects it too: exit 1")
+
+
+def main():
+    torch.set_num_threads(1)
+    with tempfile.TemporaryDirectory() as tmp:
+        shards = make_dataset(tmp)
+        sampler = twin.FrameSampler([shards], "image", 32, 0)
+        data = np.concatenate([sampler.frames(0, k) for k in range(len(sampler.steps[0]))])
+        noise = np.random.default_rng(0).uniform(-1, 1, (5, 3, 32, 32)).astype(np.float32)
+        frames = np.ascontiguousarray(np.concatenate([data, noise]))  # [n, 3, 32, 32]
+        frames_path = os.path.join(tmp, "frames.f32")
+        frames.tofile(frames_path)
+        for i, (label, yaml) in enumerate(CONFIGS.items()):
+            config, run_dir, ref = (os.path.join(tmp, f"{name}{i}") for name in
+                                    ("config.yaml", "run", "ref"))
+            with open(config, "w") as f:
+                f.write(yaml)
+            run([os.path.join(BIN, "wm-tokenize"), "train", "--config", config, "--data", shards,
+                 "--out", run_dir])
+            grads = os.path.join(ref, "grads.wmt")
+            os.makedirs(ref)
+            cpp = json.loads(run([os.path.join(BIN, "tokenizer_ref_tool"), "--checkpoint",
+                                  run_dir, "--frames", frames_path, "--out-dir", ref, "--losses",
+                                  "--grads", grads]).stdout)
+            model, stored, _ = twin.load_checkpoint(run_dir)
+            check(True, f"{label}: checkpoint loads into the twin, all names and shapes equal")
+            compare_inference(label, model, frames, ref, cpp)
+            compare_losses(label, model, frames, cpp, grads)
+            train_twin(label, run_dir, shards)
+            torch.set_num_threads(1)
+            if i == 0:
+                check_encode_cli(label, run_dir, shards, tmp, model.eval())
+                check_errors(run_dir, frames_path, tmp)
+    print(f"{len(passed)} passed, {len(failures)} failed")
+    return 1 if failures else 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

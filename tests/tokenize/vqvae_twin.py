@@ -1,0 +1,365 @@
+#!/usr/bin/python3
+"""PyTorch twin of wmkit's VQ-VAE tokenizer (tokenize/vqvae.{h,cc}, tokenizer.cc, trainer.cc).
+
+Written from the C++ sources and docs/tokenizer.md, for the reference check
+(tests/tokenize/test_vqvae_twin.py) and the speed comparison (bench/tokenizer_bench.py):
+
+  read_archive(path)     WMTENSR1 reader from the documented layout (docs/metrics-lpips.md
+                         "Weights file"): magic, header, alignment, length, CRC32C of each tensor
+  load_checkpoint(path)  VqVae built from the archive's meta "config", loaded from
+                         "model/<path>"; module paths equal the C++ ones (encoder.0.weight,
+                         quantizer.codebook, quantizer.steps_since_used), all names must match
+  encode, decode, reconstruct, encoder_features
+                         Tokenizer's API (chunks of 64 frames, no grad)
+  Trainer                one step of wm-tokenize train: the same init order, frame sampler
+                         (SplitMix64), code seeding and dead-code draws (mt19937_64), lr
+                         schedule, grad clipping and torch.optim.AdamW
+"""
+import json
+import math
+import os
+import struct
+import sys
+
+import crc32c
+import cv2
+import numpy as np
+import torch
+import torch.nn.functional as F
+from torch import nn
+
+SOURCE = os.environ.get("WM_SOURCE_DIR", os.path.join(os.path.dirname(os.path.abspath(__file__)),
+                                                      "..", ".."))
+DTYPES = {"float32": "<f4", "float64": "<f8", "float16": "<f2", "int32": "<i4", "int64": "<i8",
+          "uint8": "u1"}
+# ModelConfig's defaults (tokenize/config.h): ConfigFromJson keeps them for absent keys.
+MODEL_DEFAULTS = {"image_size": 64, "patch_size": 8, "encoder_channels": 64, "encoder_layers": 1,
+                  "decoder_channels": 64, "decoder_layers": 1, "min_channels": 0, "latent_dim": 32,
+                  "num_codes": 1024, "l2_normalize": True, "beta": 0.25, "dead_code_steps": 100}
+CHUNK = 64  # tokenizer.cc kChunk: frames per forward pass
+M64 = (1 << 64) - 1
+
+
+def read_archive(path):
+    """{name: ndarray} and the header of a wmkit tensor archive; AssertionError on any defect."""
+    with open(path, "rb") as f:
+        blob = f.read()
+    assert blob[:8] == b"WMTENSR1", f"{path}: bad magic {blob[:8]!r}"
+    (n,) = struct.unpack_from("<Q", blob, 8)
+    header = json.loads(blob[16:16 + n].decode("utf-8"))
+    assert header["format"] == "wmkit-tensors" and header["version"] == 1, f"{path}: format"
+    start = 16 + n
+    assert start % 64 == 0 and header["data_length"] % 64 == 0, f"{path}: alignment"
+    assert len(blob) == start + header["data_length"], f"{path}: truncated or appended bytes"
+    out = {}
+    for name, e in header["tensors"].items():
+        dtype = np.dtype(DTYPES[e["dtype"]])
+        assert e["offset"] % 64 == 0, f"{path}: {name}: offset {e['offset']}"
+        assert e["length"] == int(np.prod(e["shape"], dtype=np.int64)) * dtype.itemsize, name
+        assert e["offset"] + e["length"] <= header["data_length"], f"{path}: {name}: bounds"
+        raw = blob[start + e["offset"]:start + e["offset"] + e["length"]]
+        assert crc32c.crc32c(raw) == e["crc32c"], f"{path}: {name}: CRC32C mismatch"
+        out[name] = np.frombuffer(raw, dtype).reshape(e["shape"]).copy()
+    return out, header
+
+
+def model_config(config_json):
+    """The "model" section of a stored TokenizerConfig, defaults filled in."""
+    return {**MODEL_DEFAULTS, **config_json.get("model", {})}
+
+
+class ResBlock(nn.Module):
+    """x + conv1x1(relu(conv3x3(relu(x)))), as vqvae.cc ResBlockImpl."""
+
+    def __init__(self, channels):
+        super().__init__()
+        self.conv1 = nn.Conv2d(channels, channels, 3, padding=1)
+        self.conv2 = nn.Conv2d(channels, channels, 1)
+
+    def forward(self, x):
+        return x + self.conv2(torch.relu(self.conv1(torch.relu(x))))
+
+
+class VectorQuantizer(nn.Module):
+    def __init__(self, num_codes, dim, l2_normalize):
+        super().__init__()
+        self.num_codes, self.dim, self.l2_normalize = num_codes, dim, l2_normalize
+        init = (torch.randn(num_codes, dim) if l2_normalize else
+                torch.empty(num_codes, dim).uniform_(-1.0 / num_codes, 1.0 / num_codes))
+        self.codebook = nn.Parameter(init)  # [K, D]
+        self.register_buffer("steps_since_used", torch.zeros(num_codes, dtype=torch.int64))
+
+    def codes(self):
+        return F.normalize(self.codebook, dim=1) if self.l2_normalize else self.codebook
+
+    def forward(self, z_e):
+        B, D, h, w = z_e.shape
+        flat = z_e.permute(0, 2, 3, 1).reshape(-1, D)  # [N, D]
+        codes = self.codebook
+        if self.l2_normalize:
+            flat, codes = F.normalize(flat, dim=1), F.normalize(codes, dim=1)
+        # ||z||^2 - 2 z.e + ||e||^2, the same expression (and kernels) as the C++.
+        dist = flat.pow(2).sum(1, True) - 2 * flat.mm(codes.t()) + codes.pow(2).sum(1).unsqueeze(0)
+        idx = dist.argmin(1)  # [N]
+        q = codes.index_select(0, idx)  # [N, D]
+        st = flat + (q - flat).detach()  # straight-through: forward = code, grad -> z_e
+        counts = torch.bincount(idx, minlength=self.num_codes).double()
+        p = counts / idx.shape[0]
+        return {"z_q": st.view(B, h, w, D).permute(0, 3, 1, 2).contiguous(),  # [B, D, h, w]
+                "indices": idx.view(B, h, w),
+                "codebook_loss": F.mse_loss(q, flat.detach()),  # VQ-VAE eq. 3, second term
+                "commitment": F.mse_loss(flat, q.detach()),  # third term (x beta)
+                "flat_latents": flat.detach(),
+                "perplexity": torch.exp(-(p * torch.log(p + 1e-10)).sum()).item(),
+                "usage": (counts > 0).sum().item() / self.num_codes}
+
+    def lookup(self, indices):  # [B, h, w] -> [B, D, h, w]
+        B, h, w = indices.shape
+        return self.codes().index_select(0, indices.flatten()).view(B, h, w, self.dim) \
+            .permute(0, 3, 1, 2).contiguous()
+
+    @torch.no_grad()
+    def seed_from_latents(self, z_e, rng):
+        flat = z_e.permute(0, 2, 3, 1).reshape(-1, self.dim)
+        if self.l2_normalize:
+            flat = F.normalize(flat, dim=1)
+        src = torch.tensor([rng() % flat.shape[0] for _ in range(self.num_codes)])
+        self.codebook.copy_(flat.index_select(0, src))
+
+    @torch.no_grad()
+    def update_usage_and_reseed(self, out, dead_after, rng):
+        used = torch.bincount(out["indices"].flatten(), minlength=self.num_codes) > 0
+        self.steps_since_used.add_(1).masked_fill_(used, 0)
+        if dead_after <= 0:
+            return 0
+        dead = (self.steps_since_used >= dead_after).nonzero().flatten()
+        if dead.numel() == 0:
+            return 0
+        pool = out["flat_latents"].shape[0]
+        src = torch.tensor([rng() % pool for _ in range(dead.numel())])
+        self.codebook.index_copy_(0, dead, out["flat_latents"].index_select(0, src))
+        self.steps_since_used.index_fill_(0, dead, 0)
+        return dead.numel()
+
+
+class VqVae(nn.Module):
+    """VqVaeImpl: modules are created in the C++ order, so torch.manual_seed gives the same
+    initial weights, and registered in its order (encoder, decoder, quantizer)."""
+
+    def __init__(self, c):
+        super().__init__()
+        self.beta = c["beta"]
+        downs = int(math.log2(c["patch_size"]))
+        mc = c["min_channels"]
+
+        def width(channels, level):  # halved per level above the token grid, floor min_channels
+            return max(mc, channels >> level) if mc > 0 else channels
+
+        ce, cd, d = c["encoder_channels"], c["decoder_channels"], c["latent_dim"]
+        enc = [nn.Conv2d(3, width(ce, downs), 3, padding=1), nn.ReLU()]  # [B, C, H, W]
+        for level in range(downs, 0, -1):  # each halves H and W
+            enc += [nn.Conv2d(width(ce, level), width(ce, level - 1), 4, stride=2, padding=1),
+                    nn.ReLU()]
+        enc += [ResBlock(ce) for _ in range(c["encoder_layers"])]
+        enc += [nn.ReLU(), nn.Conv2d(ce, d, 1)]  # [B, D, h, w]
+        encoder = nn.Sequential(*enc)
+        dec = [nn.Conv2d(d, cd, 3, padding=1)]
+        dec += [ResBlock(cd) for _ in range(c["decoder_layers"])]
+        for level in range(downs):  # each doubles H and W
+            dec += [nn.ReLU(), nn.ConvTranspose2d(width(cd, level), width(cd, level + 1), 4,
+                                                  stride=2, padding=1)]
+        dec += [nn.ReLU(), nn.Conv2d(width(cd, downs), 3, 3, padding=1)]  # [B, 3, H, W]
+        decoder = nn.Sequential(*dec)
+        self.encoder, self.decoder = encoder, decoder
+        self.quantizer = VectorQuantizer(c["num_codes"], d, c["l2_normalize"])
+
+    def forward(self, images):  # [B, 3, H, W] in [-1, 1]
+        quant = self.quantizer(self.encoder(images))
+        recon = self.decoder(quant["z_q"])
+        recon_l1 = (recon - images).abs().mean()
+        loss = recon_l1 + quant["codebook_loss"] + self.beta * quant["commitment"]
+        return {"reconstruction": recon, "quant": quant, "recon_l1": recon_l1, "loss": loss}
+
+
+def load_checkpoint(path):
+    """(VqVae in eval mode, full config JSON, archive header) from a run dir or .wmt file."""
+    if os.path.isdir(path):
+        path = os.path.join(path, "checkpoint.wmt")
+    tensors, header = read_archive(path)
+    config = header["meta"]["config"]
+    model = VqVae(model_config(config))
+    state = {k[len("model/"):]: torch.from_numpy(v) for k, v in tensors.items()
+             if k.startswith("model/")}
+    own = model.state_dict()
+    assert sorted(state) == sorted(own), \
+        f"{path}: names differ: archive only {sorted(set(state) - set(own))}, " \
+        f"twin only {sorted(set(own) - set(state))}"
+    for k, v in state.items():
+        assert v.dtype == own[k].dtype and v.shape == own[k].shape, \
+            f"{path}: {k}: archive {v.dtype}{list(v.shape)}, " \
+            f"twin {own[k].dtype}{list(own[k].shape)}"
+    model.load_state_dict(state)
+    return model.eval(), config, header
+
+
+@torch.no_grad()
+def encode(model, frames):  # [n, 3, S, S] -> [n, g, g] int64
+    return torch.cat([model.quantizer(model.encoder(frames[i:i + CHUNK]))["indices"]
+                      for i in range(0, len(frames), CHUNK)])
+
+
+@torch.no_grad()
+def decode(model, codes):  # [n, g, g] -> [n, 3, S, S], clamped like Tokenizer::Decode
+    return torch.cat([model.decoder(model.quantizer.lookup(codes[i:i + CHUNK])).clamp(-1, 1)
+                      for i in range(0, len(codes), CHUNK)])
+
+
+def reconstruct(model, frames):
+    return decode(model, encode(model, frames))
+
+
+@torch.no_grad()
+def encoder_features(model, frames):
+    """Activations after each encoder ReLU, then the latent (Tokenizer::EncoderFeatures)."""
+    out, x = [], frames
+    for layer in model.encoder:
+        x = layer(x)
+        if isinstance(layer, nn.ReLU):
+            out.append(x)
+    return out + [x]
+
+
+class Mt19937_64:
+    """std::mt19937_64 (seed, operator()): the C++ code-seeding and dead-code draws."""
+
+    def __init__(self, seed):
+        self.mt = [seed & M64]
+        for i in range(1, 312):
+            prev = self.mt[-1]
+            self.mt.append((6364136223846793005 * (prev ^ (prev >> 62)) + i) & M64)
+        self.i = 312
+
+    def __call__(self):
+        if self.i >= 312:
+            mt = self.mt
+            for k in range(312):
+                y = (mt[k] & 0xFFFFFFFF80000000) | (mt[(k + 1) % 312] & 0x7FFFFFFF)
+                mt[k] = mt[(k + 156) % 312] ^ (y >> 1) ^ (0xB5026F5AA96619E9 if y & 1 else 0)
+            self.i = 0
+        y = self.mt[self.i]
+        self.i += 1
+        y ^= (y >> 29) & 0x5555555555555555
+        y ^= (y << 17) & 0x71D67FFFEDA60000
+        y ^= (y << 37) & 0xFFF7EEE000000000
+        return y ^ (y >> 43)
+
+
+def mix64(x):
+    """SplitMix64's finaliser (tokenize/frame_sampler.cc Mix64)."""
+    x = (x + 0x9E3779B97F4A7C15) & M64
+    x = ((x ^ (x >> 30)) * 0xBF58476D1CE4E5B9) & M64
+    x = ((x ^ (x >> 27)) * 0x94D049BB133111EB) & M64
+    return x ^ (x >> 31)
+
+
+def decode_frame(encoded, size):
+    """tokenize::DecodeFrame: imdecode, BGR->RGB, INTER_AREA resize, [3, S, S] in [-1, 1]."""
+    bgr = cv2.imdecode(np.frombuffer(encoded, np.uint8), cv2.IMREAD_COLOR)
+    rgb = cv2.cvtColor(bgr, cv2.COLOR_BGR2RGB)
+    if rgb.shape[:2] != (size, size):
+        rgb = cv2.resize(rgb, (size, size), interpolation=cv2.INTER_AREA)
+    # C order: a channels-last array would send the convolutions down another oneDNN path, whose
+    # sums round differently from the C++ run's.
+    planar = np.ascontiguousarray(rgb.transpose(2, 0, 1)).astype(np.float32)
+    return planar / np.float32(127.5) - np.float32(1)
+
+
+class FrameSampler:
+    """tokenize::FrameSampler without a mixture file: dataset by step count, episode, step; each
+    draw a SplitMix64 hash of (seed, step, slot). Decoded episodes are cached (`frames`)."""
+
+    def __init__(self, dirs, image_key, size, seed):
+        sys.path.insert(0, os.path.join(SOURCE, "scripts"))
+        import wmshard
+        self.datasets = [wmshard.Dataset(d) for d in dirs]
+        self.image_key, self.size, self.seed, self.cache = image_key, size, seed, {}
+        counts = [float(d.index["num_steps"]) for d in self.datasets]
+        self.prefix = list(np.cumsum(counts) / sum(counts))
+        self.prefix[-1] = 1.0
+        self.steps = []  # per dataset: num_steps of each episode, from the shard footers
+        for d in self.datasets:
+            self.steps.append([e[2] for j in range(len(d.index["shards"]))
+                               for e in d.shard(j).entries])
+
+    def batch_refs(self, step, batch_size):
+        refs = []
+        for b in range(batch_size):
+            key = mix64(self.seed ^ mix64((step * 0x10000 + b) & M64))
+            u = (mix64((key + 1) & M64) >> 11) * 2.0 ** -53
+            ds = 0
+            while ds + 1 < len(self.prefix) and u >= self.prefix[ds]:
+                ds += 1
+            episode = mix64((key + 2) & M64) % len(self.steps[ds])
+            refs.append((ds, episode, mix64((key + 3) & M64) % self.steps[ds][episode]))
+        return refs
+
+    def frames(self, ds, episode):  # [T, 3, S, S] float32
+        if (ds, episode) not in self.cache:
+            blobs = self.datasets[ds].episode(episode)[2][self.image_key]
+            self.cache[ds, episode] = np.stack([decode_frame(b, self.size) for b in blobs])
+        return self.cache[ds, episode]
+
+    def load(self, refs):  # [B, 3, S, S]
+        return torch.from_numpy(np.stack([self.frames(d, e)[s] for d, e, s in refs])).contiguous()
+
+
+def learning_rate_at(t, step):
+    """trainer.cc LearningRateAt: linear warmup, then cosine to min_lr at train.steps."""
+    if step < t["warmup_steps"]:
+        return t["max_lr"] * (step + 1) / t["warmup_steps"]
+    span = max(1, t["steps"] - t["warmup_steps"])
+    progress = min(1.0, (step - t["warmup_steps"]) / span)
+    return t["min_lr"] + 0.5 * (t["max_lr"] - t["min_lr"]) * (1.0 + math.cos(math.pi * progress))
+
+
+class Trainer:
+    """wm-tokenize train's step loop (trainer.cc TrainTokenizer) on CPU, with torch.optim.AdamW.
+    `config` is the full TokenizerConfig JSON; "train" needs every key (checkpoints store all)."""
+
+    def __init__(self, config):
+        self.cfg, self.t = model_config(config), config["train"]
+        torch.set_num_threads(self.t["threads"])
+        torch.use_deterministic_algorithms(True)
+        torch.manual_seed(self.t["seed"])
+        self.model = VqVae(self.cfg)
+        self.optimizer = torch.optim.AdamW(self.model.parameters(), lr=self.t["max_lr"],
+                                           betas=(self.t["beta1"], self.t["beta2"]), eps=1e-8,
+                                           weight_decay=self.t["weight_decay"])
+        self.reseed_rng = Mt19937_64(self.t["seed"] ^ 0x9E3779B97F4A7C15)
+        self.step = 0
+
+    def train_step(self, images):  # [B, 3, S, S]; returns the forward's output dict
+        for group in self.optimizer.param_groups:
+            group["lr"] = learning_rate_at(self.t, self.step)
+        self.optimizer.zero_grad(set_to_none=False)
+        if self.step == 0:
+            self.model.quantizer.seed_from_latents(self.model.encoder(images), self.reseed_rng)
+        out = self.model(images)
+        out["loss"].backward()
+        if self.t["grad_clip"] > 0:
+            nn.utils.clip_grad_norm_(self.model.parameters(), self.t["grad_clip"])
+        self.optimizer.step()
+        out["reseeded"] = self.model.quantizer.update_usage_and_reseed(
+            out["quant"], self.cfg["dead_code_steps"], self.reseed_rng)
+        self.step += 1
+        return out
+
+    def moments(self):
+        """{"adamw/exp_avg/<path>": ..., "adamw/exp_avg_sq/<path>": ...} like the checkpoint."""
+        out = {}
+        for name, p in self.model.named_parameters():
+            state = self.optimizer.state.get(p, {})
+            for key in ("exp_avg", "exp_avg_sq"):
+                if key in state:
+                    out[f"adamw/{key}/{name}"] = state[key]
+        return out
