@@ -3,6 +3,7 @@
 #   1. ingest throughput vs the OpenCV decode bound (generated 128x128 tabletop set)
 #   2. SSIM + PSNR vs scikit-image on 256x256 RGB pairs
 #   3. LPIPS vs the PyTorch reference on the same (random) weights
+#   4. tokenizer training and encoding vs its PyTorch twin (needs tokenizer_ref_tool: tests on)
 set -euo pipefail
 BIN=${1:-build/bin}
 WORK=${BENCH_DIR:-/tmp/wmkit-bench}
@@ -16,3 +17,7 @@ echo "== metrics: SSIM + PSNR"
 /usr/bin/python3 bench/metrics_bench.py --bin "$BIN"
 echo "== metrics: LPIPS"
 /usr/bin/python3 bench/lpips_bench.py --bin "$BIN"
+echo "== dynamics: training tokens/s vs the PyTorch twin"
+/usr/bin/python3 bench/dynamics_bench.py --bin "$BIN"
+echo "== tokenizer: wm-tokenize vs the PyTorch twin"
+/usr/bin/python3 bench/tokenizer_bench.py --bin "$BIN"

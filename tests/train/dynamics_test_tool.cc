@@ -1,0 +1,153 @@
+// dynamics_test_tool: fixtures for the Python checks of the dynamics model.
+//   make-tokens --out DIR ...        a moving-block token dataset (tests/train/moving_block.h)
+//   reference --out FILE [--rmsnorm] [--no-policy]
+//                                    a tensor archive with random weights ("model/..."), inputs
+//                                    ("input/...") and the C++ outputs ("output/...") of one
+//                                    forward + losses, for the PyTorch twin (dynamics_twin.py)
+//   eval-next-frame --run DIR --tokens DIR [--frames K] [--max-windows N]
+//                                    next-frame token accuracy of MaskGIT decoding (argmax) through
+//                                    the public API vs copying the last context frame
+#include <CLI/CLI.hpp>
+#include <iostream>
+
+#include "core/error.h"
+#include "core/tensor_archive.h"
+#include "core/tokens/token_dataset.h"
+#include "tests/train/moving_block.h"
+#include "tests/train/test_config.h"
+#include "tokenize/module_archive.h"
+#include "train/dynamics_model.h"
+#include "train/world_model.h"
+
+namespace {
+using namespace wm::train;
+
+void WriteReference(const std::string& path, bool rmsnorm, bool policy, uint64_t seed) {
+  DynamicsConfig c = test::TinyConfig(policy);
+  c.model.norm = rmsnorm ? "rmsnorm" : "layernorm";
+  c.train.reward_weight = 0.7;
+  c.train.terminal_weight = 0.3;
+  c.train.policy_weight = 0.9;
+  torch::manual_seed(seed);
+  WorldModel m(c);
+  {
+    torch::NoGradGuard no_grad;  // non-trivial norm weights and biases, so the twin checks them
+    for (auto& p : m->named_parameters()) {
+      if (p.key().find("norm") != std::string::npos)
+        p.value().add_(torch::randn_like(p.value()) * 0.1);
+    }
+  }
+  const int64_t B = 2, T = c.model.context_frames, N = int64_t{c.model.grid_h} * c.model.grid_w;
+  SegmentBatch b;
+  b.tokens = torch::randint(c.model.num_codes, {B, T, N}, torch::kInt64);
+  b.actions = torch::randn({B, T, 7});
+  b.rewards = torch::rand({B, T});
+  b.terminals = (torch::rand({B, T}) > 0.7).to(torch::kFloat);
+  b.mask = TrainingMask(torch::rand({B, T}), torch::rand({B, T, N}), torch::rand({B, T}), 0.7);
+  b.z_noise = torch::rand({B, c.policy.categories, c.policy.classes});
+  WorldModelLosses l = m->Losses(b);
+  wm::TensorArchiveWriter w;
+  wm::tokenize::AddModule(w, "model/", *m);
+  wm::tokenize::AddTensor(w, "input/tokens", b.tokens);
+  wm::tokenize::AddTensor(w, "input/actions", b.actions);
+  wm::tokenize::AddTensor(w, "input/rewards", b.rewards);
+  wm::tokenize::AddTensor(w, "input/terminals", b.terminals);
+  wm::tokenize::AddTensor(w, "input/mask", b.mask.to(torch::kInt64));
+  wm::tokenize::AddTensor(w, "input/z_noise", b.z_noise);
+  torch::NoGradGuard no_grad;
+  torch::Tensor masked = b.tokens.masked_fill(b.mask, c.model.num_codes);
+  torch::Tensor z = m->DynamicsZ(b.tokens, b.actions);
+  DynamicsOutput out = m->Dynamics(masked, b.actions, z);
+  wm::tokenize::AddTensor(w, "output/logits", out.logits);
+  wm::tokenize::AddTensor(w, "output/reward", out.reward);
+  wm::tokenize::AddTensor(w, "output/terminal_logit", out.terminal_logit);
+  nlohmann::json losses = {{"token_ce", l.token_ce.item<double>()},
+                           {"reward_mse", l.reward_mse.item<double>()},
+                           {"terminal_bce", l.terminal_bce.item<double>()},
+                           {"total", l.total.item<double>()}};
+  if (policy) {
+    PolicyOutput po = m->policy->forward(b.tokens, b.actions, b.z_noise);
+    wm::tokenize::AddTensor(w, "output/z", z);
+    wm::tokenize::AddTensor(w, "output/prior_logits", po.prior_logits);
+    wm::tokenize::AddTensor(w, "output/posterior_logits", po.posterior_logits);
+    wm::tokenize::AddTensor(w, "output/action_mean", po.action_mean);
+    wm::tokenize::AddTensor(w, "output/action_log_std", po.action_log_std);
+    losses["policy_nll"] = l.policy->nll.item<double>();
+    losses["policy_kl"] = l.policy->kl.item<double>();
+  }
+  w.SetMeta({{"config", ConfigToJson(c)}, {"losses", losses}});
+  w.Write(path);
+}
+
+void EvalNextFrame(const std::string& run, const std::string& dir, int frames, int max_windows) {
+  auto model = DynamicsModel::Load(run, "cpu", "", 1);
+  wm::tokens::TokenDataset data(dir);
+  const int64_t N = data.tokens_per_frame();
+  int64_t hits = 0, copy_hits = 0, total = 0, windows = 0;
+  for (int64_t k = 0; k < data.num_episodes() && windows < max_windows; ++k) {
+    const int64_t F = data.episode(k).num_frames;
+    for (int64_t t = frames; t < F && windows < max_windows; t += frames, ++windows) {
+      FrameContext c{.batch = 1, .frames = frames};
+      std::vector<int64_t> all((frames + 1) * N);
+      data.CopyTokens(k, t - frames, frames + 1, all.data());
+      c.tokens.assign(all.begin(), all.begin() + frames * N);
+      c.actions.assign(data.actions(k) + (t - frames) * 7, data.actions(k) + t * 7);
+      const auto next = model->PredictNextFrame(c, 0, 0, 0.0);
+      for (int64_t i = 0; i < N; ++i) {
+        hits += next[i] == all[frames * N + i];
+        copy_hits += all[(frames - 1) * N + i] == all[frames * N + i];
+      }
+      total += N;
+    }
+  }
+  std::cout << "windows " << windows << ", next-frame token accuracy: model "
+            << double(hits) / total << ", copy-last-frame " << double(copy_hits) / total << "\n";
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  CLI::App app{"dynamics_test_tool: fixtures for the dynamics model's Python checks"};
+  app.require_subcommand(1);
+  test::MovingBlockOptions mb;
+  std::string tokens_out;
+  auto* make = app.add_subcommand("make-tokens", "Write a moving-block token dataset");
+  make->add_option("--out", tokens_out)->required();
+  make->add_option("--dataset", mb.dataset);
+  make->add_option("--episodes", mb.episodes);
+  make->add_option("--steps", mb.steps);
+  make->add_option("--grid", mb.grid_h);
+  make->add_option("--codes", mb.num_codes);
+  make->add_option("--seed", mb.seed);
+  std::string ref_out;
+  bool rmsnorm = false, no_policy = false;
+  uint64_t seed = 0;
+  auto* ref = app.add_subcommand("reference", "Write weights, inputs and C++ outputs");
+  ref->add_option("--out", ref_out)->required();
+  ref->add_flag("--rmsnorm", rmsnorm);
+  ref->add_flag("--no-policy", no_policy);
+  ref->add_option("--seed", seed);
+  std::string eval_run, eval_tokens;
+  int eval_frames = 5, eval_windows = 200;
+  auto* eval = app.add_subcommand("eval-next-frame", "Next-frame accuracy vs copying");
+  eval->add_option("--run", eval_run)->required();
+  eval->add_option("--tokens", eval_tokens)->required();
+  eval->add_option("--frames", eval_frames);
+  eval->add_option("--max-windows", eval_windows);
+  CLI11_PARSE(app, argc, argv);
+  try {
+    torch::set_num_threads(1);
+    if (make->parsed()) {
+      mb.grid_w = mb.grid_h;
+      test::WriteMovingBlockTokens(tokens_out, mb);
+    } else if (ref->parsed()) {
+      WriteReference(ref_out, rmsnorm, !no_policy, seed);
+    } else {
+      EvalNextFrame(eval_run, eval_tokens, eval_frames, eval_windows);
+    }
+  } catch (const std::exception& e) {
+    std::cerr << "dynamics_test_tool: error: " << e.what() << "\n";
+    return 1;
+  }
+  return 0;
+}

@@ -1,0 +1,218 @@
+#!/usr/bin/python3
+"""PyTorch twin of wmkit's dynamics model (train/world_model.h), written in plain PyTorch from the
+description in docs/dynamics.md, with the C++ parameter names so a wm-train tensor archive loads
+with load_state_dict(strict=True). Used by test_dynamics_twin.py (forward equality to 1e-5) and
+bench/dynamics_bench.py (training speed)."""
+import json
+import math
+import struct
+
+import numpy as np
+import torch
+import torch.nn.functional as F
+from torch import nn
+
+ACTION_DIM = 7
+
+
+def read_archive(path):
+    """{name: ndarray}, meta of a WMTENSR1 archive (docs/metrics-lpips.md)."""
+    blob = open(path, "rb").read()
+    assert blob[:8] == b"WMTENSR1", "magic"
+    n = struct.unpack_from("<Q", blob, 8)[0]
+    header = json.loads(blob[16:16 + n])
+    dtypes = {"float32": "<f4", "int64": "<i8", "float64": "<f8", "int32": "<i4", "uint8": "u1"}
+    out = {}
+    for name, e in header["tensors"].items():
+        start = 16 + n + e["offset"]
+        out[name] = np.frombuffer(blob[start:start + e["length"]], dtypes[e["dtype"]]).reshape(
+            e["shape"]).copy()
+    return out, header.get("meta", {})
+
+
+class Norm(nn.Module):
+    def __init__(self, dim, rms):
+        super().__init__()
+        self.rms = rms
+        self.weight = nn.Parameter(torch.ones(dim))
+        if not rms:
+            self.bias = nn.Parameter(torch.zeros(dim))
+
+    def forward(self, x):
+        if self.rms:
+            return x * torch.rsqrt(x.pow(2).mean(-1, keepdim=True) + 1e-6) * self.weight
+        return F.layer_norm(x, (x.shape[-1],), self.weight, self.bias, 1e-5)
+
+
+class Attention(nn.Module):
+    def __init__(self, dim, heads):
+        super().__init__()
+        self.heads = heads
+        self.qkv = nn.Linear(dim, 3 * dim)
+        self.proj = nn.Linear(dim, dim)
+
+    def forward(self, x, causal):
+        m, l, d = x.shape
+        q, k, v = self.qkv(x).view(m, l, 3, self.heads, d // self.heads).permute(2, 0, 3, 1, 4)
+        scores = q @ k.transpose(-2, -1) / math.sqrt(d // self.heads)
+        if causal:
+            future = torch.ones(l, l, dtype=torch.bool, device=x.device).triu(1)
+            scores = scores.masked_fill(future, float("-inf"))
+        return self.proj((scores.softmax(-1) @ v).transpose(1, 2).reshape(m, l, d))
+
+
+class StBlock(nn.Module):
+    def __init__(self, dim, heads, mlp_ratio, rms, causal_time=True):
+        super().__init__()
+        self.causal_time = causal_time
+        self.norm1, self.norm2, self.norm3 = Norm(dim, rms), Norm(dim, rms), Norm(dim, rms)
+        self.spatial, self.temporal = Attention(dim, heads), Attention(dim, heads)
+        self.fc1, self.fc2 = nn.Linear(dim, mlp_ratio * dim), nn.Linear(mlp_ratio * dim, dim)
+
+    def forward(self, x):
+        b, t, n, d = x.shape
+        x = x.reshape(b * t, n, d)
+        x = x + self.spatial(self.norm1(x), False)
+        x = x.view(b, t, n, d).transpose(1, 2).reshape(b * n, t, d)
+        x = x + self.temporal(self.norm2(x), self.causal_time)
+        x = x.view(b, n, t, d).transpose(1, 2)
+        return x + self.fc2(F.gelu(self.fc1(self.norm3(x))))
+
+
+class StTransformer(nn.Module):
+    def __init__(self, dim, heads, mlp_ratio, rms, layers, causal_time=True):
+        super().__init__()
+        self.blocks = nn.ModuleList(
+            [StBlock(dim, heads, mlp_ratio, rms, causal_time) for _ in range(layers)])
+        self.norm = Norm(dim, rms)
+
+    def forward(self, x):
+        for block in self.blocks:
+            x = block(x)
+        return self.norm(x)
+
+
+class PolicyEmbedding(nn.Module):
+    def __init__(self, m, p):
+        super().__init__()
+        d, zdim, n = p["d_model"], p["categories"] * p["classes"], m["grid_h"] * m["grid_w"]
+        rms = m["norm"] == "rmsnorm"
+        self.p = p
+        self.token_embed = nn.Embedding(m["num_codes"], d)
+        self.spatial_pos = nn.Parameter(torch.zeros(n, d))
+        self.temporal_pos = nn.Parameter(torch.zeros(m["context_frames"], d))
+        self.posterior_action = nn.Linear(ACTION_DIM, d)
+        self.prior_action = nn.Linear(ACTION_DIM, d)
+        self.decoder_prev_action = nn.Linear(ACTION_DIM, d)
+        self.decoder_z = nn.Linear(zdim, d)
+        self.decoder_start = nn.Parameter(torch.zeros(d))
+        args = (d, p["num_heads"], m["mlp_ratio"], rms)
+        self.posterior = StTransformer(*args, p["posterior_layers"], causal_time=False)
+        self.prior = StTransformer(*args, p["prior_layers"])
+        self.decoder = StTransformer(*args, p["decoder_layers"])
+        self.posterior_head = nn.Linear(d, zdim)
+        self.prior_head = nn.Linear(d, zdim)
+        self.decoder_head = nn.Linear(d, 2 * ACTION_DIM)
+
+    def embed(self, tokens, extra):
+        t = tokens.shape[1]
+        return self.token_embed(tokens) + self.spatial_pos + (
+            self.temporal_pos[:t] + extra).unsqueeze(2)
+
+    def prior_logits(self, tokens, actions):
+        b, t = tokens.shape[:2]
+        h = self.prior(self.embed(tokens, self.prior_action(actions))).mean(2)
+        return self.prior_head(h).view(b, t, self.p["categories"], self.p["classes"])
+
+    def forward(self, tokens, actions, noise):
+        b, t = tokens.shape[:2]
+        c, k = self.p["categories"], self.p["classes"]
+        hq = self.posterior(self.embed(tokens, self.posterior_action(actions)))
+        post = self.posterior_head(hq.mean((1, 2))).view(b, c, k)
+        prior = self.prior_logits(tokens, actions)
+        index = (post.detach() - torch.log(-torch.log(noise))).argmax(-1)
+        probs = post.softmax(-1)
+        z = (F.one_hot(index, k).to(post.dtype) + probs - probs.detach()).view(b, c * k)
+        prev = torch.cat([self.decoder_start.expand(b, 1, -1),
+                          self.decoder_prev_action(actions[:, :t - 1])], 1)
+        hd = self.decoder(self.embed(tokens, prev + self.decoder_z(z).unsqueeze(1))).mean(2)
+        mean, log_std = self.decoder_head(hd).chunk(2, -1)
+        return post, prior, mean, log_std.clamp(self.p["log_std_min"], self.p["log_std_max"])
+
+
+class DynamicsNet(nn.Module):
+    def __init__(self, m, z_dim):
+        super().__init__()
+        d, n = m["d_model"], m["grid_h"] * m["grid_w"]
+        self.z_dim = z_dim
+        self.token_embed = nn.Embedding(m["num_codes"] + 1, d)
+        self.spatial_pos = nn.Parameter(torch.zeros(n, d))
+        self.temporal_pos = nn.Parameter(torch.zeros(m["context_frames"], d))
+        self.action_start = nn.Parameter(torch.zeros(d))
+        self.action_in = nn.Linear(ACTION_DIM, d)
+        if z_dim:
+            self.z_in = nn.Linear(z_dim, d)
+        self.transformer = StTransformer(d, m["num_heads"], m["mlp_ratio"],
+                                         m["norm"] == "rmsnorm", m["num_layers"])
+        self.token_head = nn.Linear(d, m["num_codes"])
+        self.reward_head = nn.Linear(d, 2)
+
+    def forward(self, tokens, actions, z):
+        b, t = tokens.shape[:2]
+        cond = torch.cat([self.action_start.expand(b, 1, -1), self.action_in(actions[:, :t - 1])], 1)
+        if self.z_dim:
+            cond = cond + F.pad(self.z_in(z[:, :t - 1]), (0, 0, 1, 0))
+        h = self.transformer(self.token_embed(tokens) + self.spatial_pos +
+                             (self.temporal_pos[:t] + cond).unsqueeze(2))
+        reward, terminal = self.reward_head(h.mean(2)).unbind(-1)
+        return self.token_head(h), reward, terminal
+
+
+class WorldModel(nn.Module):
+    def __init__(self, config):
+        super().__init__()
+        m, p = config["model"], config["policy"]
+        self.config = config
+        z_dim = p["categories"] * p["classes"] if m["policy_conditioning"] else 0
+        self.dynamics = DynamicsNet(m, z_dim)
+        self.policy = PolicyEmbedding(m, p) if m["policy_conditioning"] else None
+
+    def dynamics_z(self, tokens, actions):
+        if self.policy is None:
+            return None
+        with torch.no_grad():
+            return self.policy.prior_logits(tokens, actions).softmax(-1).flatten(2)
+
+    def losses(self, tokens, actions, rewards, terminals, mask, z_noise):
+        """The training objective (WHALE eq. 4 + eq. 5 + reward terms) as the C++ computes it."""
+        t_cfg, k = self.config["train"], self.config["model"]["num_codes"]
+        out, z = {}, None
+        if self.policy is not None:
+            post, prior, mean, log_std = self.policy(tokens, actions, z_noise)
+            nll = (0.5 * ((actions - mean) * torch.exp(-log_std)).pow(2) + log_std +
+                   0.5 * math.log(2 * math.pi)).sum(-1).sum(1).mean()
+            log_q = post.log_softmax(-1).unsqueeze(1)
+            log_p = prior.log_softmax(-1)
+            kl = (log_q.exp() * (log_q - log_p)).sum((-2, -1)).sum(1).mean()
+            out["policy_nll"], out["policy_kl"] = nll, kl
+            z = prior.detach().softmax(-1).flatten(2)
+        logits, reward, terminal = self.dynamics(tokens.masked_fill(mask, k), actions, z)
+        ce = F.cross_entropy(logits.reshape(-1, k), tokens.reshape(-1), reduction="none")
+        m = mask.reshape(-1).float()
+        out["token_ce"] = (ce * m).sum() / m.sum().clamp_min(1)
+        out["reward_mse"] = F.mse_loss(reward[:, 1:], rewards[:, :-1])
+        out["terminal_bce"] = F.binary_cross_entropy_with_logits(terminal[:, 1:], terminals[:, :-1])
+        total = (out["token_ce"] + t_cfg["reward_weight"] * out["reward_mse"] +
+                 t_cfg["terminal_weight"] * out["terminal_bce"])
+        if self.policy is not None:
+            total = total + t_cfg["policy_weight"] * (nll + self.config["policy"]["kl_beta"] * kl)
+        out["total"] = total
+        return out
+
+
+def load_world_model(tensors, config):
+    model = WorldModel(config)
+    state = {name[len("model/"):]: torch.from_numpy(a) for name, a in tensors.items()
+             if name.startswith("model/")}
+    model.load_state_dict(state, strict=True)
+    return model

@@ -1,0 +1,241 @@
+// The dynamics model on in-memory tensors: causality (exact), the ELBO terms on hand-computed
+// cases, straight-through sampling, training masks, MaskGIT decoding, and overfitting a batch.
+#include <gtest/gtest.h>
+#include <torch/torch.h>
+
+#include <cmath>
+#include <numbers>
+
+#include "tests/train/test_config.h"
+#include "tokenize/adamw.h"
+#include "train/batch.h"
+#include "train/world_model.h"
+
+namespace wm::train {
+namespace {
+
+struct Inputs {
+  torch::Tensor tokens, actions;
+};
+
+Inputs RandomInputs(const DynamicsConfig& c, int64_t B, uint64_t seed) {
+  torch::manual_seed(seed);
+  const int64_t T = c.model.context_frames, N = int64_t{c.model.grid_h} * c.model.grid_w;
+  return {torch::randint(c.model.num_codes, {B, T, N}, torch::kInt64), torch::randn({B, T, 7})};
+}
+
+// Everything the dynamics model outputs for a (masked) sequence, z from the prior.
+DynamicsOutput RunModel(WorldModel& m, const torch::Tensor& tokens, const torch::Tensor& actions) {
+  torch::NoGradGuard no_grad;
+  return m->Dynamics(tokens, actions, m->DynamicsZ(tokens, actions));
+}
+
+void ExpectPrefixEqual(const torch::Tensor& a, const torch::Tensor& b, int64_t frames,
+                       const char* what) {
+  EXPECT_TRUE(torch::equal(a.slice(1, 0, frames), b.slice(1, 0, frames))) << what;
+  EXPECT_FALSE(torch::equal(a, b)) << what << " did not change at all";
+}
+
+TEST(DynamicsCausality, FutureFrameDoesNotChangeEarlierPredictions) {
+  for (bool policy : {true, false}) {
+    DynamicsConfig c = test::TinyConfig(policy);
+    torch::manual_seed(1);
+    WorldModel m(c);
+    Inputs in = RandomInputs(c, 2, 2);
+    for (int64_t j = 1; j < c.model.context_frames; ++j) {
+      torch::Tensor changed = in.tokens.clone();
+      changed.select(1, j).random_(c.model.num_codes);
+      DynamicsOutput a = RunModel(m, in.tokens, in.actions), b = RunModel(m, changed, in.actions);
+      ExpectPrefixEqual(a.logits, b.logits, j, "logits");
+      ExpectPrefixEqual(a.reward, b.reward, j, "reward");
+      ExpectPrefixEqual(a.terminal_logit, b.terminal_logit, j, "terminal");
+      if (policy) {
+        torch::NoGradGuard no_grad;
+        ExpectPrefixEqual(m->policy->Prior(in.tokens, in.actions),
+                          m->policy->Prior(changed, in.actions), j, "prior");
+      }
+    }
+  }
+}
+
+TEST(DynamicsCausality, FutureActionDoesNotChangePredictionsUpToItsFrame) {
+  DynamicsConfig c = test::TinyConfig(true);
+  torch::manual_seed(3);
+  WorldModel m(c);
+  Inputs in = RandomInputs(c, 2, 4);
+  // a_j leads to frame j+1: frames 0..j must not see it.
+  for (int64_t j = 0; j + 1 < c.model.context_frames; ++j) {
+    torch::Tensor changed = in.actions.clone();
+    changed.select(1, j).add_(1.5);
+    DynamicsOutput a = RunModel(m, in.tokens, in.actions), b = RunModel(m, in.tokens, changed);
+    ExpectPrefixEqual(a.logits, b.logits, j + 1, "logits");
+    ExpectPrefixEqual(a.reward, b.reward, j + 1, "reward");
+  }
+}
+
+TEST(DynamicsCausality, PolicyDecoderDoesNotSeeItsOwnAction) {
+  DynamicsConfig c = test::TinyConfig(true);
+  torch::manual_seed(5);
+  WorldModel m(c);
+  Inputs in = RandomInputs(c, 2, 6);
+  torch::NoGradGuard no_grad;
+  torch::Tensor z = torch::softmax(torch::randn({2, 4, 4}), -1).view({2, 16});
+  // Decoder output at h given a fixed z must not depend on a_h (only a_{<h}).
+  auto decode = [&](const torch::Tensor& actions) {
+    auto& p = *m->policy;
+    const int64_t T = actions.size(1);
+    torch::Tensor prev = torch::cat({p.decoder_start.expand({2, 1, -1}),
+                                     p.decoder_prev_action->forward(actions.slice(1, 0, T - 1))},
+                                    1);
+    torch::Tensor extra = prev + p.decoder_z->forward(z).unsqueeze(1);
+    return p.decoder_head->forward(p.decoder->forward(p.Embed(in.tokens, extra)).mean(2));
+  };
+  torch::Tensor changed = in.actions.clone();
+  changed.select(1, 2).add_(1.0);
+  ExpectPrefixEqual(decode(in.actions), decode(changed), 3, "policy decoder");
+}
+
+TEST(PolicyLosses, CategoricalKlMatchesHandComputation) {
+  torch::Tensor q = torch::zeros({1, 2});  // q = [0.5, 0.5]
+  torch::Tensor p = torch::log(torch::tensor({0.25f, 0.75f})).view({1, 2});
+  const double expected = 0.5 * std::log(2.0) + 0.5 * std::log(2.0 / 3.0);
+  EXPECT_NEAR(CategoricalKl(q, p).item<double>(), expected, 1e-6);
+  EXPECT_NEAR(CategoricalKl(q, q).item<double>(), 0.0, 1e-7);
+  // Sums over categories: two identical categories -> twice the value.
+  EXPECT_NEAR(CategoricalKl(q.repeat({2, 1}), p.repeat({2, 1})).item<double>(), 2 * expected, 1e-6);
+}
+
+TEST(PolicyLosses, GaussianNllMatchesHandComputation) {
+  const double c = 0.5 * std::log(2 * std::numbers::pi);
+  EXPECT_NEAR(GaussianNll(torch::ones({1}), torch::zeros({1}), torch::zeros({1})).item<double>(),
+              0.5 + c, 1e-6);
+  const double ls = std::log(2.0);
+  EXPECT_NEAR(
+      GaussianNll(torch::full({1}, 2.0), torch::ones({1}), torch::full({1}, ls)).item<double>(),
+      0.5 * 0.25 + ls + c, 1e-6);
+}
+
+TEST(PolicyLosses, ElboSumsOverStepsAndWeightsKlByBeta) {
+  DynamicsConfig c = test::TinyConfig(true);
+  c.policy.categories = 1;
+  c.policy.classes = 2;
+  c.policy.kl_beta = 0.5;
+  PolicyEmbedding pe(c.model, c.policy);
+  PolicyOutput out;
+  out.posterior_logits = torch::zeros({1, 1, 2});         // q = [0.5, 0.5]
+  out.prior_logits = torch::stack({torch::zeros({1, 2}),  // p_0 = q
+                                   torch::log(torch::tensor({0.25f, 0.75f})).view({1, 2})})
+                         .unsqueeze(0);  // [1, 2, 1, 2]
+  out.action_mean = torch::zeros({1, 2, 7});
+  out.action_log_std = torch::zeros({1, 2, 7});
+  torch::Tensor actions = torch::zeros({1, 2, 7});
+  actions[0][1][0] = 1.0;
+  PolicyLosses l = pe->Losses(out, actions);
+  const double c0 = 0.5 * std::log(2 * std::numbers::pi);
+  const double nll = 14 * c0 + 0.5;  // 2 steps x 7 dims, one residual of 1
+  const double kl = 0.5 * std::log(2.0) + 0.5 * std::log(2.0 / 3.0);
+  EXPECT_NEAR(l.nll.item<double>(), nll, 1e-5);
+  EXPECT_NEAR(l.kl.item<double>(), kl, 1e-6);
+  EXPECT_NEAR(l.loss.item<double>(), nll + 0.5 * kl, 1e-5);
+}
+
+TEST(StraightThrough, ForwardIsOneHotAndGradientIsSoftmaxGradient) {
+  torch::manual_seed(7);
+  torch::Tensor logits = torch::randn({3, 5}, torch::requires_grad());
+  torch::Tensor u = torch::rand({3, 5});
+  torch::Tensor s = StraightThroughSample(logits, u);
+  EXPECT_TRUE(torch::equal(s.sum(-1), torch::ones({3})));
+  EXPECT_TRUE(torch::equal((s == 1).sum(-1), torch::ones({3}, torch::kLong)));
+  // The chosen class is argmax(logits + Gumbel(u)).
+  EXPECT_TRUE(torch::equal(s.argmax(-1), (logits - torch::log(-torch::log(u))).argmax(-1)));
+  torch::Tensor w = torch::randn({3, 5});
+  (s * w).sum().backward();
+  torch::Tensor g = logits.grad().clone();
+  logits.mutable_grad().zero_();
+  (torch::softmax(logits, -1) * w).sum().backward();
+  EXPECT_TRUE(torch::allclose(g, logits.grad(), 1e-6, 1e-7));
+}
+
+TEST(StraightThrough, SampleFrequenciesFollowTheSoftmax) {
+  torch::manual_seed(8);
+  torch::Tensor logits = torch::log(torch::tensor({0.1f, 0.2f, 0.7f})).expand({20000, 3});
+  torch::Tensor counts = StraightThroughSample(logits, torch::rand({20000, 3})).detach().mean(0);
+  EXPECT_TRUE(torch::allclose(counts, torch::tensor({0.1f, 0.2f, 0.7f}), 0, 0.015)) << counts;
+}
+
+TEST(TrainingMask, FirstFrameCleanCountsFollowTheRatio) {
+  torch::manual_seed(9);
+  torch::Tensor u_ratio = torch::tensor({{0.3f, 0.0f, 0.5f, 0.999f}});
+  torch::Tensor mask = TrainingMask(u_ratio, torch::rand({1, 4, 10}), torch::zeros({1, 4}), 1.0);
+  torch::Tensor counts = mask.sum(-1).view({4});
+  EXPECT_EQ(counts[0].item<int64_t>(), 0);
+  EXPECT_EQ(counts[1].item<int64_t>(), 10);  // cos(0) = 1: all masked
+  EXPECT_EQ(counts[2].item<int64_t>(),
+            static_cast<int64_t>(std::ceil(10 * std::cos(0.25 * std::numbers::pi))));
+  EXPECT_EQ(counts[3].item<int64_t>(), 1);  // at least one
+  // Frames drawn as context (u_frame >= frame_prob) stay clean; with none drawn, the last is
+  // the target.
+  torch::Tensor some =
+      TrainingMask(u_ratio, torch::rand({1, 4, 10}), torch::tensor({{0.f, 0.9f, 0.2f, 0.9f}}), 0.5);
+  EXPECT_EQ(some.sum(-1).view({4})[1].item<int64_t>(), 0);
+  EXPECT_EQ(some.sum(-1).view({4})[2].item<int64_t>(), counts[2].item<int64_t>());
+  torch::Tensor none = TrainingMask(u_ratio, torch::rand({1, 4, 10}), torch::ones({1, 4}), 0.5);
+  EXPECT_EQ(none.sum(-1).view({4})[3].item<int64_t>(), 1);
+  EXPECT_EQ(none.sum().item<int64_t>(), 1);
+}
+
+TEST(MaskGit, DecodingIsDeterministicGivenSeedAndFillsEveryToken) {
+  DynamicsConfig c = test::TinyConfig(true);
+  torch::manual_seed(10);
+  WorldModel m(c);
+  Inputs in = RandomInputs(c, 2, 11);
+  torch::Tensor ctx = in.tokens.slice(1, 0, 3), act = in.actions.slice(1, 0, 3);
+  torch::Tensor z = m->DynamicsZ(ctx, act);
+  torch::Tensor a = DecodeNextFrame(m, ctx, act, z, 4, 1.0, 123);
+  torch::Tensor b = DecodeNextFrame(m, ctx, act, z, 4, 1.0, 123);
+  EXPECT_TRUE(torch::equal(a, b));
+  EXPECT_EQ(a.sizes(), (std::vector<int64_t>{2, 6}));
+  EXPECT_TRUE((a >= 0).all().item<bool>() && (a < c.model.num_codes).all().item<bool>());
+  torch::Tensor g1 = DecodeNextFrame(m, ctx, act, z, 1, 0.0, 1);
+  torch::Tensor g2 = DecodeNextFrame(m, ctx, act, z, 1, 0.0, 2);
+  EXPECT_TRUE(torch::equal(g1, g2));  // argmax ignores the seed
+  torch::NoGradGuard no_grad;
+  torch::Tensor seq = torch::cat({ctx, torch::full({2, 1, 6}, c.model.num_codes)}, 1);
+  torch::Tensor one_shot = m->Dynamics(seq, torch::cat({act, torch::zeros({2, 1, 7})}, 1),
+                                       torch::cat({z, torch::zeros({2, 1, 16})}, 1))
+                               .logits.select(1, 3)
+                               .argmax(-1);
+  EXPECT_TRUE(torch::equal(g1, one_shot));  // one greedy step = argmax of the fully masked frame
+}
+
+TEST(Overfit, TinyBatchReachesNearZeroLoss) {
+  DynamicsConfig c = test::TinyConfig(true);
+  torch::manual_seed(12);
+  WorldModel m(c);
+  Inputs in = RandomInputs(c, 2, 13);
+  SegmentBatch b;
+  b.tokens = in.tokens;
+  b.actions = in.actions;
+  b.rewards = torch::tensor({{0.f, 1.f, 0.f, 0.5f}, {1.f, 0.f, 0.f, 0.f}});
+  b.terminals = torch::tensor({{0.f, 0.f, 1.f, 0.f}, {0.f, 1.f, 0.f, 0.f}});
+  b.mask = torch::ones({2, 4, 6}, torch::kBool);
+  b.mask.select(1, 0).fill_(false);
+  b.z_noise = torch::rand({2, 4, 4});
+  std::vector<std::pair<std::string, torch::Tensor>> named;
+  for (const auto& p : m->named_parameters()) named.emplace_back(p.key(), p.value());
+  tokenize::AdamW opt(named, {.lr = 3e-3, .beta1 = 0.9, .beta2 = 0.99, .weight_decay = 0});
+  WorldModelLosses l;
+  for (int step = 0; step < 150; ++step) {
+    opt.ZeroGrad();
+    l = m->Losses(b);
+    l.total.backward();
+    opt.Step();
+  }
+  EXPECT_LT(l.token_ce.item<double>(), 0.05);
+  EXPECT_EQ(l.token_accuracy, 1.0);
+  EXPECT_LT(l.reward_mse.item<double>(), 1e-3);
+  EXPECT_LT(l.terminal_bce.item<double>(), 0.1);
+}
+
+}  // namespace
+}  // namespace wm::train

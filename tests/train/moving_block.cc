@@ -1,0 +1,67 @@
+#include "tests/train/moving_block.h"
+
+#include <random>
+
+#include "core/episode.h"
+#include "core/tokens/token_dataset.h"
+
+namespace wm::train::test {
+
+void WriteMovingBlockTokens(const std::string& dir, const MovingBlockOptions& o) {
+  tokens::TokenIndex base;
+  base.dataset = o.dataset;
+  base.split = "train";
+  base.tokenizer = {.checkpoint_sha256 = o.tokenizer_sha256,
+                    .config_hash = "moving-block",
+                    .num_codes = o.num_codes,
+                    .grid_h = o.grid_h,
+                    .grid_w = o.grid_w,
+                    .image_size = 8 * o.grid_h};
+  base.token_dtype = o.num_codes > 65536 ? "uint32" : "uint16";
+  std::mt19937_64 rng(o.seed);
+  auto uniform = [&] { return static_cast<double>(rng() >> 11) * 0x1.0p-53; };
+  const int N = o.grid_h * o.grid_w;
+  std::vector<float> all_actions;
+  tokens::TokenPartWriter writer(dir, 0, 1, base);
+  for (int k = 0; k < o.episodes; ++k) {
+    const bool eager = k % 2 == 0;  // policy "eager" pushes right more often
+    std::vector<uint32_t> background(N);
+    for (auto& b : background) b = 8 + static_cast<uint32_t>(rng() % (o.num_codes - 8));
+    int x = 0, y = static_cast<int>(rng() % o.grid_h);
+    Episode e;
+    e.episode_key = "block" + std::to_string(k);
+    e.policy_id = eager ? "eager" : "wander";
+    std::vector<uint32_t> frames;
+    for (int t = 0; t < o.steps; ++t) {
+      for (int i = 0; i < N; ++i) {
+        frames.push_back(i == y * o.grid_w + x ? 1 + static_cast<uint32_t>(k % 7) : background[i]);
+      }
+      const double u = uniform();
+      const int dx = u < (eager ? 0.6 : 0.3) ? 1 : (u < 0.8 ? 0 : -1);
+      const int dy = uniform() < 0.2 ? (uniform() < 0.5 ? -1 : 1) : 0;
+      float action[7] = {0.04f * dx, 0.04f * dy, 0, 0, 0, 0, eager ? 1.f : 0.f};
+      e.actions.insert(e.actions.end(), action, action + 7);
+      x = std::clamp(x + dx, 0, o.grid_w - 1);
+      y = std::clamp(y + dy, 0, o.grid_h - 1);
+      const bool done = x == o.grid_w - 1 || t == o.steps - 1;
+      e.rewards.push_back(x == o.grid_w - 1 ? 1.f : 0.f);
+      e.discounts.push_back(1.f);
+      e.is_first.push_back(t == 0);
+      e.is_last.push_back(done);
+      e.is_terminal.push_back(x == o.grid_w - 1);
+      ++e.num_steps;
+      if (done) break;
+    }
+    all_actions.insert(all_actions.end(), e.actions.begin(), e.actions.end());
+    writer.AddEpisode({.num_frames = e.num_steps,
+                       .source_episode = k,
+                       .episode_key = e.episode_key,
+                       .policy_id = e.policy_id},
+                      frames, e);
+  }
+  writer.Finish();
+  base.action_stats = shard::ComputeActionStats(all_actions);
+  tokens::AssembleIndexIfComplete(dir, 1, base);
+}
+
+}  // namespace wm::train::test

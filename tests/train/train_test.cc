@@ -1,0 +1,218 @@
+// The training loop on small token datasets: loss goes down, runs are byte-for-byte
+// reproducible, resume equals an uninterrupted run, errors name file and key, and the public
+// model API loads the result.
+#include <gtest/gtest.h>
+
+#include <filesystem>
+
+#include "core/atomic_file.h"
+#include "core/error.h"
+#include "core/sha256.h"
+#include "tests/core/test_util.h"
+#include "tests/train/moving_block.h"
+#include "tests/train/test_config.h"
+#include "train/dynamics_model.h"
+#include "train/segment_sampler.h"
+#include "train/trainer.h"
+
+namespace wm::train {
+namespace {
+namespace fs = std::filesystem;
+
+DynamicsConfig TrainConfigForTest() {
+  DynamicsConfig c = test::TinyConfig(true);
+  c.model.grid_h = c.model.grid_w = 4;
+  c.model.num_codes = 32;
+  c.train.batch_size = 4;
+  c.train.steps = 20;
+  c.train.max_lr = 3e-3;
+  c.train.min_lr = 3e-4;
+  c.train.warmup_steps = 3;
+  c.train.checkpoint_every = 10;
+  c.train.log_every = 5;
+  c.train.val_every = 10;
+  c.train.val_batches = 1;
+  c.train.seed = 11;
+  return c;
+}
+
+class DynamicsTrainTest : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    test::WriteMovingBlockTokens(dir_ / "tokens", {.episodes = 8, .steps = 10, .seed = 1});
+    test::WriteMovingBlockTokens(dir_ / "val", {.episodes = 3, .steps = 10, .seed = 2});
+  }
+  TrainOptions Options(const std::string& run, int64_t steps) const {
+    TrainOptions o{
+        .config = TrainConfigForTest(), .token_dirs = {dir_ / "tokens"}, .out_dir = dir_ / run};
+    o.config.train.steps = steps;
+    o.show_progress = false;
+    return o;
+  }
+  std::string Hash(const std::string& run, const std::string& file) const {
+    return Sha256Hex(ReadFile(dir_ / (run + "/" + file)));
+  }
+  wm::test::TempDir dir_;
+};
+
+TEST_F(DynamicsTrainTest, LossDecreasesAndMetricsAreWritten) {
+  TrainOptions o = Options("run", 60);
+  o.val_dir = dir_ / "val";
+  o.config.train.val_every = 30;
+  TrainSummary s = TrainDynamics(o);
+  EXPECT_EQ(s.end_step, 60);
+  EXPECT_LT(s.last_loss, 0.7 * s.first_loss) << "first " << s.first_loss;
+  EXPECT_GE(s.last_val_token_accuracy, 0.0);
+  EXPECT_GT(s.tokens_per_second, 0.0);
+  const std::string csv = ReadFile(dir_ / "run/metrics.csv");
+  EXPECT_EQ(csv.rfind("step,loss,token_ce,token_acc,", 0), 0u);
+  EXPECT_EQ(std::count(csv.begin(), csv.end(), '\n'), 1 + 12);  // header + every 5 steps
+  const auto manifest = nlohmann::json::parse(ReadFile(dir_ / "run/checkpoint.json"));
+  EXPECT_EQ(manifest.at("step"), 60);
+  EXPECT_EQ(manifest.at("data")[0].at("tokenizer_checkpoint_sha256"), "moving-block-tokenizer");
+  EXPECT_EQ(manifest.at("data")[0].at("index_sha256").get<std::string>().size(), 64u);
+  EXPECT_TRUE(manifest.contains("git_commit"));
+  EXPECT_FALSE(manifest.at("libraries").at("libtorch").get<std::string>().empty());
+}
+
+TEST_F(DynamicsTrainTest, SameSeedGivesIdenticalCheckpointBytes) {
+  TrainDynamics(Options("a", 10));
+  TrainDynamics(Options("b", 10));
+  EXPECT_EQ(Hash("a", "checkpoint.wmt"), Hash("b", "checkpoint.wmt"));
+  EXPECT_EQ(Hash("a", "checkpoint.json"), Hash("b", "checkpoint.json"));
+  TrainOptions other = Options("c", 10);
+  other.config.train.seed = 12;
+  TrainDynamics(other);
+  EXPECT_NE(Hash("a", "checkpoint.wmt"), Hash("c", "checkpoint.wmt"));
+}
+
+TEST_F(DynamicsTrainTest, ResumeAfterStopEqualsUninterruptedRun) {
+  TrainDynamics(Options("full", 20));
+  TrainOptions first = Options("split", 20);
+  first.max_steps_this_run = 10;  // as if killed after the step-10 checkpoint
+  EXPECT_EQ(TrainDynamics(first).end_step, 10);
+  TrainOptions rest = Options("split", 20);
+  rest.resume = true;
+  TrainSummary s = TrainDynamics(rest);
+  EXPECT_EQ(s.start_step, 10);
+  EXPECT_EQ(Hash("full", "checkpoint.wmt"), Hash("split", "checkpoint.wmt"));
+  EXPECT_EQ(Hash("full", "checkpoint.json"), Hash("split", "checkpoint.json"));
+}
+
+TEST_F(DynamicsTrainTest, RefusesOverwriteOtherConfigAndMismatchedData) {
+  TrainDynamics(Options("run", 2));
+  EXPECT_NE(wm::test::ErrorText([&] { TrainDynamics(Options("run", 2)); }).find("--resume"),
+            std::string::npos);
+  TrainOptions changed = Options("run", 3);
+  changed.resume = true;
+  EXPECT_NE(wm::test::ErrorText([&] { TrainDynamics(changed); }).find("different config"),
+            std::string::npos);
+  TrainOptions grid = Options("grid", 2);
+  grid.config.model.grid_w = 5;
+  EXPECT_NE(wm::test::ErrorText([&] { TrainDynamics(grid); }).find("key 'model.grid_h'"),
+            std::string::npos);
+  TrainOptions ddp = Options("ddp", 2);
+  ddp.world_size = 3;
+  EXPECT_NE(wm::test::ErrorText([&] { TrainDynamics(ddp); }).find("train.batch_size"),
+            std::string::npos);
+}
+
+TEST_F(DynamicsTrainTest, SamplerIsCounterBasedAndNormalisesActions) {
+  SegmentSampler s({dir_ / "tokens"}, 4);
+  auto a = s.Draw(5, 7, 6), b = s.Draw(5, 7, 6), c = s.Draw(5, 8, 6);
+  ASSERT_EQ(a.size(), 6u);
+  for (size_t i = 0; i < a.size(); ++i) {
+    EXPECT_EQ(a[i].episode, b[i].episode);
+    EXPECT_EQ(a[i].start, b[i].start);
+  }
+  bool differs = false;
+  for (size_t i = 0; i < a.size(); ++i)
+    differs |= a[i].start != c[i].start || a[i].episode != c[i].episode;
+  EXPECT_TRUE(differs);
+  SegmentData whole, part;
+  s.Fill(a, 0, 6, whole);
+  s.Fill(a, 3, 3, part);  // rank 1 of 2 sees rows 3..5 of the same global batch
+  EXPECT_TRUE(
+      std::equal(part.tokens.begin(), part.tokens.end(), whole.tokens.begin() + 3 * 4 * 16));
+  double sum = 0;
+  for (size_t i = 0; i < whole.actions.size(); i += 7) sum += whole.actions[i];
+  EXPECT_LT(std::abs(sum / (whole.actions.size() / 7)), 2.0);  // normalised scale
+}
+
+TEST_F(DynamicsTrainTest, MixtureWeightsTheDatasets) {
+  test::WriteMovingBlockTokens(dir_ / "other", {.dataset = "other", .episodes = 4, .seed = 3});
+  const std::string mixture = dir_ / "mix.yaml";
+  WriteFileAtomically(mixture,
+                      "datasets:\n  - {name: moving_block, weight: 3}\n"
+                      "  - {name: other, weight: 1}\n");
+  SegmentSampler s({dir_ / "tokens", dir_ / "other"}, 4, mixture);
+  int first = 0;
+  for (const SegmentRef& r : s.Draw(1, 0, 4000)) first += r.dataset == 0;
+  EXPECT_NEAR(first / 4000.0, 0.75, 0.03);
+  EXPECT_EQ(s.DataProvenance()[1].at("weight"), 1.0);
+  WriteFileAtomically(mixture, "datasets:\n  - {name: moving_block, weight: 1}\n");
+  EXPECT_NE(wm::test::ErrorText([&] {
+              SegmentSampler({dir_ / "tokens", dir_ / "other"}, 4, mixture);
+            }).find("mix.yaml"),
+            std::string::npos);
+}
+
+TEST_F(DynamicsTrainTest, ModelApiPredictsFramesAndRewards) {
+  TrainDynamics(Options("run", 10));
+  auto model = DynamicsModel::Load(dir_ / "run");
+  EXPECT_EQ(model->step(), 10);
+  EXPECT_EQ(model->tokens_per_frame(), 16);
+  FrameContext ctx{.batch = 2, .frames = 3};
+  ctx.tokens.assign(2 * 3 * 16, 9);
+  ctx.actions.assign(2 * 3 * 7, 0.01f);
+  auto next = model->PredictNextFrame(ctx, 7);
+  EXPECT_EQ(next.size(), 32u);
+  EXPECT_EQ(next, model->PredictNextFrame(ctx, 7));
+  RewardPrediction r = model->PredictRewards(ctx);
+  EXPECT_EQ(r.reward.size(), 4u);
+  EXPECT_EQ(r.terminal_prob.size(), 4u);
+  EXPECT_EQ(model->PolicyEmbedding(ctx).size(), 2u * 16);
+  ctx.policy_z.assign(2 * 16, 1.0f / 4);
+  EXPECT_EQ(model->PredictNextFrame(ctx, 7).size(), 32u);
+  ctx.tokens[0] = 99;
+  EXPECT_NE(wm::test::ErrorText([&] { model->PredictNextFrame(ctx); }).find("num_codes"),
+            std::string::npos);
+}
+
+TEST(DynamicsConfig, PresetsLoadAndErrorsNameFileAndKey) {
+  for (const char* name :
+       {"tiny", "meta64", "whale-x-small", "whale-x-medium", "whale-x-base", "whale-x-large"}) {
+    EXPECT_NO_THROW(
+        LoadDynamicsConfig(wm::test::SourceDir() + "/configs/dynamics/" + name + ".yaml"))
+        << name;
+  }
+  DynamicsConfig m = LoadDynamicsConfig(wm::test::SourceDir() + "/configs/dynamics/meta64.yaml");
+  EXPECT_EQ(m.model.num_layers, 12);
+  EXPECT_EQ(ConfigFromJson(ConfigToJson(m)).model.d_model, 512);
+  auto error = [](const std::string& yaml) {
+    return wm::test::ErrorText([&] { ParseDynamicsConfig(yaml, "dyn.yaml"); });
+  };
+  EXPECT_EQ(error("model:\n  d_model: 100\n  num_heads: 8\n"),
+            "dyn.yaml: key 'model.d_model': must be a positive multiple of model.num_heads");
+  EXPECT_NE(error("model:\n  num_layers: many\n").find("dyn.yaml: key 'model.num_layers'"),
+            std::string::npos);
+  EXPECT_NE(error("policy:\n  klbeta: 1\n").find("key 'policy.klbeta': unknown key"),
+            std::string::npos);
+  EXPECT_NE(error("model:\n  norm: batchnorm\n").find("key 'model.norm'"), std::string::npos);
+  EXPECT_NE(error("optim: {}\n").find("key 'optim'"), std::string::npos);
+  EXPECT_NE(error("model: [1\n").find("dyn.yaml"), std::string::npos);
+}
+
+TEST(LearningRate, AdaptsTheTokenizerSchedule) {
+  TrainConfig t;
+  t.max_lr = 1.0;
+  t.min_lr = 0.1;
+  t.warmup_steps = 10;
+  t.steps = 110;
+  EXPECT_DOUBLE_EQ(LearningRateAt(t, 0), 0.1);
+  EXPECT_NEAR(LearningRateAt(t, 60), 0.55, 1e-12);
+  EXPECT_NEAR(LearningRateAt(t, 110), 0.1, 1e-12);
+}
+
+}  // namespace
+}  // namespace wm::train

@@ -1,0 +1,39 @@
+#pragma once
+// Host segments -> device tensors, with the step's randomness drawn counter-based for the
+// *global* batch (every rank draws the same noise and keeps its rows), so a data-parallel run
+// trains on exactly the masks and posterior samples of a single-process run. Also MaskGIT
+// inference. Internal header (includes torch).
+#include <torch/torch.h>
+
+#include <cstdint>
+
+#include "train/segment_sampler.h"
+#include "train/world_model.h"
+
+namespace wm::train {
+
+// Uniform noise of one global step: mask ratios [B, T], mask orders [B, T, N], posterior-sample
+// noise [B, C, K], target-frame draws [B, T]; drawn in that order from a torch CPU generator
+// seeded MixSeed(seed, step).
+struct StepNoise {
+  torch::Tensor u_ratio, u_order, z_noise, u_frame;
+};
+StepNoise DrawStepNoise(const DynamicsConfig& config, uint64_t seed, int64_t step, int64_t batch);
+
+// Rows [first, first + data.batch) of the global batch as a SegmentBatch on `device`. The token
+// cross-entropy is normalised by the global batch's masked-token count / world_size, so the mean
+// over ranks of the local losses (and gradients) equals the single-process ones.
+SegmentBatch MakeSegmentBatch(const DynamicsConfig& config, const SegmentData& data,
+                              const StepNoise& noise, int64_t first, int world_size,
+                              const torch::Device& device);
+
+// MaskGIT decoding of the frame after `tokens` [B, Tc, N] (Tc < context_frames) with actions
+// [B, Tc, 7] (normalised; the last one leads to the new frame) and z [B, Tc, z_dim] (undefined
+// without policy conditioning): `steps` rounds, each sampling every masked token (temperature
+// 0 = argmax) and keeping the most confident so that cos(pi/2 * (s+1)/steps) of the frame stays
+// masked. Deterministic given `seed` (a CPU generator). Returns [B, N] int64.
+torch::Tensor DecodeNextFrame(WorldModel& model, const torch::Tensor& tokens,
+                              const torch::Tensor& actions, const torch::Tensor& z, int steps,
+                              double temperature, uint64_t seed);
+
+}  // namespace wm::train

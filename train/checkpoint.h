@@ -1,0 +1,44 @@
+#pragma once
+// Dynamics checkpoints: RUN_DIR/checkpoint.wmt (wmkit tensor archive: "model/<param>",
+// "adamw/exp_avg/<param>", "adamw/exp_avg_sq/<param>"; header meta below) and the manifest
+// RUN_DIR/checkpoint.json. Both written atomically, archive first. Internal header (torch).
+#include <nlohmann/json.hpp>
+#include <string>
+
+#include "tokenize/adamw.h"
+#include "train/config.h"
+#include "train/world_model.h"
+
+namespace wm::train {
+
+inline constexpr const char* kCheckpointFile = "checkpoint.wmt";
+inline constexpr const char* kManifestFile = "checkpoint.json";
+
+// What the archive's meta holds besides the tensors. The config and action statistics make the
+// archive self-contained for the public model API (train/dynamics_model.h).
+struct CheckpointMeta {
+  int64_t step = 0, adamw_step = 0;
+  nlohmann::json config;  // ConfigToJson
+  std::string config_hash;
+  nlohmann::json action_norms;  // {dataset: {mean, std}}
+  nlohmann::json tokenizer;     // {checkpoint_sha256, config_hash, num_codes, grid_h, grid_w}
+  nlohmann::json rng;           // counter-based: {"scheme", "seed"}
+};
+
+nlohmann::json MetaToJson(const CheckpointMeta& meta);
+CheckpointMeta MetaFromJson(const nlohmann::json& j, const std::string& file);
+
+// Writes checkpoint.wmt and checkpoint.json into `run_dir`. `data` is the manifest's data
+// provenance (SegmentSampler::DataProvenance).
+void SaveCheckpoint(const std::string& run_dir, WorldModel& model, tokenize::AdamW& adamw,
+                    const CheckpointMeta& meta, const nlohmann::json& data);
+
+// Restores model, AdamW moments (when `adamw` is given) and returns the meta. Refuses a
+// checkpoint whose config hash differs from `expected_config_hash` (when not empty).
+CheckpointMeta LoadCheckpoint(const std::string& path, WorldModel& model, tokenize::AdamW* adamw,
+                              const std::string& expected_config_hash);
+
+// Reads only the meta (to build the model before loading it).
+CheckpointMeta ReadCheckpointMeta(const std::string& path);
+
+}  // namespace wm::train

@@ -1,0 +1,190 @@
+#include "train/config.h"
+
+#include <yaml-cpp/yaml.h>
+
+#include <map>
+#include <set>
+
+#include "core/atomic_file.h"
+#include "core/error.h"
+
+namespace wm::train {
+namespace {
+
+// Calls f(section, key, field) for every field: the one list of names shared by the YAML
+// reader, the JSON writer and the JSON reader.
+template <class Config, class F>
+void VisitFields(Config& c, F&& f) {
+  auto& m = c.model;
+  f("model", "grid_h", m.grid_h);
+  f("model", "grid_w", m.grid_w);
+  f("model", "num_codes", m.num_codes);
+  f("model", "context_frames", m.context_frames);
+  f("model", "d_model", m.d_model);
+  f("model", "num_layers", m.num_layers);
+  f("model", "num_heads", m.num_heads);
+  f("model", "mlp_ratio", m.mlp_ratio);
+  f("model", "norm", m.norm);
+  f("model", "policy_conditioning", m.policy_conditioning);
+  f("model", "mask_frame_prob", m.mask_frame_prob);
+  f("model", "decode_steps", m.decode_steps);
+  f("model", "decode_temperature", m.decode_temperature);
+  auto& p = c.policy;
+  f("policy", "d_model", p.d_model);
+  f("policy", "num_heads", p.num_heads);
+  f("policy", "posterior_layers", p.posterior_layers);
+  f("policy", "prior_layers", p.prior_layers);
+  f("policy", "decoder_layers", p.decoder_layers);
+  f("policy", "categories", p.categories);
+  f("policy", "classes", p.classes);
+  f("policy", "log_std_min", p.log_std_min);
+  f("policy", "log_std_max", p.log_std_max);
+  f("policy", "kl_beta", p.kl_beta);
+  auto& t = c.train;
+  f("train", "batch_size", t.batch_size);
+  f("train", "steps", t.steps);
+  f("train", "max_lr", t.max_lr);
+  f("train", "min_lr", t.min_lr);
+  f("train", "warmup_steps", t.warmup_steps);
+  f("train", "beta1", t.beta1);
+  f("train", "beta2", t.beta2);
+  f("train", "weight_decay", t.weight_decay);
+  f("train", "grad_clip", t.grad_clip);
+  f("train", "policy_weight", t.policy_weight);
+  f("train", "reward_weight", t.reward_weight);
+  f("train", "terminal_weight", t.terminal_weight);
+  f("train", "bf16", t.bf16);
+  f("train", "seed", t.seed);
+  f("train", "threads", t.threads);
+  f("train", "checkpoint_every", t.checkpoint_every);
+  f("train", "log_every", t.log_every);
+  f("train", "val_every", t.val_every);
+  f("train", "val_batches", t.val_batches);
+  f("data", "mixture", c.data.mixture);
+}
+
+std::string Key(const std::string& section, const std::string& key) { return section + "." + key; }
+
+template <class T>
+const char* TypeWord() {
+  if constexpr (std::is_same_v<T, bool>) return "a boolean";
+  if constexpr (std::is_integral_v<T>) return "an integer";
+  if constexpr (std::is_floating_point_v<T>) return "a number";
+  return "a string";
+}
+
+}  // namespace
+
+DynamicsConfig ParseDynamicsConfig(const std::string& yaml_text, const std::string& file) {
+  YAML::Node root;
+  try {
+    root = YAML::Load(yaml_text);
+  } catch (const YAML::Exception& e) {
+    throw Error("invalid YAML: " + std::string(e.what()), {.file = file});
+  }
+  DynamicsConfig config;
+  if (root.IsNull()) return config;
+  Check(root.IsMap(), "expected a mapping at the top level", {.file = file});
+  std::map<std::string, std::set<std::string>> known;
+  VisitFields(config, [&](const char* section, const char* key, auto& field) {
+    known[section].insert(key);
+    YAML::Node s = root[section];
+    if (!s) return;
+    Check(s.IsMap(), "expected a mapping", {.file = file, .key = section});
+    YAML::Node v = s[key];
+    if (!v) return;
+    using T = std::decay_t<decltype(field)>;
+    try {
+      Check(v.IsScalar(), "expected a scalar", {.file = file, .key = Key(section, key)});
+      field = v.as<T>();
+    } catch (const YAML::Exception&) {
+      throw Error("cannot read '" + v.Scalar() + "' as " + TypeWord<T>(),
+                  {.file = file, .key = Key(section, key)});
+    }
+  });
+  for (const auto& top : root) {
+    const std::string section = top.first.as<std::string>();
+    Check(known.count(section) > 0, "unknown section (expected model, policy, train or data)",
+          {.file = file, .key = section});
+    for (const auto& kv : top.second) {
+      const std::string key = kv.first.as<std::string>();
+      Check(known[section].count(key) > 0, "unknown key (see docs/dynamics.md)",
+            {.file = file, .key = Key(section, key)});
+    }
+  }
+  ValidateConfig(config, file);
+  return config;
+}
+
+DynamicsConfig LoadDynamicsConfig(const std::string& path) {
+  return ParseDynamicsConfig(ReadFile(path), path);
+}
+
+nlohmann::json ConfigToJson(const DynamicsConfig& config) {
+  nlohmann::json j;
+  VisitFields(config, [&](const char* section, const char* key, const auto& field) {
+    j[section][key] = field;
+  });
+  return j;
+}
+
+DynamicsConfig ConfigFromJson(const nlohmann::json& j) {
+  DynamicsConfig config;
+  VisitFields(config, [&](const char* section, const char* key, auto& field) {
+    if (j.contains(section) && j[section].contains(key)) j[section][key].get_to(field);
+  });
+  return config;
+}
+
+void ValidateConfig(const DynamicsConfig& c, const std::string& file) {
+  auto require = [&](bool ok, const char* key, const std::string& what) {
+    Check(ok, what, {.file = file, .key = key});
+  };
+  const ModelConfig& m = c.model;
+  require(m.grid_h > 0, "model.grid_h", "must be > 0");
+  require(m.grid_w > 0, "model.grid_w", "must be > 0");
+  require(m.num_codes >= 2, "model.num_codes", "must be >= 2");
+  require(m.context_frames >= 2, "model.context_frames", "must be >= 2");
+  require(m.num_heads > 0, "model.num_heads", "must be > 0");
+  require(m.d_model > 0 && m.d_model % m.num_heads == 0, "model.d_model",
+          "must be a positive multiple of model.num_heads");
+  require(m.num_layers > 0, "model.num_layers", "must be > 0");
+  require(m.mlp_ratio > 0, "model.mlp_ratio", "must be > 0");
+  require(m.norm == "layernorm" || m.norm == "rmsnorm", "model.norm",
+          "must be 'layernorm' or 'rmsnorm'");
+  require(m.mask_frame_prob > 0 && m.mask_frame_prob <= 1, "model.mask_frame_prob",
+          "must be in (0, 1]");
+  require(m.decode_steps > 0, "model.decode_steps", "must be > 0");
+  require(m.decode_temperature >= 0, "model.decode_temperature", "must be >= 0");
+  const PolicyConfig& p = c.policy;
+  require(p.num_heads > 0, "policy.num_heads", "must be > 0");
+  require(p.d_model > 0 && p.d_model % p.num_heads == 0, "policy.d_model",
+          "must be a positive multiple of policy.num_heads");
+  require(p.posterior_layers > 0, "policy.posterior_layers", "must be > 0");
+  require(p.prior_layers > 0, "policy.prior_layers", "must be > 0");
+  require(p.decoder_layers > 0, "policy.decoder_layers", "must be > 0");
+  require(p.categories > 0, "policy.categories", "must be > 0");
+  require(p.classes >= 2, "policy.classes", "must be >= 2");
+  require(p.log_std_min < p.log_std_max, "policy.log_std_min", "must be < policy.log_std_max");
+  require(p.kl_beta >= 0, "policy.kl_beta", "must be >= 0");
+  const TrainConfig& t = c.train;
+  require(t.batch_size > 0, "train.batch_size", "must be > 0");
+  require(t.steps > 0, "train.steps", "must be > 0");
+  require(t.max_lr > 0, "train.max_lr", "must be > 0");
+  require(t.min_lr >= 0 && t.min_lr <= t.max_lr, "train.min_lr", "must be in [0, max_lr]");
+  require(t.warmup_steps >= 0, "train.warmup_steps", "must be >= 0");
+  require(t.beta1 >= 0 && t.beta1 < 1, "train.beta1", "must be in [0, 1)");
+  require(t.beta2 >= 0 && t.beta2 < 1, "train.beta2", "must be in [0, 1)");
+  require(t.weight_decay >= 0, "train.weight_decay", "must be >= 0");
+  require(t.grad_clip >= 0, "train.grad_clip", "must be >= 0");
+  require(t.policy_weight >= 0, "train.policy_weight", "must be >= 0");
+  require(t.reward_weight >= 0, "train.reward_weight", "must be >= 0");
+  require(t.terminal_weight >= 0, "train.terminal_weight", "must be >= 0");
+  require(t.threads > 0, "train.threads", "must be > 0");
+  require(t.checkpoint_every > 0, "train.checkpoint_every", "must be > 0");
+  require(t.log_every > 0, "train.log_every", "must be > 0");
+  require(t.val_every > 0, "train.val_every", "must be > 0");
+  require(t.val_batches > 0, "train.val_batches", "must be > 0");
+}
+
+}  // namespace wm::train

@@ -1,0 +1,143 @@
+#include "train/dynamics_model.h"
+
+#include <torch/torch.h>
+
+#include <filesystem>
+
+#include "core/error.h"
+#include "train/batch.h"
+#include "train/checkpoint.h"
+#include "train/segment_sampler.h"
+#include "train/world_model.h"
+
+namespace wm::train {
+
+struct DynamicsModel::State {
+  DynamicsConfig config;
+  WorldModel model{nullptr};  // mutable use through const API: inference has no side effects
+  ActionNorm norm;
+  torch::Device device{torch::kCPU};
+  int64_t step = 0;
+
+  int64_t N() const { return int64_t{config.model.grid_h} * config.model.grid_w; }
+
+  // The context's last `keep` frames as tensors: tokens [B, Tk, N], normalised actions
+  // [B, Tk, 7], z [B, Tk, Z] (undefined without policy conditioning).
+  void Tensors(const FrameContext& c, int64_t keep, torch::Tensor& tokens, torch::Tensor& actions,
+               torch::Tensor& z) {
+    const int64_t B = c.batch, T = c.frames, n = N();
+    Check(B > 0 && T > 0, "empty context");
+    Check(static_cast<int64_t>(c.tokens.size()) == B * T * n,
+          "context has " + std::to_string(c.tokens.size()) + " tokens, expected batch x frames x " +
+              std::to_string(n));
+    Check(static_cast<int64_t>(c.actions.size()) == B * T * 7,
+          "context has " + std::to_string(c.actions.size()) + " action values, expected " +
+              std::to_string(B * T * 7));
+    std::vector<float> normed(c.actions.size());
+    norm.Apply(c.actions.data(), normed.data(), B * T);
+    const int64_t first = std::max<int64_t>(0, T - keep);
+    tokens = torch::tensor(c.tokens, torch::kInt64).view({B, T, n}).slice(1, first, T);
+    Check(
+        tokens.min().item<int64_t>() >= 0 && tokens.max().item<int64_t>() < config.model.num_codes,
+        "context token outside [0, num_codes)");
+    actions = torch::tensor(normed).view({B, T, 7}).slice(1, first, T);
+    tokens = tokens.contiguous().to(device);
+    actions = actions.contiguous().to(device);
+    if (!model->policy) {
+      Check(c.policy_z.empty(), "policy_z given but the model has no policy conditioning");
+      z = torch::Tensor();
+      return;
+    }
+    const int64_t Z = int64_t{config.policy.categories} * config.policy.classes;
+    if (c.policy_z.empty()) {
+      z = model->DynamicsZ(tokens, actions);  // [B, Tk, Z]
+    } else {
+      Check(static_cast<int64_t>(c.policy_z.size()) == B * Z,
+            "policy_z must have batch x " + std::to_string(Z) + " values");
+      z = torch::tensor(c.policy_z).view({B, 1, Z}).expand({B, tokens.size(1), Z}).to(device);
+    }
+  }
+};
+
+DynamicsModel::DynamicsModel() : state_(std::make_unique<State>()) {}
+DynamicsModel::~DynamicsModel() = default;
+
+std::unique_ptr<DynamicsModel> DynamicsModel::Load(const std::string& path,
+                                                   const std::string& device,
+                                                   const std::string& action_dataset, int threads) {
+  const std::string file = std::filesystem::is_directory(path)
+                               ? (std::filesystem::path(path) / kCheckpointFile).string()
+                               : path;
+  std::unique_ptr<DynamicsModel> m(new DynamicsModel());
+  State& s = *m->state_;
+  if (threads > 0) torch::set_num_threads(threads);
+  CheckpointMeta meta = ReadCheckpointMeta(file);
+  s.config = ConfigFromJson(meta.config);
+  ValidateConfig(s.config, file);
+  s.step = meta.step;
+  s.device = torch::Device(device);
+  Check(!s.device.is_cuda() || torch::cuda::is_available(),
+        "device " + device + " requested but CUDA is not available");
+  Check(meta.action_norms.is_object() && !meta.action_norms.empty(),
+        "checkpoint has no action statistics", {.file = file, .key = "meta.action_norms"});
+  const std::string name =
+      action_dataset.empty() ? meta.action_norms.begin().key() : action_dataset;
+  Check(meta.action_norms.contains(name),
+        "model was not trained on dataset '" + name + "' (no action statistics)", {.file = file});
+  s.norm = ActionNorm::FromJson(meta.action_norms[name]);
+  s.model = WorldModel(s.config);
+  LoadCheckpoint(file, s.model, nullptr, "");
+  s.model->to(s.device);
+  s.model->eval();
+  return m;
+}
+
+const DynamicsConfig& DynamicsModel::config() const { return state_->config; }
+int64_t DynamicsModel::tokens_per_frame() const { return state_->N(); }
+int64_t DynamicsModel::step() const { return state_->step; }
+int64_t DynamicsModel::max_context_frames() const {
+  return state_->config.model.context_frames - 1;
+}
+
+std::vector<int64_t> DynamicsModel::PredictNextFrame(const FrameContext& context, uint64_t seed,
+                                                     int steps, double temperature) const {
+  torch::NoGradGuard no_grad;
+  State& s = *state_;  // unique_ptr: const API, non-const state
+  torch::Tensor tokens, actions, z;
+  s.Tensors(context, max_context_frames(), tokens, actions, z);
+  const int n_steps = steps > 0 ? steps : s.config.model.decode_steps;
+  const double temp = temperature >= 0 ? temperature : s.config.model.decode_temperature;
+  torch::Tensor next = DecodeNextFrame(s.model, tokens, actions, z, n_steps, temp, seed);  // [B,N]
+  return std::vector<int64_t>(next.data_ptr<int64_t>(), next.data_ptr<int64_t>() + next.numel());
+}
+
+RewardPrediction DynamicsModel::PredictRewards(const FrameContext& context) const {
+  torch::NoGradGuard no_grad;
+  State& s = *state_;  // unique_ptr: const API, non-const state
+  Check(context.frames >= 2 && context.frames <= s.config.model.context_frames,
+        "reward prediction needs 2.." + std::to_string(s.config.model.context_frames) + " frames");
+  torch::Tensor tokens, actions, z;
+  s.Tensors(context, context.frames, tokens, actions, z);
+  DynamicsOutput out = s.model->Dynamics(tokens, actions, z);
+  const int64_t T = tokens.size(1);
+  // Position j >= 1 predicts the reward of step j-1.
+  torch::Tensor r = out.reward.slice(1, 1, T).to(torch::kCPU, torch::kFloat).contiguous();
+  torch::Tensor p =
+      torch::sigmoid(out.terminal_logit.slice(1, 1, T)).to(torch::kCPU, torch::kFloat).contiguous();
+  return {std::vector<float>(r.data_ptr<float>(), r.data_ptr<float>() + r.numel()),
+          std::vector<float>(p.data_ptr<float>(), p.data_ptr<float>() + p.numel())};
+}
+
+std::vector<float> DynamicsModel::PolicyEmbedding(const FrameContext& context) const {
+  torch::NoGradGuard no_grad;
+  State& s = *state_;  // unique_ptr: const API, non-const state
+  if (!s.model->policy) return {};
+  FrameContext c = context;
+  c.policy_z.clear();
+  torch::Tensor tokens, actions, z;
+  s.Tensors(c, s.config.model.context_frames, tokens, actions, z);
+  torch::Tensor last = z.select(1, z.size(1) - 1).to(torch::kCPU).contiguous();  // [B, Z]
+  return std::vector<float>(last.data_ptr<float>(), last.data_ptr<float>() + last.numel());
+}
+
+}  // namespace wm::train

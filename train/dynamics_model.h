@@ -1,0 +1,65 @@
+#pragma once
+// Public, torch-free API of a trained dynamics model, for evaluation (wm-eval) and tools:
+// load a wm-train checkpoint, predict the next frame's tokens from context frames and actions
+// (MaskGIT decoding), predict per-step rewards and terminal probabilities, and read the policy
+// embedding the prior infers from a context. All arrays are row-major std::vectors.
+#include <cstdint>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "train/config.h"
+
+namespace wm::train {
+
+// A batch of context windows: `frames` consecutive token frames per row and the action taken
+// at each (actions[b, t] leads from frame t to frame t+1).
+struct FrameContext {
+  int64_t batch = 1, frames = 0;
+  std::vector<int64_t> tokens;  // [batch, frames, grid_h * grid_w] codes in [0, num_codes)
+  std::vector<float> actions;   // [batch, frames, 7] raw actions (normalised inside)
+  // Optional [batch, categories * classes] class probabilities (or one-hots) used as z for
+  // every step instead of the prior's inference; empty = the prior p(z | tau_h) (WHALE eq. 5).
+  std::vector<float> policy_z;
+};
+
+struct RewardPrediction {
+  std::vector<float> reward;         // [batch, frames - 1]: r_t of step t -> t+1
+  std::vector<float> terminal_prob;  // [batch, frames - 1]: P(is_terminal_t)
+};
+
+class DynamicsModel {
+ public:
+  // `path`: a RUN_DIR or its checkpoint.wmt. `device`: "cpu", "cuda" or "cuda:N".
+  // `action_dataset`: whose action statistics normalise raw actions (a dataset the model was
+  // trained on; empty = the first). `threads` sets LibTorch's intra-op threads (0 = leave).
+  static std::unique_ptr<DynamicsModel> Load(const std::string& path,
+                                             const std::string& device = "cpu",
+                                             const std::string& action_dataset = "",
+                                             int threads = 0);
+  ~DynamicsModel();
+
+  const DynamicsConfig& config() const;
+  int64_t tokens_per_frame() const;
+  int64_t step() const;  // training step of the checkpoint
+  // Longest context PredictNextFrame takes (context_frames - 1); longer contexts keep their
+  // last frames (a sliding window).
+  int64_t max_context_frames() const;
+
+  // Tokens of frame `frames` [batch, N]. `steps` / `temperature` <= 0 / < 0 take the config's
+  // model.decode_steps / model.decode_temperature. Deterministic for a given seed on CPU.
+  std::vector<int64_t> PredictNextFrame(const FrameContext& context, uint64_t seed = 0,
+                                        int steps = 0, double temperature = -1) const;
+  // Reward and terminal probability of each step between the context's frames.
+  RewardPrediction PredictRewards(const FrameContext& context) const;
+  // The prior's z_h class probabilities after the last frame [batch, categories * classes];
+  // empty without policy conditioning.
+  std::vector<float> PolicyEmbedding(const FrameContext& context) const;
+
+ private:
+  DynamicsModel();
+  struct State;
+  std::unique_ptr<State> state_;
+};
+
+}  // namespace wm::train

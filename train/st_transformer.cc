@@ -1,0 +1,85 @@
+#include "train/st_transformer.h"
+
+#include <cmath>
+
+namespace wm::train {
+
+NormImpl::NormImpl(int64_t dim, bool rms) : rms(rms) {
+  weight = register_parameter("weight", torch::ones({dim}));
+  if (!rms) bias = register_parameter("bias", torch::zeros({dim}));
+}
+
+torch::Tensor NormImpl::forward(const torch::Tensor& x) {
+  if (!rms) return torch::layer_norm(x, {x.size(-1)}, weight, bias, 1e-5);
+  return x * torch::rsqrt(x.pow(2).mean(-1, true) + 1e-6) * weight;
+}
+
+AttentionImpl::AttentionImpl(int64_t dim, int64_t heads) : heads(heads) {
+  qkv = register_module("qkv", torch::nn::Linear(dim, 3 * dim));
+  proj = register_module("proj", torch::nn::Linear(dim, dim));
+}
+
+torch::Tensor AttentionImpl::forward(const torch::Tensor& x, bool causal) {
+  const int64_t M = x.size(0), L = x.size(1), D = x.size(2), hd = D / heads;
+  auto parts = qkv->forward(x).view({M, L, 3, heads, hd}).permute({2, 0, 3, 1, 4});  // [3,M,H,L,hd]
+  torch::Tensor q = parts[0], k = parts[1], v = parts[2];  // [M, H, L, hd]
+  torch::Tensor scores =
+      torch::matmul(q, k.transpose(-2, -1)) / std::sqrt(double(hd));  // [M,H,L,L]
+  if (causal) {
+    torch::Tensor future =
+        torch::ones({L, L}, torch::TensorOptions().dtype(torch::kBool).device(x.device())).triu(1);
+    scores = scores.masked_fill(future, -std::numeric_limits<float>::infinity());
+  }
+  torch::Tensor out = torch::matmul(torch::softmax(scores, -1), v);  // [M, H, L, hd]
+  return proj->forward(out.transpose(1, 2).reshape({M, L, D}));      // [M, L, D]
+}
+
+StBlockImpl::StBlockImpl(const StBlockOptions& o) : options(o) {
+  norm1 = register_module("norm1", Norm(o.dim, o.rms_norm));
+  spatial = register_module("spatial", Attention(o.dim, o.heads));
+  norm2 = register_module("norm2", Norm(o.dim, o.rms_norm));
+  temporal = register_module("temporal", Attention(o.dim, o.heads));
+  norm3 = register_module("norm3", Norm(o.dim, o.rms_norm));
+  fc1 = register_module("fc1", torch::nn::Linear(o.dim, o.mlp_ratio * o.dim));
+  fc2 = register_module("fc2", torch::nn::Linear(o.mlp_ratio * o.dim, o.dim));
+}
+
+torch::Tensor StBlockImpl::forward(const torch::Tensor& x_in) {
+  const int64_t B = x_in.size(0), T = x_in.size(1), N = x_in.size(2), D = x_in.size(3);
+  // Spatial: every frame on its own, all tokens see each other.
+  torch::Tensor x = x_in.reshape({B * T, N, D});  // [B*T, N, D]
+  x = x + spatial->forward(norm1->forward(x), /*causal=*/false);
+  // Temporal: every grid position on its own, causal over frames.
+  x = x.view({B, T, N, D}).transpose(1, 2).reshape({B * N, T, D});  // [B*N, T, D]
+  x = x + temporal->forward(norm2->forward(x), options.causal_time);
+  x = x.view({B, N, T, D}).transpose(1, 2);  // [B, T, N, D]
+  return x + fc2->forward(torch::gelu(fc1->forward(norm3->forward(x))));
+}
+
+StTransformerImpl::StTransformerImpl(const StBlockOptions& options, int64_t layers) {
+  blocks = register_module("blocks", torch::nn::ModuleList());
+  for (int64_t i = 0; i < layers; ++i) blocks->push_back(StBlock(options));
+  norm = register_module("norm", Norm(options.dim, options.rms_norm));
+}
+
+torch::Tensor StTransformerImpl::forward(torch::Tensor x) {
+  for (const auto& block : *blocks) x = block->as<StBlock>()->forward(x);
+  return norm->forward(x);
+}
+
+void InitWeights(torch::nn::Module& module) {
+  // children() rather than modules(): the constructors call this before a shared_ptr owns them.
+  torch::NoGradGuard no_grad;
+  for (const auto& m : module.children()) {
+    if (auto* linear = m->as<torch::nn::Linear>()) {
+      linear->weight.normal_(0.0, 0.02);
+      if (linear->bias.defined()) linear->bias.zero_();
+    } else if (auto* emb = m->as<torch::nn::Embedding>()) {
+      emb->weight.normal_(0.0, 0.02);
+    } else {
+      InitWeights(*m);
+    }
+  }
+}
+
+}  // namespace wm::train

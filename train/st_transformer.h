@@ -1,0 +1,60 @@
+#pragma once
+// The spatial-temporal transformer block shared by the dynamics model and the policy embedding
+// model (WHALE Sec. 3.1, after Genie): a token attends to the tokens of its own frame (spatial)
+// and to the tokens at the same grid position in earlier frames (temporal, causal), which costs
+// O(T N^2 + N T^2) instead of O((T N)^2). Internal header (includes torch).
+#include <torch/torch.h>
+
+#include <string>
+
+namespace wm::train {
+
+// Pre-norm: LayerNorm (with bias) or RMSNorm (x / rms(x) * weight, eps 1e-6).
+struct NormImpl : torch::nn::Module {
+  NormImpl(int64_t dim, bool rms);
+  torch::Tensor forward(const torch::Tensor& x);
+  bool rms;
+  torch::Tensor weight, bias;  // bias undefined for RMSNorm
+};
+TORCH_MODULE(Norm);
+
+// Multi-head self-attention over the second-to-last axis of x: [M, L, D] -> [M, L, D].
+// `causal` masks attention to later positions (strictly upper triangle).
+struct AttentionImpl : torch::nn::Module {
+  AttentionImpl(int64_t dim, int64_t heads);
+  torch::Tensor forward(const torch::Tensor& x, bool causal);
+  int64_t heads;
+  torch::nn::Linear qkv{nullptr}, proj{nullptr};
+};
+TORCH_MODULE(Attention);
+
+struct StBlockOptions {
+  int64_t dim = 128, heads = 4, mlp_ratio = 4;
+  bool rms_norm = false;
+  bool causal_time = true;  // false only for the posterior q(z | tau_H), which sees the segment
+};
+
+// x + spatial(norm(x)); x + temporal(norm(x)); x + mlp(norm(x)). x: [B, T, N, D].
+struct StBlockImpl : torch::nn::Module {
+  explicit StBlockImpl(const StBlockOptions& options);
+  torch::Tensor forward(const torch::Tensor& x);
+  StBlockOptions options;
+  Norm norm1{nullptr}, norm2{nullptr}, norm3{nullptr};
+  Attention spatial{nullptr}, temporal{nullptr};
+  torch::nn::Linear fc1{nullptr}, fc2{nullptr};
+};
+TORCH_MODULE(StBlock);
+
+// A stack of StBlocks followed by a final norm.
+struct StTransformerImpl : torch::nn::Module {
+  StTransformerImpl(const StBlockOptions& options, int64_t layers);
+  torch::Tensor forward(torch::Tensor x);  // [B, T, N, D] -> [B, T, N, D]
+  torch::nn::ModuleList blocks{nullptr};
+  Norm norm{nullptr};
+};
+TORCH_MODULE(StTransformer);
+
+// GPT-2 style init used by every module here: N(0, 0.02) Linear/Embedding weights, zero biases.
+void InitWeights(torch::nn::Module& module);
+
+}  // namespace wm::train

@@ -1,0 +1,86 @@
+#pragma once
+// The dynamics model of WHALE Sec. 3.3: an ST-transformer over token frames that predicts the
+// tokens of frame h+1 from frames <= h, actions a_{<=h} and the policy embedding z_h of the prior
+// (eq. 5), trained MaskGIT-style, plus a reward/terminal head (iVideoGPT Sec. 3.3). Position j of
+// the sequence holds frame j (partly masked in training), the action a_{j-1} and z_{j-1}, so it
+// predicts frame j's masked tokens and the reward/terminal flag of the step j-1 -> j.
+// Internal header (includes torch).
+#include <torch/torch.h>
+
+#include <optional>
+
+#include "train/config.h"
+#include "train/policy_embedding.h"
+#include "train/st_transformer.h"
+
+namespace wm::train {
+
+// One training segment batch; every tensor on the model's device.
+struct SegmentBatch {
+  torch::Tensor tokens;         // [B, T, N] int64 codes (clean)
+  torch::Tensor actions;        // [B, T, 7] float, normalised with the dataset's statistics
+  torch::Tensor rewards;        // [B, T] float: r_t of (o_t, a_t)
+  torch::Tensor terminals;      // [B, T] float 0/1: is_terminal of step t
+  torch::Tensor mask;           // [B, T, N] bool: tokens replaced by the mask token (frame 0 never)
+  torch::Tensor z_noise;        // [B, C, K] uniform (0, 1) for the posterior sample
+  double token_normalizer = 0;  // divides the summed masked-token CE; 0 = this batch's count
+};
+
+struct DynamicsOutput {
+  torch::Tensor logits;          // [B, T, N, num_codes]
+  torch::Tensor reward;          // [B, T]: position j predicts r_{j-1} (j = 0 is unused)
+  torch::Tensor terminal_logit;  // [B, T]: position j predicts is_terminal_{j-1}
+};
+
+struct WorldModelLosses {
+  torch::Tensor token_ce, reward_mse, terminal_bce, dynamics;  // dynamics = weighted sum
+  std::optional<PolicyLosses> policy;
+  torch::Tensor total;
+  double token_accuracy = 0;  // on masked tokens
+};
+
+struct DynamicsNetImpl : torch::nn::Module {
+  explicit DynamicsNetImpl(const ModelConfig& config, int64_t z_dim);
+  // tokens [B, T, N] (value num_codes = mask), actions [B, T, 7], z [B, T, z_dim] (z_h at h) or
+  // undefined when policy conditioning is off.
+  DynamicsOutput forward(const torch::Tensor& tokens, const torch::Tensor& actions,
+                         const torch::Tensor& z);
+  ModelConfig config;
+  int64_t z_dim;
+  torch::nn::Embedding token_embed{nullptr};  // num_codes + 1 rows: the last is the mask token
+  torch::Tensor spatial_pos, temporal_pos, action_start;  // [N, D], [T, D], [D]
+  torch::nn::Linear action_in{nullptr}, z_in{nullptr};
+  StTransformer transformer{nullptr};
+  torch::nn::Linear token_head{nullptr}, reward_head{nullptr};
+};
+TORCH_MODULE(DynamicsNet);
+
+struct WorldModelImpl : torch::nn::Module {
+  explicit WorldModelImpl(const DynamicsConfig& config);
+
+  // z_h for the dynamics: the prior's class probabilities [B, T, C*K], detached (the policy
+  // embedding is trained by eq. 4 only; the dynamics consumes it). Undefined when off.
+  torch::Tensor DynamicsZ(const torch::Tensor& tokens, const torch::Tensor& actions);
+  // Teacher-forced losses over the whole segment (eq. 4 + eq. 5 + reward terms).
+  WorldModelLosses Losses(const SegmentBatch& batch);
+  // Next-frame logits only: [B, N, num_codes] for the last frame of `masked_tokens`.
+  DynamicsOutput Dynamics(const torch::Tensor& masked_tokens, const torch::Tensor& actions,
+                          const torch::Tensor& z);
+
+  DynamicsConfig config;
+  DynamicsNet dynamics{nullptr};
+  PolicyEmbedding policy{nullptr};  // null when model.policy_conditioning is false
+};
+TORCH_MODULE(WorldModel);
+
+// MaskGIT's cosine schedule: fraction of tokens still masked at progress r in [0, 1].
+torch::Tensor CosineMaskRatio(const torch::Tensor& r);
+
+// Training masks from uniform noise. Frame t >= 1 is a target when u_frame[b, t] < frame_prob
+// (the last frame also when no other is); a target masks ceil(cos(pi/2 * u_ratio[b, t]) * N)
+// (at least 1) tokens, those with the smallest u_order[b, t, :]. Other frames stay clean context.
+// u_ratio, u_frame [B, T], u_order [B, T, N] -> [B, T, N] bool.
+torch::Tensor TrainingMask(const torch::Tensor& u_ratio, const torch::Tensor& u_order,
+                           const torch::Tensor& u_frame, double frame_prob);
+
+}  // namespace wm::train
