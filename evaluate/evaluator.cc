@@ -1,0 +1,225 @@
+#include "evaluate/evaluator.h"
+
+#include <cmath>
+#include <filesystem>
+#include <optional>
+
+#include "core/atomic_file.h"
+#include "core/error.h"
+#include "core/progress.h"
+#include "core/provenance.h"
+#include "core/sha256.h"
+#include "core/shard/dataset_reader.h"
+#include "core/tokens/token_dataset.h"
+#include "evaluate/aggregate.h"
+#include "evaluate/clip_video.h"
+#include "evaluate/frame_scores.h"
+#include "evaluate/manifest.h"
+#include "metrics/frechet.h"
+#include "metrics/value/correlation.h"
+#include "metrics/value/value_metrics.h"
+#include "tokenize/frame_sampler.h"
+#include "tokenize/tokenizer.h"
+#include "train/dynamics_model.h"
+
+namespace wm::evaluate {
+namespace fs = std::filesystem;
+namespace {
+
+// The three inputs must describe the same episodes and the same tokenizer.
+void CheckInputsBelongTogether(const tokens::TokenDataset& tokens,
+                               const tokenize::Tokenizer& tok,
+                               const shard::DatasetReader& shards) {
+  const std::string index = (fs::path(tokens.dir()) / "index.json").string();
+  Check(tokens.index().tokenizer.checkpoint_sha256 == tok.checkpoint_sha256(),
+        "the token dataset was written by another tokenizer than --tokenizer",
+        {.file = index, .key = "tokenizer.checkpoint_sha256"});
+  nlohmann::json shard_hashes = nlohmann::json::array();
+  for (const auto& s : shards.index().shards) {
+    shard_hashes.push_back({{"file", s.file}, {"sha256", s.sha256}});
+  }
+  Check(tokens.index().source.value("shards", nlohmann::json()) == shard_hashes,
+        "the token dataset was encoded from other shards than --data " + shards.dir(),
+        {.file = index, .key = "source.shards"});
+}
+
+Clip RealClip(const shard::DatasetReader& shards, const tokens::TokenEpisode& e,
+              const std::string& image_key, int size, int64_t frames) {
+  Episode ep = shards.ReadEpisode(static_cast<size_t>(e.source_episode));
+  Clip clip{frames, size, std::vector<float>(static_cast<size_t>(frames) * 3 * size * size)};
+  for (int64_t t = 0; t < frames; ++t) {
+    tokenize::DecodeFrame(ep.images.at(image_key).frames.at(t), size,
+                          clip.pixels.data() + t * 3 * size * size);
+  }
+  return clip;
+}
+
+Clip DecodeClip(const tokenize::Tokenizer& tok, const std::vector<int64_t>& tokens,
+                int64_t first, int64_t count) {
+  const int64_t n = tok.tokens_per_frame();
+  std::vector<uint32_t> codes(tokens.begin() + first * n, tokens.begin() + (first + count) * n);
+  return {count, tok.image_size(), tok.Decode(codes.data(), count)};
+}
+
+double FiniteMean(const std::vector<double>& v) {
+  double s = 0;
+  int64_t n = 0;
+  for (double x : v) {
+    if (std::isfinite(x)) s += x, ++n;
+  }
+  return n ? s / n : NAN;
+}
+
+// Adds one clip's per-step scores to the table under `kind`.
+void AddScores(ScoreTable& t, const std::string& kind,
+               const std::map<std::string, std::vector<double>>& scores, int64_t horizon) {
+  for (const auto& [metric, values] : scores) {
+    t.per_episode[kind][metric].push_back(FiniteMean(values));
+    auto& steps = t.per_step[kind][metric];
+    steps.resize(static_cast<size_t>(std::max<int64_t>(horizon, steps.size())));
+    for (size_t s = 0; s < values.size(); ++s) steps[s].push_back(values[s]);
+  }
+}
+
+MeanCi Whole(const metrics::Estimate& e, int64_t n) {
+  return {e.value, e.ci_low, e.ci_high, n};
+}
+
+// Value metrics of one rollout mode: summary entries, per-episode return error, values.csv rows.
+std::string AddValues(ScoreTable& t, const std::string& checkpoint, const std::string& mode,
+                      const std::vector<metrics::EpisodeReturn>& returns, int resamples,
+                      uint64_t seed) {
+  metrics::ValueMetrics v =
+      metrics::ComputeValueMetrics(returns, {.resamples = resamples, .seed = seed});
+  const auto policies = static_cast<int64_t>(v.policies.size());
+  auto& whole = t.whole_set[mode];
+  whole["value_gap"] = Whole(v.value_gap, policies);
+  whole["pearson"] = Whole(v.policy_correlation.pearson, policies);
+  whole["spearman"] = Whole(v.policy_correlation.spearman, policies);
+  whole["kendall"] = Whole(v.policy_correlation.kendall_tau_b, policies);
+  whole["ranking_accuracy"] = Whole(v.pairwise_accuracy, policies);
+  for (const auto& r : returns) {
+    t.per_episode[mode]["return_error"].push_back(std::abs(r.model_return - r.real_return));
+  }
+  std::string rows;
+  for (const auto& p : v.policies) {
+    rows += checkpoint + "," + mode + "," + p.policy_id + "," + std::to_string(p.episodes) + "," +
+            Cell(p.real_value.value) + "," + Cell(p.model_value.value) + "," +
+            Cell(p.value_gap.value) + "\n";
+  }
+  return rows;
+}
+
+std::string DefaultName(const std::string& checkpoint) {
+  fs::path p(checkpoint);
+  if (p.extension() == ".wmt") p = p.parent_path();
+  return p.filename().string();
+}
+
+}  // namespace
+
+std::vector<std::string> EvaluateCheckpoints(const EvalOptions& o) {
+  tokens::TokenDataset data(o.tokens_dir);
+  tokenize::Tokenizer tok(o.tokenizer, o.device);
+  shard::DatasetReader shards(o.data_dir);
+  CheckInputsBelongTogether(data, tok, shards);
+  std::vector<int64_t> episodes;
+  for (int64_t k = 0; k < data.num_episodes(); ++k) {
+    if (o.max_episodes <= 0 || k < o.max_episodes) episodes.push_back(k);
+  }
+  Check(!episodes.empty(), "no episodes to evaluate", {.file = o.tokens_dir});
+  const std::string image_key = data.index().tokenizer.image_key;
+  std::vector<std::string> written;
+  for (size_t c = 0; c < o.checkpoints.size(); ++c) {
+    const std::string name = c < o.names.size() ? o.names[c] : DefaultName(o.checkpoints[c]);
+    const std::string dir = (fs::path(o.out_dir) / name).string();
+    fs::create_directories(dir);
+    auto model = train::DynamicsModel::Load(o.checkpoints[c], o.device, "", o.threads);
+    std::map<RolloutMode, std::vector<EpisodeRollout>> rollouts;
+    for (RolloutMode mode : o.modes) {
+      rollouts[mode] = Rollout(*model, data, episodes, mode, o.rollout);
+    }
+    ScoreTable t;
+    t.episodes = episodes;
+    std::map<std::string, metrics::FeatureSet> clips;
+    std::map<RolloutMode, std::vector<metrics::EpisodeReturn>> returns;
+    std::map<RolloutMode, std::pair<std::vector<double>, std::vector<double>>> uncertainty;
+    std::optional<Progress> progress;
+    if (o.show_progress) progress.emplace("score " + name, episodes.size(), "episodes");
+    for (size_t i = 0; i < episodes.size(); ++i) {
+      const tokens::TokenEpisode& e = data.episode(episodes[i]);
+      const int64_t h = rollouts.begin()->second[i].steps;
+      t.policy_ids.push_back(e.policy_id.empty() ? "unknown" : e.policy_id);
+      const Clip real = RealClip(shards, e, image_key, tok.image_size(), h + 1);
+      const Clip target = SubClip(real, 1, h);
+      auto add_clip = [&](const std::string& kind, const Clip& pred) {
+        AddScores(t, kind, ScoreFrames(target, pred, tok), h);
+        std::vector<double> d = ClipDescriptor(pred, tok);
+        clips[kind].dim = static_cast<int64_t>(d.size());
+        clips[kind].rows += 1;
+        clips[kind].values.insert(clips[kind].values.end(), d.begin(), d.end());
+      };
+      add_clip("real", target);  // descriptors only; its scores are all perfect
+      Clip copy_last{h, real.size, {}};
+      for (int64_t s = 0; s < h; ++s) {
+        copy_last.pixels.insert(copy_last.pixels.end(), real.frame(0),
+                                real.frame(0) + 3 * real.size * real.size);
+      }
+      add_clip("copy_last", copy_last);
+      std::vector<int64_t> true_tokens(static_cast<size_t>((h + 1) * data.tokens_per_frame()));
+      data.CopyTokens(episodes[i], 0, h + 1, true_tokens.data());
+      add_clip("tokenizer_recon", DecodeClip(tok, true_tokens, 1, h));
+      std::map<std::string, Clip> first_samples;
+      for (RolloutMode mode : o.modes) {
+        const EpisodeRollout& r = rollouts[mode][i];
+        std::vector<Clip> samples;
+        for (const auto& s : r.tokens) samples.push_back(DecodeClip(tok, s, 1, h));
+        add_clip(RolloutName(mode), samples[0]);
+        first_samples[RolloutName(mode)] = samples[0];
+        double real_return = 0, model_return = 0;
+        for (int64_t s = 0; s < h; ++s) {
+          real_return += shards.ReadEpisode(e.source_episode).rewards.at(s);
+          model_return += r.rewards[0][s];
+        }
+        returns[mode].push_back({std::to_string(episodes[i]), t.policy_ids.back(), real_return,
+                                 model_return});
+        if (samples.size() >= 2) {
+          auto spread = SampleDisagreement(samples);
+          auto mse = ScoreFrames(target, samples[0], tok).at("mse");
+          t.per_episode[RolloutName(mode)]["uncertainty"].push_back(FiniteMean(spread));
+          uncertainty[mode].first.insert(uncertainty[mode].first.end(), spread.begin(),
+                                         spread.end());
+          uncertainty[mode].second.insert(uncertainty[mode].second.end(), mse.begin(), mse.end());
+        }
+      }
+      if (static_cast<int>(i) < o.videos) {
+        WriteClipVideo((fs::path(dir) / "videos").string(), episodes[i], target, first_samples);
+      }
+      if (progress) progress->Add(1);
+    }
+    if (progress) progress->Finish();
+    t.per_episode.erase("real");
+    t.per_step.erase("real");
+    for (const auto& [kind, set] : clips) {
+      if (kind == "real") continue;
+      t.whole_set[kind]["fvd_style"] = {metrics::FrechetDistance(clips["real"], set), NAN, NAN,
+                                        set.rows};
+    }
+    std::string values = "checkpoint,rollout,policy_id,n_episodes,real_value,model_value,value_gap\n";
+    for (RolloutMode mode : o.modes) {
+      values += AddValues(t, name, RolloutName(mode), returns[mode], o.resamples, o.rollout.seed);
+      if (!uncertainty[mode].first.empty()) {
+        t.whole_set[RolloutName(mode)]["uncertainty_error_corr"] = {
+            metrics::Pearson(uncertainty[mode].first, uncertainty[mode].second), NAN, NAN,
+            static_cast<int64_t>(uncertainty[mode].first.size())};
+      }
+    }
+    WriteScoreCsvs(dir, name, t, o.resamples, o.rollout.seed);
+    WriteFileAtomically((fs::path(dir) / "values.csv").string(), values);
+    WriteEvalManifest(dir, name, o, *model, tok, data, shards);
+    written.push_back(dir);
+  }
+  return written;
+}
+
+}  // namespace wm::evaluate

@@ -1,0 +1,34 @@
+#pragma once
+// wm-eval's work: roll out every held-out episode with each checkpoint (plain and retracing),
+// decode, score against the real frames with the baselines beside them, and write the report
+// directory of each checkpoint (docs/reports.md).
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include "evaluate/rollout.h"
+
+namespace wm::evaluate {
+
+struct EvalOptions {
+  std::vector<std::string> checkpoints;  // wm-train run directories or checkpoint.wmt files
+  std::vector<std::string> names;        // report names, default: the run directory names
+  std::string tokenizer;                 // the tokenizer that wrote `tokens_dir`
+  std::string data_dir;                  // the held-out shard dataset (real frames, rewards)
+  std::string tokens_dir;                // the same episodes as a token dataset
+  std::string out_dir;                   // REPORT_DIR
+  std::vector<RolloutMode> modes = {RolloutMode::kPlain, RolloutMode::kRetrace};
+  RolloutOptions rollout;
+  int64_t max_episodes = 0;  // 0 = every episode
+  int resamples = 1000;      // bootstrap replicates for every interval
+  int videos = 2;            // side-by-side MP4s of the first episodes
+  std::string device = "cpu";
+  int threads = 1;
+  bool show_progress = true;
+};
+
+// Returns the report directories written (one per checkpoint). Throws wm::Error naming the file
+// when the tokenizer, token data and shard data do not belong together.
+std::vector<std::string> EvaluateCheckpoints(const EvalOptions& options);
+
+}  // namespace wm::evaluate

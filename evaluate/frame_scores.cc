@@ -1,0 +1,76 @@
+#include "evaluate/frame_scores.h"
+
+#include <cmath>
+
+#include "core/error.h"
+#include "metrics/image.h"
+#include "metrics/pixel_metrics.h"
+#include "tokenize/tokenizer.h"
+
+namespace wm::evaluate {
+
+Clip SubClip(const Clip& clip, int64_t first, int64_t count) {
+  Check(first >= 0 && first + count <= clip.frames, "clip frame range out of bounds");
+  const int64_t floats = 3 * int64_t{clip.size} * clip.size;
+  return {count, clip.size,
+          std::vector<float>(clip.pixels.begin() + first * floats,
+                             clip.pixels.begin() + (first + count) * floats)};
+}
+
+std::map<std::string, std::vector<double>> ScoreFrames(const Clip& real, const Clip& pred,
+                                                       const tokenize::Tokenizer& tokenizer) {
+  Check(real.frames == pred.frames && real.size == pred.size, "clips differ in shape");
+  std::map<std::string, std::vector<double>> out;
+  const int s = real.size;
+  for (int64_t t = 0; t < real.frames; ++t) {
+    auto a = metrics::Image::FromUint8(tokenize::PlanarToRgb8(real.frame(t), s).data(), s, s, 3);
+    auto b = metrics::Image::FromUint8(tokenize::PlanarToRgb8(pred.frame(t), s).data(), s, s, 3);
+    out["mse"].push_back(metrics::Mse(a, b));
+    out["psnr"].push_back(metrics::Psnr(a, b));
+    out["ssim"].push_back(metrics::Ssim(a, b));
+  }
+  out["lpips_style"] = tokenizer.PerceptualDistance(real.pixels.data(), pred.pixels.data(),
+                                                    real.frames);
+  return out;
+}
+
+std::vector<double> ClipDescriptor(const Clip& clip, const tokenize::Tokenizer& tokenizer) {
+  int64_t dim = 0;
+  std::vector<double> d = tokenizer.FrameDescriptors(clip.pixels.data(), clip.frames, &dim);
+  std::vector<double> out(static_cast<size_t>(2 * dim), 0.0);
+  for (int64_t t = 0; t < clip.frames; ++t) {
+    for (int64_t j = 0; j < dim; ++j) out[j] += d[t * dim + j] / clip.frames;
+  }
+  for (int64_t t = 0; t < clip.frames; ++t) {
+    for (int64_t j = 0; j < dim; ++j) {
+      const double e = d[t * dim + j] - out[j];
+      out[dim + j] += e * e / clip.frames;
+    }
+  }
+  for (int64_t j = 0; j < dim; ++j) out[dim + j] = std::sqrt(out[dim + j]);
+  return out;
+}
+
+std::vector<double> SampleDisagreement(const std::vector<Clip>& samples) {
+  Check(samples.size() >= 2, "disagreement needs at least two samples");
+  const Clip& first = samples.front();
+  const size_t floats = 3ull * first.size * first.size;
+  std::vector<double> out;
+  for (int64_t t = 0; t < first.frames; ++t) {
+    double total = 0;
+    for (size_t i = 0; i < floats; ++i) {
+      double mean = 0, sq = 0;
+      for (const Clip& c : samples) {
+        const double v = c.frame(t)[i];
+        mean += v;
+        sq += v * v;
+      }
+      mean /= samples.size();
+      total += sq / samples.size() - mean * mean;
+    }
+    out.push_back(total / floats);
+  }
+  return out;
+}
+
+}  // namespace wm::evaluate

@@ -1,0 +1,40 @@
+#pragma once
+// Per-step frame metrics of an imagined (or baseline) clip against the real one, on the uint8
+// frames a user would see: MSE, PSNR and SSIM from the metrics library and lpips_style from the
+// tokenizer's encoder (tokenize/tokenizer.h).
+#include <cstdint>
+#include <map>
+#include <string>
+#include <vector>
+
+namespace wm::tokenize {
+class Tokenizer;
+}
+
+namespace wm::evaluate {
+
+// Planar clips [frames, 3, S, S] in [-1, 1].
+struct Clip {
+  int64_t frames = 0;
+  int size = 0;
+  std::vector<float> pixels;
+  const float* frame(int64_t t) const { return pixels.data() + t * 3 * size * size; }
+};
+
+// Frames [first, first + count) of `clip` as a new clip.
+Clip SubClip(const Clip& clip, int64_t first, int64_t count);
+
+// metric -> one value per frame pair ("mse" on [0, 255], "psnr" in dB (+inf for identical
+// frames), "ssim", "lpips_style"). `real` and `pred` have the same frame count and size.
+std::map<std::string, std::vector<double>> ScoreFrames(const Clip& real, const Clip& pred,
+                                                       const tokenize::Tokenizer& tokenizer);
+
+// fvd_style clip descriptor: the mean and the standard deviation over frames of the
+// tokenizer's FrameDescriptors, concatenated.
+std::vector<double> ClipDescriptor(const Clip& clip, const tokenize::Tokenizer& tokenizer);
+
+// Mean over pixels of the per-pixel variance across `samples` (same shape): the disagreement
+// between imaginations of one step, one value per frame.
+std::vector<double> SampleDisagreement(const std::vector<Clip>& samples);
+
+}  // namespace wm::evaluate

@@ -1,0 +1,30 @@
+#pragma once
+// manifest.json of a checkpoint's report: what was evaluated, on what, with which settings.
+#include <nlohmann/json.hpp>
+#include <string>
+
+#include "evaluate/evaluator.h"
+
+namespace wm::shard {
+class DatasetReader;
+}
+namespace wm::tokens {
+class TokenDataset;
+}
+namespace wm::tokenize {
+class Tokenizer;
+}
+namespace wm::train {
+class DynamicsModel;
+}
+
+namespace wm::evaluate {
+
+// The eval settings that shape the numbers (hashed into config_hash).
+nlohmann::json EvalConfigJson(const EvalOptions& options);
+
+void WriteEvalManifest(const std::string& dir, const std::string& name, const EvalOptions& o,
+                       const train::DynamicsModel& model, const tokenize::Tokenizer& tok,
+                       const tokens::TokenDataset& data, const shard::DatasetReader& shards);
+
+}  // namespace wm::evaluate

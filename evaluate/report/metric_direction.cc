@@ -1,0 +1,63 @@
+#include "evaluate/report/metric_direction.h"
+
+#include <map>
+
+namespace wm::report {
+namespace {
+
+const std::map<std::string, Direction>& Directions() {
+  using enum Direction;
+  static const std::map<std::string, Direction> directions = {
+      {"psnr", kHigherIsBetter},
+      {"ssim", kHigherIsBetter},
+      {"ms_ssim", kHigherIsBetter},
+      {"pearson", kHigherIsBetter},
+      {"spearman", kHigherIsBetter},
+      {"kendall", kHigherIsBetter},
+      {"ranking_accuracy", kHigherIsBetter},
+      // A model whose sample spread tracks its error knows where it is wrong.
+      {"uncertainty_error_corr", kHigherIsBetter},
+      {"mse", kLowerIsBetter},
+      {"lpips_style", kLowerIsBetter},
+      {"fvd_style", kLowerIsBetter},
+      {"value_gap", kLowerIsBetter},
+      {"return_error", kLowerIsBetter}};
+  return directions;
+}
+
+}  // namespace
+
+std::optional<Direction> MetricDirection(const std::string& metric) {
+  const auto& directions = Directions();
+  if (auto it = directions.find(metric); it != directions.end()) return it->second;
+  // Segmented-region MSE (WPE eq. 3): mse_arm, mse_object, mse_background, any other region.
+  if (metric.size() > 4 && metric.starts_with("mse_")) return Direction::kLowerIsBetter;
+  return std::nullopt;
+}
+
+const std::vector<std::string>& HeadlineMetrics() {
+  static const std::vector<std::string> metrics = {"psnr",
+                                                   "ssim",
+                                                   "mse",
+                                                   "lpips_style",
+                                                   "fvd_style",
+                                                   "mse_arm",
+                                                   "mse_object",
+                                                   "mse_background",
+                                                   "value_gap",
+                                                   "pearson",
+                                                   "spearman",
+                                                   "kendall",
+                                                   "ranking_accuracy",
+                                                   "return_error",
+                                                   "uncertainty_error_corr"};
+  return metrics;
+}
+
+std::string KnownMetricsText() {
+  std::string text;
+  for (const auto& [name, direction] : Directions()) text += (text.empty() ? "" : ", ") + name;
+  return text + ", mse_<region>";
+}
+
+}  // namespace wm::report

@@ -1,0 +1,45 @@
+#pragma once
+// Open-loop imagination against held-out episodes (WPE protocol): start from the episode's
+// real first frame, feed its logged actions, and let the world model imagine `horizon` frames,
+// with the plain sliding context or WHALE's retracing context (evaluate/retrace.h).
+#include <cstdint>
+#include <string>
+#include <vector>
+
+namespace wm::tokens {
+class TokenDataset;
+}
+namespace wm::train {
+class DynamicsModel;
+}
+
+namespace wm::evaluate {
+
+enum class RolloutMode { kPlain, kRetrace };
+const char* RolloutName(RolloutMode mode);  // "plain" / "retrace"
+
+struct RolloutOptions {
+  int64_t horizon = 16;       // imagined frames per episode (capped at episode length - 1)
+  int64_t context = 0;        // context frames; 0 = the model's maximum
+  int samples = 1;            // independent imaginations per episode (uncertainty)
+  uint64_t seed = 0;          // MaskGIT sampling; deterministic on CPU
+  int64_t policy_prefix = 4;  // real frames the prior sees to infer the episode's policy z
+};
+
+struct EpisodeRollout {
+  int64_t episode = 0;  // index in the token dataset
+  int64_t steps = 0;    // imagined frames H_e = min(horizon, num_frames - 1)
+  // Per sample: tokens of frames 0..H_e ([(H_e + 1) * N]; frame 0 is the real one) and the
+  // reward head's prediction for each imagined step ([H_e]).
+  std::vector<std::vector<int64_t>> tokens;
+  std::vector<std::vector<float>> rewards;
+};
+
+// Rolls out every episode in `episodes`, all of them batched per step. Throws wm::Error when
+// the model and the token data disagree on grid or codebook.
+std::vector<EpisodeRollout> Rollout(const train::DynamicsModel& model,
+                                    const tokens::TokenDataset& data,
+                                    const std::vector<int64_t>& episodes, RolloutMode mode,
+                                    const RolloutOptions& options);
+
+}  // namespace wm::evaluate

@@ -1,0 +1,67 @@
+// Retracing rollout context construction (whale-x.txt section 3.4) on hand-written sequences.
+#include <gtest/gtest.h>
+
+#include "evaluate/retrace.h"
+#include "tests/core/test_util.h"
+
+namespace wm::evaluate {
+namespace {
+
+// Action i = (i+1, 10(i+1), 0, 0, 0, -(i+1), gripper i % 2).
+std::vector<float> Ramp(int n) {
+  std::vector<float> a;
+  for (int i = 0; i < n; ++i) {
+    const float v = static_cast<float>(i + 1);
+    a.insert(a.end(), {v, 10 * v, 0, 0, 0, -v, static_cast<float>(i % 2)});
+  }
+  return a;
+}
+
+std::vector<int64_t> Frames(const std::vector<ContextSlot>& slots) {
+  std::vector<int64_t> f;
+  for (const auto& s : slots) f.push_back(s.frame);
+  return f;
+}
+
+TEST(Retrace, ActionSumsDeltasAndKeepsTheLastGripper) {
+  auto a = Ramp(4);
+  Action r = RetraceAction(a.data(), 3);  // actions 1, 2, 3 (1-based values)
+  EXPECT_EQ(r, (Action{6, 60, 0, 0, 0, -6, 0}));  // gripper of action index 2 = 2 % 2 = 0
+  EXPECT_EQ(RetraceAction(a.data(), 4)[6], 1.f);
+  EXPECT_EQ(RetraceAction(a.data(), 1), (Action{1, 10, 0, 0, 0, -1, 0}));
+  EXPECT_NE(test::ErrorText([&] { RetraceAction(a.data(), 0); }), "(no error)");
+}
+
+TEST(Retrace, PlainWindowSlides) {
+  auto a = Ramp(10);
+  EXPECT_EQ(Frames(PlainContext(a.data(), 0, 4)), (std::vector<int64_t>{0}));
+  EXPECT_EQ(Frames(PlainContext(a.data(), 2, 4)), (std::vector<int64_t>{0, 1, 2}));
+  EXPECT_EQ(Frames(PlainContext(a.data(), 7, 4)), (std::vector<int64_t>{4, 5, 6, 7}));
+  EXPECT_EQ(PlainContext(a.data(), 7, 4)[0].action[0], 5.f);  // action index 4
+}
+
+TEST(Retrace, MatchesThePapersExample) {
+  // whale-x.txt: C = 4, predicting o_{t+1} (1-based) uses (o_1, retrace(a_1..a_{t-3}),
+  // o_{t-2}, a_{t-2}, o_{t-1}, a_{t-1}, o_t, a_t). 0-based with t = 7: frame 0 with
+  // retrace(a_0..a_4), then frames 5, 6, 7.
+  auto a = Ramp(10);
+  auto slots = RetraceContext(a.data(), 7, 4);
+  EXPECT_EQ(Frames(slots), (std::vector<int64_t>{0, 5, 6, 7}));
+  EXPECT_EQ(slots[0].action, (Action{15, 150, 0, 0, 0, -15, 0}));  // 1+2+3+4+5; a_4 gripper 0
+  EXPECT_EQ(slots[1].action[0], 6.f);
+  EXPECT_EQ(slots[3].action[0], 8.f);
+}
+
+TEST(Retrace, EqualsPlainWhileFrameZeroIsStillInTheWindow) {
+  auto a = Ramp(10);
+  for (int64_t t = 0; t < 4; ++t) {
+    auto p = PlainContext(a.data(), t, 4), r = RetraceContext(a.data(), t, 4);
+    EXPECT_EQ(Frames(p), Frames(r)) << t;
+  }
+  // First divergence: t = C, where the plain window drops frame 0.
+  EXPECT_EQ(Frames(RetraceContext(a.data(), 4, 4)), (std::vector<int64_t>{0, 2, 3, 4}));
+  EXPECT_EQ(RetraceContext(a.data(), 4, 4)[0].action[0], 3.f);  // a_0 + a_1 = 1 + 2
+}
+
+}  // namespace
+}  // namespace wm::evaluate
