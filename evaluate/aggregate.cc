@@ -29,8 +29,11 @@ MeanCi BootstrapMean(const std::vector<double>& values, int resamples, uint64_t 
   std::mt19937_64 rng(seed);
   std::vector<double> replicates;
   for (int r = 0; r < resamples; ++r) {
+    // Keep the draw alive: a range-for over DrawStratified(...)[0] would iterate a destroyed
+    // temporary.
+    const std::vector<std::vector<size_t>> draw = metrics::DrawStratified({v.size()}, rng);
     double s = 0;
-    for (size_t i : metrics::DrawStratified({v.size()}, rng)[0]) s += v[i];
+    for (size_t i : draw[0]) s += v[i];
     replicates.push_back(s / static_cast<double>(v.size()));
   }
   metrics::Interval ci = metrics::PercentileInterval(replicates, level);
@@ -72,8 +75,8 @@ void WriteScoreCsvs(const std::string& dir, const std::string& checkpoint, const
   std::string per_episode = "checkpoint,rollout,episode,policy_id,metric,value\n";
   for (const auto& [rollout, metrics] : t.per_episode) {
     for (const auto& [metric, values] : metrics) {
-      summary += Row(Join({checkpoint, rollout, metric},
-                          Stats(BootstrapMean(values, resamples, seed))));
+      summary +=
+          Row(Join({checkpoint, rollout, metric}, Stats(BootstrapMean(values, resamples, seed))));
       for (size_t k = 0; k < values.size(); ++k) {
         per_episode += Row({checkpoint, rollout, std::to_string(t.episodes[k]), t.policy_ids[k],
                             metric, Cell(values[k])});

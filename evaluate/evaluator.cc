@@ -27,8 +27,7 @@ namespace fs = std::filesystem;
 namespace {
 
 // The three inputs must describe the same episodes and the same tokenizer.
-void CheckInputsBelongTogether(const tokens::TokenDataset& tokens,
-                               const tokenize::Tokenizer& tok,
+void CheckInputsBelongTogether(const tokens::TokenDataset& tokens, const tokenize::Tokenizer& tok,
                                const shard::DatasetReader& shards) {
   const std::string index = (fs::path(tokens.dir()) / "index.json").string();
   Check(tokens.index().tokenizer.checkpoint_sha256 == tok.checkpoint_sha256(),
@@ -43,9 +42,7 @@ void CheckInputsBelongTogether(const tokens::TokenDataset& tokens,
         {.file = index, .key = "source.shards"});
 }
 
-Clip RealClip(const shard::DatasetReader& shards, const tokens::TokenEpisode& e,
-              const std::string& image_key, int size, int64_t frames) {
-  Episode ep = shards.ReadEpisode(static_cast<size_t>(e.source_episode));
+Clip RealClip(const Episode& ep, const std::string& image_key, int size, int64_t frames) {
   Clip clip{frames, size, std::vector<float>(static_cast<size_t>(frames) * 3 * size * size)};
   for (int64_t t = 0; t < frames; ++t) {
     tokenize::DecodeFrame(ep.images.at(image_key).frames.at(t), size,
@@ -54,8 +51,8 @@ Clip RealClip(const shard::DatasetReader& shards, const tokens::TokenEpisode& e,
   return clip;
 }
 
-Clip DecodeClip(const tokenize::Tokenizer& tok, const std::vector<int64_t>& tokens,
-                int64_t first, int64_t count) {
+Clip DecodeClip(const tokenize::Tokenizer& tok, const std::vector<int64_t>& tokens, int64_t first,
+                int64_t count) {
   const int64_t n = tok.tokens_per_frame();
   std::vector<uint32_t> codes(tokens.begin() + first * n, tokens.begin() + (first + count) * n);
   return {count, tok.image_size(), tok.Decode(codes.data(), count)};
@@ -81,9 +78,7 @@ void AddScores(ScoreTable& t, const std::string& kind,
   }
 }
 
-MeanCi Whole(const metrics::Estimate& e, int64_t n) {
-  return {e.value, e.ci_low, e.ci_high, n};
-}
+MeanCi Whole(const metrics::Estimate& e, int64_t n) { return {e.value, e.ci_low, e.ci_high, n}; }
 
 // Value metrics of one rollout mode: summary entries, per-episode return error, values.csv rows.
 std::string AddValues(ScoreTable& t, const std::string& checkpoint, const std::string& mode,
@@ -129,6 +124,7 @@ std::vector<std::string> EvaluateCheckpoints(const EvalOptions& o) {
   }
   Check(!episodes.empty(), "no episodes to evaluate", {.file = o.tokens_dir});
   const std::string image_key = data.index().tokenizer.image_key;
+  const RegionMasks masks(o.masks);
   std::vector<std::string> written;
   for (size_t c = 0; c < o.checkpoints.size(); ++c) {
     const std::string name = c < o.names.size() ? o.names[c] : DefaultName(o.checkpoints[c]);
@@ -150,10 +146,17 @@ std::vector<std::string> EvaluateCheckpoints(const EvalOptions& o) {
       const tokens::TokenEpisode& e = data.episode(episodes[i]);
       const int64_t h = rollouts.begin()->second[i].steps;
       t.policy_ids.push_back(e.policy_id.empty() ? "unknown" : e.policy_id);
-      const Clip real = RealClip(shards, e, image_key, tok.image_size(), h + 1);
+      const Episode ep = shards.ReadEpisode(static_cast<size_t>(e.source_episode));
+      const Clip real = RealClip(ep, image_key, tok.image_size(), h + 1);
       const Clip target = SubClip(real, 1, h);
+      std::vector<metrics::seg::RegionMap> maps;
+      if (masks.enabled()) {
+        maps = masks.Maps(ep, image_key, 1, h, tok.image_size(),
+                          o.data_dir + "#episode " + std::to_string(e.source_episode));
+      }
       auto add_clip = [&](const std::string& kind, const Clip& pred) {
         AddScores(t, kind, ScoreFrames(target, pred, tok), h);
+        if (!maps.empty()) AddScores(t, kind, ScoreRegions(target, pred, maps), h);
         std::vector<double> d = ClipDescriptor(pred, tok);
         clips[kind].dim = static_cast<int64_t>(d.size());
         clips[kind].rows += 1;
@@ -178,11 +181,11 @@ std::vector<std::string> EvaluateCheckpoints(const EvalOptions& o) {
         first_samples[RolloutName(mode)] = samples[0];
         double real_return = 0, model_return = 0;
         for (int64_t s = 0; s < h; ++s) {
-          real_return += shards.ReadEpisode(e.source_episode).rewards.at(s);
+          real_return += ep.rewards.at(s);
           model_return += r.rewards[0][s];
         }
-        returns[mode].push_back({std::to_string(episodes[i]), t.policy_ids.back(), real_return,
-                                 model_return});
+        returns[mode].push_back(
+            {std::to_string(episodes[i]), t.policy_ids.back(), real_return, model_return});
         if (samples.size() >= 2) {
           auto spread = SampleDisagreement(samples);
           auto mse = ScoreFrames(target, samples[0], tok).at("mse");
@@ -205,7 +208,8 @@ std::vector<std::string> EvaluateCheckpoints(const EvalOptions& o) {
       t.whole_set[kind]["fvd_style"] = {metrics::FrechetDistance(clips["real"], set), NAN, NAN,
                                         set.rows};
     }
-    std::string values = "checkpoint,rollout,policy_id,n_episodes,real_value,model_value,value_gap\n";
+    std::string values =
+        "checkpoint,rollout,policy_id,n_episodes,real_value,model_value,value_gap\n";
     for (RolloutMode mode : o.modes) {
       values += AddValues(t, name, RolloutName(mode), returns[mode], o.resamples, o.rollout.seed);
       if (!uncertainty[mode].first.empty()) {

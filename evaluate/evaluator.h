@@ -6,6 +6,7 @@
 #include <string>
 #include <vector>
 
+#include "evaluate/region_masks.h"
 #include "evaluate/rollout.h"
 
 namespace wm::evaluate {
@@ -19,6 +20,7 @@ struct EvalOptions {
   std::string out_dir;                   // REPORT_DIR
   std::vector<RolloutMode> modes = {RolloutMode::kPlain, RolloutMode::kRetrace};
   RolloutOptions rollout;
+  MaskOptions masks;         // segmented-region MSE (mse_arm, mse_object, mse_background) when set
   int64_t max_episodes = 0;  // 0 = every episode
   int resamples = 1000;      // bootstrap replicates for every interval
   int videos = 2;            // side-by-side MP4s of the first episodes

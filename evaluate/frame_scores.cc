@@ -29,8 +29,8 @@ std::map<std::string, std::vector<double>> ScoreFrames(const Clip& real, const C
     out["psnr"].push_back(metrics::Psnr(a, b));
     out["ssim"].push_back(metrics::Ssim(a, b));
   }
-  out["lpips_style"] = tokenizer.PerceptualDistance(real.pixels.data(), pred.pixels.data(),
-                                                    real.frames);
+  out["lpips_style"] =
+      tokenizer.PerceptualDistance(real.pixels.data(), pred.pixels.data(), real.frames);
   return out;
 }
 

@@ -30,15 +30,15 @@ nlohmann::json EvalConfigJson(const EvalOptions& o) {
 void WriteEvalManifest(const std::string& dir, const std::string& name, const EvalOptions& o,
                        const train::DynamicsModel& model, const tokenize::Tokenizer& tok,
                        const tokens::TokenDataset& data, const shard::DatasetReader& shards) {
-  nlohmann::json m = MakeProvenance("wm-eval", EvalConfigJson(o),
-                                    {{"libtorch", tokenize::TorchVersion()}});
+  nlohmann::json m =
+      MakeProvenance("wm-eval", EvalConfigJson(o), {{"libtorch", tokenize::TorchVersion()}});
   std::string ckpt = o.checkpoints.empty() ? "" : o.checkpoints.front();
   for (size_t i = 0; i < o.checkpoints.size(); ++i) {
     const std::string n = i < o.names.size() ? o.names[i] : "";
     if (n == name || fs::path(o.checkpoints[i]).filename() == name) ckpt = o.checkpoints[i];
   }
-  const std::string file = fs::is_directory(ckpt) ? (fs::path(ckpt) / "checkpoint.wmt").string()
-                                                  : ckpt;
+  const std::string file =
+      fs::is_directory(ckpt) ? (fs::path(ckpt) / "checkpoint.wmt").string() : ckpt;
   m["checkpoint"] = {{"name", name},
                      {"path_basename", fs::path(ckpt).filename().string()},
                      {"sha256", Sha256File(file)},
@@ -47,7 +47,8 @@ void WriteEvalManifest(const std::string& dir, const std::string& name, const Ev
   m["seed"] = o.rollout.seed;
   m["tokenizer"] = {{"sha256", tok.checkpoint_sha256()}, {"config_hash", tok.config_hash()}};
   nlohmann::json parts = nlohmann::json::array();
-  for (const auto& p : data.index().parts) parts.push_back({{"file", p.file}, {"sha256", p.sha256}});
+  for (const auto& p : data.index().parts)
+    parts.push_back({{"file", p.file}, {"sha256", p.sha256}});
   nlohmann::json shard_files = nlohmann::json::array();
   for (const auto& s : shards.index().shards) {
     shard_files.push_back({{"file", s.file}, {"sha256", s.sha256}});

@@ -27,8 +27,8 @@ std::vector<std::vector<float>> PolicyEmbeddings(const train::DynamicsModel& mod
   std::vector<std::vector<float>> z;
   const int64_t n = data.tokens_per_frame();
   for (int64_t k : episodes) {
-    const int64_t frames = std::clamp<int64_t>(prefix, 1, std::min<int64_t>(
-        data.episode(k).num_frames, model.max_context_frames()));
+    const int64_t frames = std::clamp<int64_t>(
+        prefix, 1, std::min<int64_t>(data.episode(k).num_frames, model.max_context_frames()));
     train::FrameContext c{.batch = 1, .frames = frames};
     c.tokens.resize(static_cast<size_t>(frames * n));
     data.CopyTokens(k, 0, frames, c.tokens.data());
@@ -55,14 +55,13 @@ std::vector<EpisodeRollout> Rollout(const train::DynamicsModel& model,
             std::to_string(model.config().model.num_codes) + " codes per frame; this data has " +
             std::to_string(n) + " of " + std::to_string(data.index().tokenizer.num_codes),
         {.file = data.dir()});
-  const int64_t context = o.context > 0 ? std::min(o.context, model.max_context_frames())
-                                        : model.max_context_frames();
+  const int64_t context =
+      o.context > 0 ? std::min(o.context, model.max_context_frames()) : model.max_context_frames();
   const auto z = PolicyEmbeddings(model, data, episodes, o.policy_prefix);
   std::vector<EpisodeRollout> out;
   int64_t longest = 0;
   for (int64_t k : episodes) {
-    EpisodeRollout r{.episode = k,
-                     .steps = std::min(o.horizon, data.episode(k).num_frames - 1)};
+    EpisodeRollout r{.episode = k, .steps = std::min(o.horizon, data.episode(k).num_frames - 1)};
     std::vector<int64_t> first(static_cast<size_t>(n));
     data.CopyTokens(k, 0, 1, first.data());
     r.tokens.assign(o.samples, first);

@@ -111,6 +111,14 @@ Image LoadImage(const std::string& path) {
   return FromMat(decoded, path);
 }
 
+Image DecodeImage(const std::string& bytes, const std::string& source) {
+  const cv::Mat raw(1, static_cast<int>(bytes.size()), CV_8U,
+                    const_cast<char*>(bytes.data()));  // imdecode only reads it
+  cv::Mat decoded = cv::imdecode(raw, cv::IMREAD_UNCHANGED);
+  Check(!decoded.empty(), "cannot decode image (corrupt or unsupported format)", {.file = source});
+  return FromMat(decoded, source);
+}
+
 std::vector<std::string> ListImageFiles(const std::string& folder) {
   Check(fs::is_directory(folder), "not a folder", {.file = folder});
   std::vector<std::string> files;

@@ -13,6 +13,10 @@ namespace wm::metrics {
 // 1.0. Throws wm::Error naming the file when it cannot be read.
 Image LoadImage(const std::string& path);
 
+// An encoded image held in memory (a shard's JPEG/PNG bytes), decoded as LoadImage decodes a
+// file; `source` names it in errors ("shards/val#episode 3/segmentation[5]").
+Image DecodeImage(const std::string& bytes, const std::string& source);
+
 // Image files in a folder (by extension, not recursive), sorted by file name. Throws wm::Error
 // naming the folder when it cannot be listed or holds no image.
 std::vector<std::string> ListImageFiles(const std::string& folder);

@@ -29,13 +29,17 @@ int main(int argc, char** argv) {
   app.footer(kFooter);
   app.set_version_flag("--version", wm::VersionString("wm-eval"));
   app.add_option("--checkpoint", o.checkpoints, "wm-train run directories (one report each)")
-      ->required()->check(CLI::ExistingPath);
+      ->required()
+      ->check(CLI::ExistingPath);
   app.add_option("--name", o.names, "Report names (default: run directory names)");
   app.add_option("--tokenizer", o.tokenizer, "The tokenizer run that wrote --tokens")
-      ->required()->check(CLI::ExistingPath);
-  app.add_option("--data", o.data_dir, "Held-out shard dataset")->required()
+      ->required()
+      ->check(CLI::ExistingPath);
+  app.add_option("--data", o.data_dir, "Held-out shard dataset")
+      ->required()
       ->check(CLI::ExistingDirectory);
-  app.add_option("--tokens", o.tokens_dir, "The same episodes as a token dataset")->required()
+  app.add_option("--tokens", o.tokens_dir, "The same episodes as a token dataset")
+      ->required()
       ->check(CLI::ExistingDirectory);
   app.add_option("--out", o.out_dir, "REPORT_DIR")->required();
   app.add_option("--horizon", o.rollout.horizon, "Imagined frames per episode")
@@ -43,17 +47,28 @@ int main(int argc, char** argv) {
   app.add_option("--context", o.rollout.context, "Context frames (0: the model's maximum)")
       ->capture_default_str();
   app.add_option("--rollout", rollout, "plain, retrace or both")
-      ->check(CLI::IsMember({"plain", "retrace", "both"}))->capture_default_str();
+      ->check(CLI::IsMember({"plain", "retrace", "both"}))
+      ->capture_default_str();
   app.add_option("--samples", o.rollout.samples, "Imaginations per episode (>= 2: uncertainty)")
       ->capture_default_str();
   app.add_option("--seed", o.rollout.seed, "Sampling and bootstrap seed")->capture_default_str();
   app.add_option("--policy-prefix", o.rollout.policy_prefix,
-                 "Real frames the prior sees to infer the policy embedding")->capture_default_str();
+                 "Real frames the prior sees to infer the policy embedding")
+      ->capture_default_str();
   app.add_option("--episodes", o.max_episodes, "Evaluate the first N episodes (0: all)")
       ->capture_default_str();
   app.add_option("--resamples", o.resamples, "Bootstrap replicates")->capture_default_str();
   app.add_option("--videos", o.videos, "Side-by-side MP4s of the first N episodes")
       ->capture_default_str();
+  app.add_option("--masks", o.masks.source,
+                 "Segmented-region MSE: none, files (--seg-config labels), motion or depth")
+      ->check(CLI::IsMember({"none", "files", "motion", "depth"}))
+      ->capture_default_str();
+  app.add_option("--seg-config", o.masks.seg_config,
+                 "Label map and mask options (configs/segmentation/*.yaml)")
+      ->check(CLI::ExistingFile);
+  app.add_option("--intrinsics", o.masks.intrinsics,
+                 "Depth camera fx,fy,cx,cy at the shard resolution (--masks depth)");
   app.add_option("--device", o.device, "cpu, cuda or cuda:N")->capture_default_str();
   app.add_option("--threads", o.threads, "LibTorch intra-op threads")->capture_default_str();
   CLI11_PARSE(app, argc, argv);
