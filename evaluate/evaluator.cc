@@ -157,7 +157,7 @@ std::vector<std::string> EvaluateCheckpoints(const EvalOptions& o) {
       auto add_clip = [&](const std::string& kind, const Clip& pred) {
         AddScores(t, kind, ScoreFrames(target, pred, tok), h);
         if (!maps.empty()) AddScores(t, kind, ScoreRegions(target, pred, maps), h);
-        std::vector<double> d = ClipDescriptor(pred, tok);
+        std::vector<double> d = tok.ClipDescriptor(pred.pixels.data(), pred.frames);
         clips[kind].dim = static_cast<int64_t>(d.size());
         clips[kind].rows += 1;
         clips[kind].values.insert(clips[kind].values.end(), d.begin(), d.end());

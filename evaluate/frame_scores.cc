@@ -34,23 +34,6 @@ std::map<std::string, std::vector<double>> ScoreFrames(const Clip& real, const C
   return out;
 }
 
-std::vector<double> ClipDescriptor(const Clip& clip, const tokenize::Tokenizer& tokenizer) {
-  int64_t dim = 0;
-  std::vector<double> d = tokenizer.FrameDescriptors(clip.pixels.data(), clip.frames, &dim);
-  std::vector<double> out(static_cast<size_t>(2 * dim), 0.0);
-  for (int64_t t = 0; t < clip.frames; ++t) {
-    for (int64_t j = 0; j < dim; ++j) out[j] += d[t * dim + j] / clip.frames;
-  }
-  for (int64_t t = 0; t < clip.frames; ++t) {
-    for (int64_t j = 0; j < dim; ++j) {
-      const double e = d[t * dim + j] - out[j];
-      out[dim + j] += e * e / clip.frames;
-    }
-  }
-  for (int64_t j = 0; j < dim; ++j) out[dim + j] = std::sqrt(out[dim + j]);
-  return out;
-}
-
 std::vector<double> SampleDisagreement(const std::vector<Clip>& samples) {
   Check(samples.size() >= 2, "disagreement needs at least two samples");
   const Clip& first = samples.front();

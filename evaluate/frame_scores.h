@@ -29,10 +29,6 @@ Clip SubClip(const Clip& clip, int64_t first, int64_t count);
 std::map<std::string, std::vector<double>> ScoreFrames(const Clip& real, const Clip& pred,
                                                        const tokenize::Tokenizer& tokenizer);
 
-// fvd_style clip descriptor: the mean and the standard deviation over frames of the
-// tokenizer's FrameDescriptors, concatenated.
-std::vector<double> ClipDescriptor(const Clip& clip, const tokenize::Tokenizer& tokenizer);
-
 // Mean over pixels of the per-pixel variance across `samples` (same shape): the disagreement
 // between imaginations of one step, one value per frame.
 std::vector<double> SampleDisagreement(const std::vector<Clip>& samples);

@@ -2,17 +2,22 @@
 
 #include <algorithm>
 #include <cmath>
+#include <map>
 
 #include "core/error.h"
+#include "metrics/frechet.h"
 #include "metrics/image_io.h"
 #include "metrics/lpips/lpips.h"
 #include "metrics/pixel_metrics.h"
+#include "tokenize/frame_sampler.h"
+#include "tokenize/tokenizer.h"
 
 namespace wm::metrics {
 namespace {
 using nlohmann::json;
 
-const std::vector<std::string> kKnown = {"mse", "psnr", "ssim", "ms_ssim", "lpips"};
+const std::vector<std::string> kKnown = {"mse",   "psnr",        "ssim",     "ms_ssim",
+                                         "lpips", "lpips_style", "fvd_style"};
 
 bool Wants(const CompareOptions& o, const std::string& m) {
   return std::find(o.metrics.begin(), o.metrics.end(), m) != o.metrics.end();
@@ -24,7 +29,8 @@ std::vector<uint8_t> ToRgb8(const Image& image) {
         "lpips needs 8-bit RGB frames, got " + ShapeString(image) + " with data range " +
             std::to_string(image.data_range));
   std::vector<uint8_t> out(image.size());
-  for (size_t i = 0; i < out.size(); ++i) out[i] = static_cast<uint8_t>(std::lround(image.pixels[i]));
+  for (size_t i = 0; i < out.size(); ++i)
+    out[i] = static_cast<uint8_t>(std::lround(image.pixels[i]));
   return out;
 }
 
@@ -43,6 +49,36 @@ std::vector<double> LpipsOf(const CompareOptions& o, const Frames& ref, const Fr
   return net.Distance(pa, pb, ref.images[0].height, ref.images[0].width);
 }
 
+// Every frame as the tokenizer sees it: planar [n, 3, S, S] in [-1, 1].
+std::vector<float> TokenizerInput(const Frames& frames, int size) {
+  const size_t floats = 3ull * size * size;
+  std::vector<float> out(frames.images.size() * floats);
+  for (size_t i = 0; i < frames.images.size(); ++i) {
+    const Image& image = frames.images[i];
+    const std::vector<uint8_t> rgb = ToRgb8(image);
+    tokenize::Rgb8ToPlanar(rgb.data(), image.height, image.width, size, out.data() + i * floats);
+  }
+  return out;
+}
+
+// fvd_style between the clip sets of the two sides (clip_length consecutive frames per clip).
+double FvdStyle(const tokenize::Tokenizer& tok, const std::vector<float>& ref,
+                const std::vector<float>& pred, int64_t frames, int clip_length, int64_t* clips) {
+  const size_t floats = 3ull * tok.image_size() * tok.image_size();
+  *clips = frames / clip_length;
+  FeatureSet a, b;
+  for (int64_t c = 0; c < *clips; ++c) {
+    for (auto [set, pixels] : {std::pair{&a, &ref}, std::pair{&b, &pred}}) {
+      const std::vector<double> d =
+          tok.ClipDescriptor(pixels->data() + c * clip_length * floats, clip_length);
+      set->dim = static_cast<int64_t>(d.size());
+      set->rows += 1;
+      set->values.insert(set->values.end(), d.begin(), d.end());
+    }
+  }
+  return FrechetDistance(a, b);
+}
+
 double Mean(const std::vector<double>& v) {
   double s = 0;
   for (double x : v) s += x;
@@ -55,14 +91,14 @@ void CompareOptions::Check() const {
   wm::Check(!ref.empty() && !pred.empty(), "--ref and --pred are required");
   wm::Check(!metrics.empty(), "--metrics names no metric");
   for (const auto& m : metrics) {
-    if (m == "lpips_style" || m == "fvd_style") {
-      throw Error("metric '" + m + "' needs a wmkit tokenizer checkpoint's encoder features, "
-                  "which wm-tokenize does not produce yet (see README, Status)");
-    }
     wm::Check(std::find(kKnown.begin(), kKnown.end(), m) != kKnown.end(),
-              "unknown metric '" + m + "' (known: mse, psnr, ssim, ms_ssim, lpips)",
+              "unknown metric '" + m +
+                  "' (known: mse, psnr, ssim, ms_ssim, lpips, lpips_style, fvd_style)",
               {.key = "--metrics"});
+    wm::Check(!(m == "lpips_style" || m == "fvd_style") || !feature_net.empty(),
+              m + " needs --feature-net: a wm-tokenize run whose encoder gives the features");
   }
+  wm::Check(clip_length >= 1, "must be >= 1", {.key = "--clip-length"});
   wm::Check(!Wants(*this, "lpips") || !lpips_weights.empty(),
             "lpips needs --lpips-weights FILE (made once by scripts/export_lpips_weights.py)");
 }
@@ -76,17 +112,40 @@ json CompareFrameSets(const CompareOptions& o) {
   mo.ms_ssim = Wants(o, "ms_ssim");
   mo.threads = o.threads;
   VideoMetrics video = CompareVideos(ref.images, pred.images, mo);
-  std::vector<double> lpips;
-  if (Wants(o, "lpips")) lpips = LpipsOf(o, ref, pred);
+  std::map<std::string, std::vector<double>> deep;  // per-frame values of the deep metrics
+  if (Wants(o, "lpips")) deep["lpips"] = LpipsOf(o, ref, pred);
+  json result = json::object();
+  if (Wants(o, "lpips_style") || Wants(o, "fvd_style")) {
+    const tokenize::Tokenizer tok(o.feature_net, o.device);
+    const std::vector<float> a = TokenizerInput(ref, tok.image_size());
+    const std::vector<float> b = TokenizerInput(pred, tok.image_size());
+    const auto n = static_cast<int64_t>(ref.images.size());
+    if (Wants(o, "lpips_style"))
+      deep["lpips_style"] = tok.PerceptualDistance(a.data(), b.data(), n);
+    if (Wants(o, "fvd_style")) {
+      int64_t clips = 0;
+      Check(n >= o.clip_length,
+            "fvd_style needs at least --clip-length (" + std::to_string(o.clip_length) +
+                ") frames, got " + std::to_string(n),
+            {.file = o.ref});
+      result["fvd_style"] = FvdStyle(tok, a, b, n, o.clip_length, &clips);
+      result["fvd_style_clips"] = clips;
+    }
+  }
 
-  json means = ToJson(video.mean), result = json::object();
-  for (const auto& m : o.metrics) result[m] = m == "lpips" ? json(Mean(lpips)) : means.at(m);
+  json means = ToJson(video.mean);
+  for (const auto& m : o.metrics) {
+    if (m == "fvd_style") continue;
+    result[m] = deep.count(m) ? json(Mean(deep[m])) : means.at(m);
+  }
   result["frames"] = ref.images.size();
   if (o.per_frame) {
     json rows = json::array();
     for (size_t i = 0; i < ref.images.size(); ++i) {
       json all = ToJson(video.frames[i]), row = {{"source", pred.sources[i]}};
-      for (const auto& m : o.metrics) row[m] = m == "lpips" ? json(lpips[i]) : all.at(m);
+      for (const auto& m : o.metrics) {
+        row[m] = m == "fvd_style" ? json(nullptr) : deep.count(m) ? json(deep[m][i]) : all.at(m);
+      }
       rows.push_back(row);
     }
     result["per_frame"] = rows;
@@ -95,7 +154,9 @@ json CompareFrameSets(const CompareOptions& o) {
 }
 
 std::string FormatCsv(const json& result, const std::vector<std::string>& metrics) {
-  auto cell = [](const json& v) { return v.is_string() ? v.get<std::string>() : v.dump(); };
+  auto cell = [](const json& v) {
+    return v.is_null() ? std::string() : v.is_string() ? v.get<std::string>() : v.dump();
+  };
   std::string out = "frame";
   for (const auto& m : metrics) out += "," + m;
   out += "\n";

@@ -9,8 +9,13 @@ namespace wm::metrics {
 
 struct CompareOptions {
   std::string ref, pred;  // image file, folder of frames (paired by sorted name) or video
-  std::vector<std::string> metrics = {"mse", "psnr", "ssim"};  // also ms_ssim, lpips
+  // also ms_ssim, lpips, lpips_style, fvd_style
+  std::vector<std::string> metrics = {"mse", "psnr", "ssim"};
   std::string lpips_weights;  // wmkit tensor archive (scripts/export_lpips_weights.py)
+  // lpips_style / fvd_style: a wm-tokenize run directory or checkpoint whose encoder gives the
+  // features (docs/metrics.md); frames are resized to its image size.
+  std::string feature_net;
+  int clip_length = 16;        // fvd_style: frames per clip (consecutive, non-overlapping)
   std::string device = "cpu";  // LPIPS device
   int threads = 0;             // 0: all hardware threads
   bool per_frame = false;      // add per-frame values
@@ -18,7 +23,8 @@ struct CompareOptions {
 };
 
 // {"mse": .., "psnr": .., ..., "frames": N, ["per_frame": [{"source": .., "psnr": ..}, ...]]};
-// +inf PSNR is "inf" (JSON has no infinity).
+// +inf PSNR is "inf" (JSON has no infinity). fvd_style is one value for the whole set (per-frame
+// rows carry null), with "fvd_style_clips": the clips per side.
 nlohmann::json CompareFrameSets(const CompareOptions& options);
 
 // One CSV: a header and a row of means, or with per-frame values one row per frame + "mean".

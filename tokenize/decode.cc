@@ -68,8 +68,8 @@ int64_t DecodeEpisode(const DecodeOptions& o) {
     const auto& frames = src.images.at(data.index().tokenizer.image_key).frames;
     std::vector<float> planar(frames.size() * 3 * tok.image_size() * tok.image_size());
     for (size_t t = 0; t < frames.size(); ++t) {
-      DecodeFrame(frames[t], tok.image_size(), planar.data() + t * 3 * tok.image_size() *
-                                                                   tok.image_size());
+      DecodeFrame(frames[t], tok.image_size(),
+                  planar.data() + t * 3 * tok.image_size() * tok.image_size());
     }
     originals = ToBgr(planar, tok.image_size());
     Check(originals.size() == decoded.size(), "source episode has a different frame count",

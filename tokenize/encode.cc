@@ -42,9 +42,9 @@ tokens::TokenIndex BaseIndex(const Tokenizer& tok, const shard::DatasetIndex& so
               {"shards", shards}};
   x.action_stats = source.action_stats;
   // The same for every part job, so whichever job finishes last writes the same index.json.
-  x.provenance = MakeProvenance("wm-tokenize encode",
-                                {{"tokenizer_sha256", tok.checkpoint_sha256()}},
-                                {{"libtorch", TorchVersion()}});
+  x.provenance =
+      MakeProvenance("wm-tokenize encode", {{"tokenizer_sha256", tok.checkpoint_sha256()}},
+                     {{"libtorch", TorchVersion()}});
   return x;
 }
 
@@ -67,8 +67,8 @@ std::vector<float> EpisodeFrames(const Episode& e, const std::string& key, int s
 
 bool PartAlreadyDone(const EncodeOptions& o, const tokens::TokenIndex& base) {
   const fs::path json_path = fs::path(o.out_dir) / tokens::PartJsonName(o.shard_index);
-  if (!fs::exists(json_path) || !fs::exists(fs::path(o.out_dir) /
-                                            tokens::PartFileName(o.shard_index))) {
+  if (!fs::exists(json_path) ||
+      !fs::exists(fs::path(o.out_dir) / tokens::PartFileName(o.shard_index))) {
     return false;
   }
   auto j = nlohmann::json::parse(ReadFile(json_path.string()), nullptr, false);
@@ -108,8 +108,8 @@ EncodeSummary EncodeDataset(const EncodeOptions& o) {
     for (int64_t k = first; k < last; ++k) {
       auto [episode, frames] = pending.get();
       if (k + 1 < last) pending = std::async(std::launch::async, load, k + 1);
-      const int64_t n = static_cast<int64_t>(frames.size()) / (3 * tok.image_size() *
-                                                               tok.image_size());
+      const int64_t n =
+          static_cast<int64_t>(frames.size()) / (3 * tok.image_size() * tok.image_size());
       std::vector<uint32_t> codes = tok.Encode(frames.data(), n);  // AddEpisode checks n = T
       writer.AddEpisode({.num_frames = episode.num_steps,
                          .source_episode = k,

@@ -12,12 +12,16 @@ void DecodeFrame(const std::string& encoded, int size, float* out) {
   cv::Mat buf(1, static_cast<int>(encoded.size()), CV_8UC1, const_cast<char*>(encoded.data()));
   cv::Mat bgr = cv::imdecode(buf, cv::IMREAD_COLOR);
   Check(!bgr.empty(), "cannot decode frame (" + std::to_string(encoded.size()) + " bytes)");
-  cv::Mat rgb, resized;
+  cv::Mat rgb;
   cv::cvtColor(bgr, rgb, cv::COLOR_BGR2RGB);
-  if (rgb.rows != size || rgb.cols != size) {
-    cv::resize(rgb, resized, cv::Size(size, size), 0, 0, cv::INTER_AREA);
-  } else {
-    resized = rgb;
+  Rgb8ToPlanar(rgb.ptr<uint8_t>(), rgb.rows, rgb.cols, size, out);
+}
+
+void Rgb8ToPlanar(const uint8_t* rgb, int height, int width, int size, float* out) {
+  const cv::Mat in(height, width, CV_8UC3, const_cast<uint8_t*>(rgb));  // only read
+  cv::Mat resized = in;
+  if (height != size || width != size) {
+    cv::resize(in, resized, cv::Size(size, size), 0, 0, cv::INTER_AREA);
   }
   const size_t plane = static_cast<size_t>(size) * size;
   for (int y = 0; y < size; ++y) {

@@ -20,6 +20,8 @@ namespace wm::tokenize {
 // Decodes an encoded JPEG/PNG frame, converts BGR->RGB, resizes (INTER_AREA) to size x size
 // and writes planar floats in [-1, 1] to out[3 * size * size] ([3, H, W]).
 void DecodeFrame(const std::string& encoded, int size, float* out);
+// The same from interleaved RGB uint8 [height, width, 3] already in memory.
+void Rgb8ToPlanar(const uint8_t* rgb, int height, int width, int size, float* out);
 
 // SplitMix64's finaliser (Steele et al. 2014): a bijective 64-bit mix; hashes counters.
 uint64_t Mix64(uint64_t x);

@@ -113,8 +113,8 @@ std::vector<FeatureMap> Tokenizer::EncoderFeatures(const float* frames, int64_t 
   torch::Tensor x = state_->Frames(frames, n);
   auto keep = [&out](const torch::Tensor& t) {
     torch::Tensor c = t.to(torch::kCPU).contiguous();
-    out.push_back({c.sizes().vec(), std::vector<float>(c.data_ptr<float>(),
-                                                       c.data_ptr<float>() + c.numel())});
+    out.push_back({c.sizes().vec(),
+                   std::vector<float>(c.data_ptr<float>(), c.data_ptr<float>() + c.numel())});
   };
   for (auto& layer : *state_->model->encoder) {
     x = layer.forward(x);
@@ -124,8 +124,7 @@ std::vector<FeatureMap> Tokenizer::EncoderFeatures(const float* frames, int64_t 
   return out;
 }
 
-std::vector<double> Tokenizer::PerceptualDistance(const float* a, const float* b,
-                                                  int64_t n) const {
+std::vector<double> Tokenizer::PerceptualDistance(const float* a, const float* b, int64_t n) const {
   torch::NoGradGuard no_grad;
   std::vector<FeatureMap> fa = EncoderFeatures(a, n), fb = EncoderFeatures(b, n);
   torch::Tensor total = torch::zeros({n}, torch::kDouble);
@@ -149,6 +148,23 @@ std::vector<double> Tokenizer::FrameDescriptors(const float* frames, int64_t n,
   torch::Tensor d = torch::cat(pooled, 1).contiguous();  // [n, sum of channels]
   *dim = d.size(1);
   return std::vector<double>(d.data_ptr<double>(), d.data_ptr<double>() + d.numel());
+}
+
+std::vector<double> Tokenizer::ClipDescriptor(const float* frames, int64_t n) const {
+  int64_t dim = 0;
+  const std::vector<double> d = FrameDescriptors(frames, n, &dim);
+  std::vector<double> out(static_cast<size_t>(2 * dim), 0.0);
+  for (int64_t t = 0; t < n; ++t) {
+    for (int64_t j = 0; j < dim; ++j) out[j] += d[t * dim + j] / n;
+  }
+  for (int64_t t = 0; t < n; ++t) {
+    for (int64_t j = 0; j < dim; ++j) {
+      const double e = d[t * dim + j] - out[j];
+      out[dim + j] += e * e / n;
+    }
+  }
+  for (int64_t j = 0; j < dim; ++j) out[dim + j] = std::sqrt(out[dim + j]);
+  return out;
 }
 
 std::vector<uint8_t> PlanarToRgb8(const float* planar, int size) {

@@ -51,6 +51,9 @@ class Tokenizer {
   // Per frame, every EncoderFeatures layer averaged over space and concatenated: [n, dim]
   // (the frame descriptor of fvd_style clips). Returns dim through `dim`.
   std::vector<double> FrameDescriptors(const float* frames, int64_t n, int64_t* dim) const;
+  // fvd_style clip descriptor: the mean and the standard deviation over the clip's n frames of
+  // FrameDescriptors, concatenated ([2 * dim]).
+  std::vector<double> ClipDescriptor(const float* frames, int64_t n) const;
 
  private:
   struct State;

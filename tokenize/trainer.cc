@@ -143,8 +143,7 @@ std::unique_ptr<FrameSampler> MakeSampler(const TrainOptions& o,
 class Validation {
  public:
   Validation(const TrainOptions& o, int64_t resume_step)
-      : size_(o.config.model.image_size),
-        path_((fs::path(o.out_dir) / kValMetrics).string()) {
+      : size_(o.config.model.image_size), path_((fs::path(o.out_dir) / kValMetrics).string()) {
     auto sampler = MakeSampler(o, o.val_dirs, Mix64(o.config.train.seed ^ 0x76616cull), false);
     const auto refs = sampler->BatchRefs(0, o.config.train.val_frames);
     frames_.resize(refs.size() * 3 * size_ * size_);
@@ -157,10 +156,10 @@ class Validation {
     const int64_t n = static_cast<int64_t>(frames_.size()) / (3 * size_ * size_);
     torch::Tensor images = torch::from_blob(frames_.data(), {n, 3, size_, size_}).to(device);
     torch::Tensor recon = model->forward(images).reconstruction.to(torch::kCPU).contiguous();
-    ReconstructionScore score = ScoreReconstruction(frames_.data(), recon.data_ptr<float>(), n,
-                                                    size_);
-    std::ofstream(path_, std::ios::app) << step << ',' << score.psnr << ',' << score.ssim << ','
-                                        << score.l1 << '\n';
+    ReconstructionScore score =
+        ScoreReconstruction(frames_.data(), recon.data_ptr<float>(), n, size_);
+    std::ofstream(path_, std::ios::app)
+        << step << ',' << score.psnr << ',' << score.ssim << ',' << score.l1 << '\n';
     return score;
   }
 

@@ -115,9 +115,9 @@ VqVaeImpl::VqVaeImpl(const ModelConfig& c) : config(c) {
     return c.min_channels > 0 ? std::max<int64_t>(c.min_channels, channels >> level) : channels;
   };
   const int64_t ce = c.encoder_channels, cd = c.decoder_channels;
-  encoder = torch::nn::Sequential(
-      torch::nn::Conv2d(Conv2dOptions(3, width(ce, downs), 3).padding(1)),
-      torch::nn::ReLU());  // [B, Ce(downs), H, W]
+  encoder =
+      torch::nn::Sequential(torch::nn::Conv2d(Conv2dOptions(3, width(ce, downs), 3).padding(1)),
+                            torch::nn::ReLU());  // [B, Ce(downs), H, W]
   for (int level = downs; level > 0; --level) {
     encoder->push_back(torch::nn::Conv2d(
         Conv2dOptions(width(ce, level), width(ce, level - 1), 4).stride(2).padding(1)));

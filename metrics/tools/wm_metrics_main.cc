@@ -17,6 +17,7 @@ Examples:
   wm-metrics --ref real.png --pred imagined.png
   wm-metrics --ref real_frames/ --pred rollout_frames/ --metrics psnr,ssim,ms_ssim --per-frame
   wm-metrics --ref real.mp4 --pred rollout.mp4 --metrics psnr,lpips --lpips-weights lpips_alex.wmt --format csv
+  wm-metrics --ref real.mp4 --pred rollout.mp4 --metrics lpips_style,fvd_style --feature-net runs/tok-tiny
   wm-metrics value --returns returns.csv          # value gap, policy ranking (value --help)
   wm-metrics scaling --points losses.csv          # scaling-law fit (scaling --help)
 
@@ -26,9 +27,8 @@ Definitions: docs/metrics.md, docs/metrics-lpips.md, docs/metrics-value.md.
 Exit codes: 0 success, 1 unreadable input, mismatched sizes or counts (message names the file), 2 usage.)";
 
 // The subcommands; each registers its options and runs from its CLI11 callback.
-constexpr void (*kSubcommands[])(CLI::App&) = {wm::metrics::AddValueCommand,
-                                               wm::metrics::AddScalingCommand,
-                                               wm::metrics::AddSegCommand};
+constexpr void (*kSubcommands[])(CLI::App&) = {
+    wm::metrics::AddValueCommand, wm::metrics::AddScalingCommand, wm::metrics::AddSegCommand};
 
 // Frame comparison (no subcommand) needs --ref and --pred; they cannot be CLI11-required, which
 // would demand them of every subcommand too, so the same error is raised here.
@@ -50,13 +50,21 @@ int main(int argc, char** argv) {
   CLI::Option* ref = app.add_option("--ref", o.ref, "Reference: image, folder of frames or video");
   CLI::Option* pred =
       app.add_option("--pred", o.pred, "Prediction: image, folder of frames or video");
-  app.add_option("--metrics", o.metrics, "Comma-separated: mse,psnr,ssim,ms_ssim,lpips")
-      ->delimiter(',')->capture_default_str();
+  app.add_option("--metrics", o.metrics,
+                 "Comma-separated: mse,psnr,ssim,ms_ssim,lpips,lpips_style,fvd_style")
+      ->delimiter(',')
+      ->capture_default_str();
   app.add_option("--lpips-weights", o.lpips_weights, "LPIPS weights (wmkit tensor archive)");
-  app.add_option("--device", o.device, "LPIPS device: cpu, cuda, cuda:N")->capture_default_str();
+  app.add_option("--feature-net", o.feature_net,
+                 "lpips_style / fvd_style features: a wm-tokenize run or checkpoint");
+  app.add_option("--clip-length", o.clip_length, "fvd_style: frames per clip")
+      ->capture_default_str();
+  app.add_option("--device", o.device, "LPIPS / feature-net device: cpu, cuda, cuda:N")
+      ->capture_default_str();
   app.add_option("--threads", o.threads, "Worker threads (0: all cores)")->capture_default_str();
   app.add_flag("--per-frame", o.per_frame, "Also print every frame's values");
-  app.add_option("--format", format, "json or csv")->check(CLI::IsMember({"json", "csv"}))
+  app.add_option("--format", format, "json or csv")
+      ->check(CLI::IsMember({"json", "csv"}))
       ->capture_default_str();
   for (auto add : kSubcommands) add(app);
   for (CLI::App* sub : app.get_subcommands([](CLI::App*) { return true; })) {

@@ -1,0 +1,325 @@
+#!/usr/bin/python3
+"""wm-eval end to end on a tiny generated tabletop dataset (tokenizer and dynamics model trained
+for a few steps here): every report row validates against schemas/report-*.schema.json; a rerun
+gives the same bytes; the copy_last and tokenizer_recon baselines (PSNR, SSIM, MSE and segmented
+MSE) equal an independent NumPy / scikit-image re-computation from the shards and from
+`wm-tokenize decode`; summary means and intervals agree with per_episode.csv; inputs that do not
+belong together exit 1 naming the file; the MP4s hold real | plain | retrace | error panels."""
+import csv
+import hashlib
+import json
+import os
+import subprocess
+import sys
+import tempfile
+import unittest
+
+import cv2
+import jsonschema
+import numpy as np
+from skimage.metrics import structural_similarity
+
+SRC = os.environ.get("WM_SOURCE_DIR", os.path.join(os.path.dirname(__file__), "..", ".."))
+BIN = os.environ.get("WM_BIN_DIR", os.path.join(SRC, "build", "bin"))
+CONFIGS = os.path.join(SRC, "configs")
+sys.path.insert(0, os.path.join(SRC, "scripts"))
+import wmshard  # noqa: E402  (the independent Python reader of shards and token datasets)
+
+HORIZON, EPISODES, SIZE = 3, 2, 64  # SIZE: configs/tokenizer/tiny.yaml model.image_size
+CSVS = {"summary.csv": "report-summary", "per_step.csv": "report-per-step",
+        "per_episode.csv": "report-per-episode", "values.csv": "report-values"}
+INTEGER_COLUMNS = {"n", "step", "episode", "n_episodes"}
+TEXT_COLUMNS = {"checkpoint", "rollout", "metric", "policy_id"}
+# configs/segmentation/tabletop.yaml: segmentation label values -> region.
+REGIONS = {"arm": [1], "object": [2], "background": [0, 3]}
+
+
+def schema(name):
+    with open(os.path.join(SRC, "schemas", name + ".schema.json"), encoding="utf-8") as f:
+        return json.load(f)
+
+
+def typed(row):
+    """A CSV row as the schemas see it: empty -> None, numbers -> int / float."""
+    def cast(k, v):
+        return v if k in TEXT_COLUMNS else int(v) if k in INTEGER_COLUMNS else float(v)
+    return {k: None if v == "" else cast(k, v) for k, v in row.items()}
+
+
+def number(cell):
+    return np.nan if cell == "" else float(cell)
+
+
+def read_rows(path):
+    with open(path, newline="", encoding="utf-8") as f:
+        return list(csv.DictReader(f))
+
+
+def read_bytes(path):
+    with open(path, "rb") as f:
+        return f.read()
+
+
+def sha256(path):
+    return hashlib.sha256(read_bytes(path)).hexdigest()
+
+
+def tool(name, *args):
+    return subprocess.run([os.path.join(BIN, name), *map(str, args)], capture_output=True,
+                          text=True)
+
+
+def ok(name, *args):
+    p = tool(name, *args)
+    if p.returncode != 0:
+        raise AssertionError(f"{name} {' '.join(map(str, args))}: exit {p.returncode}\n{p.stderr}")
+
+
+def decode(blob, flags=cv2.IMREAD_COLOR):
+    """An encoded frame as OpenCV decodes it (the same libopencv as the C++); colour -> RGB."""
+    img = cv2.imdecode(np.frombuffer(blob, np.uint8), flags)
+    return cv2.cvtColor(img, cv2.COLOR_BGR2RGB) if img.ndim == 3 else img
+
+
+def evaluator_frame(rgb):
+    """What the evaluator scores as the real frame: tokenize::DecodeFrame (INTER_AREA resize to
+    the tokenizer size, a no-op at 64x64; uint8 / 127.5 - 1 in float32), then PlanarToRgb8
+    (round((v + 1) * 127.5), clamped), in float32 like the C++. std::round rounds halves away from
+    zero and np.round to even, but (v + 1) * 127.5 lies within float32 error of an integer, never
+    near a half, so the two agree (and the round trip gives back every byte)."""
+    if rgb.shape[:2] != (SIZE, SIZE):
+        rgb = cv2.resize(rgb, (SIZE, SIZE), interpolation=cv2.INTER_AREA)
+    v = rgb.astype(np.float32) / np.float32(127.5) - np.float32(1)
+    return np.clip(np.round((v + np.float32(1)) * np.float32(127.5)), 0, 255).astype(np.uint8)
+
+
+def frame_scores(real, pred):
+    """Per frame of uint8 RGB clips [T, S, S, 3]: MSE (8-bit units), PSNR (R = 255), SSIM."""
+    mse = ((real.astype(np.float64) - pred) ** 2).mean(axis=(1, 2, 3))
+    with np.errstate(divide="ignore"):
+        psnr = 10 * np.log10(255.0 ** 2 / mse)
+    ssim = [structural_similarity(a, b, gaussian_weights=True, sigma=1.5,
+                                  use_sample_covariance=False, data_range=255, channel_axis=-1)
+            for a, b in zip(real, pred)]
+    return {"mse": mse, "psnr": psnr, "ssim": np.array(ssim)}
+
+
+def region_scores(real, pred, labels):
+    """WPE eq. 3 per frame: squared error summed over the region's pixels x 3 channels, divided
+    by their count; NaN for a frame without the region. Masks come from the true frames (at
+    64x64 the nearest-neighbour resize of evaluate/region_masks.cc is the identity)."""
+    err = ((real.astype(np.float64) - pred) ** 2).sum(axis=-1)  # [T, S, S]
+    out = {}
+    for region, labels_of_region in REGIONS.items():
+        mask = np.isin(labels, labels_of_region)
+        count = mask.sum(axis=(1, 2))
+        with np.errstate(invalid="ignore", divide="ignore"):
+            out["mse_" + region] = np.where(count > 0, (err * mask).sum(axis=(1, 2)) / (3 * count),
+                                            np.nan)
+    return out
+
+
+def finite_mean(values):
+    """The evaluator's mean: non-finite values (identical frames, absent regions) left out."""
+    values = np.asarray(values, dtype=np.float64)
+    finite = values[np.isfinite(values)]
+    return (finite.mean() if finite.size else np.nan), finite.size
+
+
+class WmEval(unittest.TestCase):
+    @classmethod
+    def setUpClass(cls):
+        cls.tmp = tempfile.TemporaryDirectory()
+        cls.make_reports()
+        cls.rows = {f: read_rows(os.path.join(cls.reports[0], f)) for f in CSVS}
+        cls.read_references()
+
+    @classmethod
+    def make_reports(cls):
+        """Data, a tokenizer (60 steps), a dynamics model (10 steps), and wm-eval run twice."""
+        path = cls.path
+        ok("wm-gen-tabletop", "--out", path("raw"), "--size", SIZE, "--train-episodes", 24,
+           "--val-episodes", 4, "--seed", 0)
+        for split in ("train", "val"):
+            ok("wm-ingest", "--format", "rlds", "--input", path("raw", "wm_tabletop", "1.0.0"),
+               "--split", split, "--output", path("shards", split), "--threads", 1)
+        ok("wm-tokenize", "train", "--config", os.path.join(CONFIGS, "tokenizer", "tiny.yaml"),
+           "--data", path("shards", "train"), "--out", path("tok"), "--steps", 60,
+           "--threads", 1)
+        for split in ("train", "val"):
+            ok("wm-tokenize", "encode", "--checkpoint", path("tok"), "--data",
+               path("shards", split), "--out", path("tokens", split), "--threads", 1)
+        ok("wm-train", "--config", os.path.join(CONFIGS, "dynamics", "tiny.yaml"), "--tokens",
+           path("tokens", "train"), "--out", path("dyn"), "--steps", 10, "--threads", 1)
+        cls.reports = [path(out, "dyn") for out in ("reports", "rerun")]
+        for report in cls.reports:
+            ok("wm-eval", *cls.eval_args(os.path.dirname(report)))
+
+    @classmethod
+    def read_references(cls):
+        """Independently of wm-eval: real frames 0..H and labels from the shards (wmshard.py),
+        the tokenizer's reconstruction from `wm-tokenize decode`, and both baselines' frames."""
+        shards = wmshard.Dataset(cls.path("shards", "val"))
+        tokens = wmshard.TokenDataset(cls.path("tokens", "val"))
+        cls.real, cls.labels, cls.policies, recon = [], [], [], []
+        for k in range(EPISODES):
+            meta = tokens.index["episodes"][k]
+            _, _, blobs = shards.episode(meta["source_episode"])
+            assert len(blobs["image"]) > HORIZON, "the horizon is not capped in this fixture"
+            cls.real.append(np.stack([evaluator_frame(decode(b))
+                                      for b in blobs["image"][:HORIZON + 1]]))
+            cls.labels.append(np.stack([decode(b, cv2.IMREAD_UNCHANGED)
+                                        for b in blobs["segmentation"][:HORIZON + 1]]))
+            cls.policies.append(meta["policy_id"])
+            out = cls.path("decoded", str(k))
+            ok("wm-tokenize", "decode", "--checkpoint", cls.path("tok"), "--tokens",
+               cls.path("tokens", "val"), "--episode", k, "--out", out)
+            recon.append(np.stack([decode(read_bytes(os.path.join(out, f"frame_{t:04d}.png")))
+                                   for t in range(HORIZON + 1)]))
+        # Frame 0 is the rollouts' given first frame, never scored.
+        cls.baselines = {"copy_last": [np.repeat(r[:1], HORIZON + 1, axis=0) for r in cls.real],
+                         "tokenizer_recon": recon}
+
+    @classmethod
+    def tearDownClass(cls):
+        cls.tmp.cleanup()
+
+    @classmethod
+    def path(cls, *parts):
+        return os.path.join(cls.tmp.name, *parts)
+
+    @classmethod
+    def eval_args(cls, out, tokens="val", tokenizer="tok"):
+        return ["--checkpoint", cls.path("dyn"), "--tokenizer", cls.path(tokenizer),
+                "--data", cls.path("shards", "val"), "--tokens", cls.path("tokens", tokens),
+                "--out", out, "--horizon", HORIZON, "--episodes", EPISODES, "--resamples", 100,
+                "--masks", "files", "--seg-config",
+                os.path.join(CONFIGS, "segmentation", "tabletop.yaml"), "--threads", 1]
+
+    def select(self, file, rollout, metric):
+        return [r for r in self.rows[file] if r["rollout"] == rollout and r["metric"] == metric]
+
+    def assert_close(self, got, want, what, rel=1e-6):
+        """Equal up to `rel` (the CSVs print 9 significant digits); NaN matches an empty cell."""
+        if np.isnan(want):
+            self.assertTrue(np.isnan(got), f"{what}: {got}, expected an empty cell")
+        else:
+            self.assertAlmostEqual(got, want, delta=rel * abs(want) + 1e-12, msg=what)
+
+    def assert_baseline_scores(self, score):
+        """per_episode.csv (episode mean over steps 1..H) and per_step.csv (mean over episodes)
+        of both baselines against score(real, pred, labels) computed here, per frame."""
+        for rollout, clips in self.baselines.items():
+            scores = [score(real[1:], pred[1:], labels[1:])
+                      for real, pred, labels in zip(self.real, clips, self.labels)]
+            for metric in scores[0]:
+                what = f"{rollout} {metric}"
+                rows = self.select("per_episode.csv", rollout, metric)
+                self.assertEqual([(int(r["episode"]), r["policy_id"]) for r in rows],
+                                 list(enumerate(self.policies)), what)
+                for r, s in zip(rows, scores):
+                    self.assert_close(number(r["value"]), finite_mean(s[metric])[0],
+                                      f"{what} episode {r['episode']}")
+                rows = self.select("per_step.csv", rollout, metric)
+                self.assertEqual([int(r["step"]) for r in rows], list(range(1, HORIZON + 1)))
+                for r in rows:
+                    mean, n = finite_mean([s[metric][int(r["step"]) - 1] for s in scores])
+                    self.assertEqual(int(r["n"]), n, f"{what} step {r['step']}")
+                    self.assert_close(number(r["mean"]), mean, f"{what} step {r['step']}")
+
+    def test_rows_validate_against_the_schemas(self):
+        for file, name in CSVS.items():
+            validator = jsonschema.Draft202012Validator(schema(name))
+            self.assertTrue(self.rows[file], file)
+            self.assertEqual(list(self.rows[file][0]), validator.schema["required"], file)
+            for row in self.rows[file]:
+                validator.validate(typed(row))
+        with open(os.path.join(self.reports[0], "manifest.json"), encoding="utf-8") as f:
+            jsonschema.validate(json.load(f), schema("report-manifest"))
+        self.assertEqual({r["rollout"] for r in self.rows["summary.csv"]},
+                         {"plain", "retrace", "copy_last", "tokenizer_recon"})
+
+    def test_rerun_gives_the_same_bytes_and_the_manifest_names_the_inputs(self):
+        # The manifest records no time or host, so it is byte-identical too.
+        for file in [*CSVS, "manifest.json"]:
+            self.assertEqual(*(read_bytes(os.path.join(r, file)) for r in self.reports), file)
+        with open(os.path.join(self.reports[0], "manifest.json"), encoding="utf-8") as f:
+            m = json.load(f)
+        self.assertEqual(m["checkpoint"]["name"], "dyn")
+        self.assertEqual(m["checkpoint"]["sha256"], sha256(self.path("dyn", "checkpoint.wmt")))
+        self.assertEqual(m["tokenizer"]["sha256"], sha256(self.path("tok", "checkpoint.wmt")))
+        self.assertEqual(m["data"]["shards"][0]["sha256"],
+                         sha256(self.path("shards", "val", "shard-00000.wms")))
+        self.assertEqual((m["data"]["split"], m["config"]["horizon"], m["seed"]), ("val", 3, 0))
+        compact = json.dumps(m["config"], separators=(",", ":"), sort_keys=True)
+        self.assertEqual(m["config_hash"], hashlib.sha256(compact.encode()).hexdigest())
+
+    def test_baseline_pixel_metrics_equal_numpy(self):
+        # Exact up to printing: the same decoder (libopencv/libjpeg), uint8 frames on both sides.
+        self.assert_baseline_scores(lambda real, pred, _: frame_scores(real, pred))
+
+    def test_baseline_segmented_mse_equals_numpy(self):
+        self.assert_baseline_scores(region_scores)
+
+    def test_summary_agrees_with_per_episode(self):
+        per_episode = {(r["rollout"], r["metric"]) for r in self.rows["per_episode.csv"]}
+        for row in self.rows["summary.csv"]:
+            key, what = (row["rollout"], row["metric"]), f"{row['rollout']} {row['metric']}"
+            mean, low, high = (number(row[c]) for c in ("mean", "ci_low", "ci_high"))
+            if key not in per_episode:  # a whole-set metric: one number, n what it is over
+                if row["metric"] == "fvd_style":
+                    self.assertEqual((int(row["n"]), row["ci_low"]), (EPISODES, ""), what)
+                continue
+            values = [number(r["value"]) for r in self.select("per_episode.csv", *key)]
+            want, n = finite_mean(values)
+            self.assertEqual(int(row["n"]), n, what)
+            self.assert_close(mean, want, what, rel=1e-8)
+            if n:  # a bootstrap mean of resampled episodes stays within their range
+                self.assertLessEqual(np.nanmin(values) - 1e-9 * abs(want), low, what)
+                self.assertLessEqual(low, mean, what)
+                self.assertLessEqual(mean, high, what)
+                self.assertLessEqual(high, np.nanmax(values) + 1e-9 * abs(want), what)
+        (psnr,) = self.select("summary.csv", "copy_last", "psnr")
+        self.assertEqual(int(psnr["n"]), EPISODES)
+        self.assertLess(float(psnr["ci_low"]), float(psnr["ci_high"]))  # two distinct episodes
+
+    def test_inputs_that_do_not_belong_together_exit_1_naming_the_file(self):
+        # Another tokenizer: the same config, one step (the check is on the checkpoint's SHA-256).
+        ok("wm-tokenize", "train", "--config", os.path.join(CONFIGS, "tokenizer", "tiny.yaml"),
+           "--data", self.path("shards", "val"), "--out", self.path("tok2"), "--steps", 1,
+           "--threads", 1)
+        cases = [({"tokens": "train"}, self.path("tokens", "train", "index.json"),
+                  "source.shards"),
+                 ({"tokenizer": "tok2"}, self.path("tokens", "val", "index.json"),
+                  "tokenizer.checkpoint_sha256")]
+        for i, (args, file, key) in enumerate(cases):
+            out = self.path(f"bad{i}")
+            p = tool("wm-eval", *self.eval_args(out, **args))
+            self.assertEqual(p.returncode, 1, p.stderr)
+            self.assertIn(f"wm-eval: error: {file}: key '{key}'", p.stderr)
+            self.assertFalse(os.path.exists(out), "checked before anything is written")
+
+    def test_videos_hold_real_model_and_error_panels(self):
+        # evaluate/clip_video.cc: frames 1..H, panels real | plain | retrace (std::map order) |
+        # JET heat map of 3 x grey |real - plain|, each drawn 2x with nearest-neighbour.
+        for k in range(EPISODES):
+            cap = cv2.VideoCapture(os.path.join(self.reports[0], "videos", f"episode_{k}.mp4"))
+            frames = []
+            while (frame := cap.read())[0]:
+                frames.append(frame[1])
+            self.assertEqual(len(frames), HORIZON, k)
+            for t, frame in enumerate(frames, start=1):
+                self.assertEqual(frame.shape, (2 * SIZE, 4 * 2 * SIZE, 3))
+                real, plain, _, heat = (p[::2, ::2] for p in np.split(frame, 4, axis=1))
+                # mp4v is lossy: ~2.5 levels of mean error on the real panel; model panels are ~20+.
+                want = cv2.cvtColor(self.real[k][t], cv2.COLOR_RGB2BGR)
+                self.assertLess(cv2.absdiff(real, want).mean(), 6, (k, t))
+                # The heat map from the decoded panels: ~10 apart (codec noise x 3 through JET);
+                # a heat map of another error (e.g. none) is ~60+ apart.
+                grey = cv2.cvtColor(cv2.absdiff(real, plain), cv2.COLOR_BGR2GRAY)
+                expect = cv2.applyColorMap(cv2.multiply(grey, 3), cv2.COLORMAP_JET)
+                self.assertLess(cv2.absdiff(heat, expect).mean(), 25, (k, t))
+
+
+if __name__ == "__main__":
+    unittest.main(verbosity=2)
