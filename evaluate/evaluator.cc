@@ -205,8 +205,9 @@ std::vector<std::string> EvaluateCheckpoints(const EvalOptions& o) {
     t.per_step.erase("real");
     for (const auto& [kind, set] : clips) {
       if (kind == "real") continue;
-      t.whole_set[kind]["fvd_style"] = {metrics::FrechetDistance(clips["real"], set), NAN, NAN,
-                                        set.rows};
+      // A Gaussian fit needs two clips; one episode leaves fvd_style undefined (empty cell).
+      const double fvd = set.rows >= 2 ? metrics::FrechetDistance(clips["real"], set) : NAN;
+      t.whole_set[kind]["fvd_style"] = {fvd, NAN, NAN, set.rows};
     }
     std::string values =
         "checkpoint,rollout,policy_id,n_episodes,real_value,model_value,value_gap\n";

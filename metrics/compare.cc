@@ -124,9 +124,9 @@ json CompareFrameSets(const CompareOptions& o) {
       deep["lpips_style"] = tok.PerceptualDistance(a.data(), b.data(), n);
     if (Wants(o, "fvd_style")) {
       int64_t clips = 0;
-      Check(n >= o.clip_length,
-            "fvd_style needs at least --clip-length (" + std::to_string(o.clip_length) +
-                ") frames, got " + std::to_string(n),
+      Check(n >= 2 * o.clip_length,
+            "fvd_style needs at least 2 clips of --clip-length (" + std::to_string(o.clip_length) +
+                ") frames, got " + std::to_string(n) + " frames",
             {.file = o.ref});
       result["fvd_style"] = FvdStyle(tok, a, b, n, o.clip_length, &clips);
       result["fvd_style_clips"] = clips;

@@ -126,28 +126,41 @@ std::vector<FeatureMap> Tokenizer::EncoderFeatures(const float* frames, int64_t 
 
 std::vector<double> Tokenizer::PerceptualDistance(const float* a, const float* b, int64_t n) const {
   torch::NoGradGuard no_grad;
-  std::vector<FeatureMap> fa = EncoderFeatures(a, n), fb = EncoderFeatures(b, n);
-  torch::Tensor total = torch::zeros({n}, torch::kDouble);
-  for (size_t l = 0; l < fa.size(); ++l) {
-    auto unit = [](FeatureMap& f) {
-      torch::Tensor x = torch::from_blob(f.values.data(), f.shape).to(torch::kDouble);
-      return x / (x.pow(2).sum(1, true).sqrt() + 1e-10);  // [n, C, h, w], unit over channels
-    };
-    total += (unit(fa[l]) - unit(fb[l])).pow(2).sum(1).mean({1, 2});  // [n]
+  const int64_t floats = 3 * int64_t{image_size()} * image_size();
+  std::vector<double> out;
+  for (int64_t i = 0; i < n; i += kChunk) {  // features of a chunk at a time: bounded memory
+    const int64_t m = std::min(kChunk, n - i);
+    std::vector<FeatureMap> fa = EncoderFeatures(a + i * floats, m);
+    std::vector<FeatureMap> fb = EncoderFeatures(b + i * floats, m);
+    torch::Tensor total = torch::zeros({m}, torch::kDouble);
+    for (size_t l = 0; l < fa.size(); ++l) {
+      auto unit = [](FeatureMap& f) {
+        torch::Tensor x = torch::from_blob(f.values.data(), f.shape).to(torch::kDouble);
+        return x / (x.pow(2).sum(1, true).sqrt() + 1e-10);  // [m, C, h, w], unit over channels
+      };
+      total += (unit(fa[l]) - unit(fb[l])).pow(2).sum(1).mean({1, 2});  // [m]
+    }
+    out.insert(out.end(), total.data_ptr<double>(), total.data_ptr<double>() + m);
   }
-  return std::vector<double>(total.data_ptr<double>(), total.data_ptr<double>() + n);
+  return out;
 }
 
 std::vector<double> Tokenizer::FrameDescriptors(const float* frames, int64_t n,
                                                 int64_t* dim) const {
   torch::NoGradGuard no_grad;
-  std::vector<torch::Tensor> pooled;
-  for (FeatureMap& f : EncoderFeatures(frames, n)) {
-    pooled.push_back(torch::from_blob(f.values.data(), f.shape).to(torch::kDouble).mean({2, 3}));
+  const int64_t floats = 3 * int64_t{image_size()} * image_size();
+  std::vector<double> out;
+  for (int64_t i = 0; i < n; i += kChunk) {
+    const int64_t m = std::min(kChunk, n - i);
+    std::vector<torch::Tensor> pooled;
+    for (FeatureMap& f : EncoderFeatures(frames + i * floats, m)) {
+      pooled.push_back(torch::from_blob(f.values.data(), f.shape).to(torch::kDouble).mean({2, 3}));
+    }
+    torch::Tensor d = torch::cat(pooled, 1).contiguous();  // [m, sum of channels]
+    *dim = d.size(1);
+    out.insert(out.end(), d.data_ptr<double>(), d.data_ptr<double>() + d.numel());
   }
-  torch::Tensor d = torch::cat(pooled, 1).contiguous();  // [n, sum of channels]
-  *dim = d.size(1);
-  return std::vector<double>(d.data_ptr<double>(), d.data_ptr<double>() + d.numel());
+  return out;
 }
 
 std::vector<double> Tokenizer::ClipDescriptor(const float* frames, int64_t n) const {

@@ -1,8 +1,9 @@
 // wm-eval: roll out trained world models against held-out episodes and score them
-// (docs/reports.md). Exit codes: 0 success, 1 a wmkit error (named file), >= 100 bad usage.
+// (docs/reports.md). Exit codes: 0 success, 1 a wmkit error (named file), 2 bad command line.
 #include <CLI/CLI.hpp>
 #include <iostream>
 
+#include "core/cli_parse.h"
 #include "core/log.h"
 #include "core/malloc_tuning.h"
 #include "core/provenance.h"
@@ -18,7 +19,8 @@ Writes REPORT_DIR/<checkpoint name>/{summary,per_step,per_episode,values}.csv, m
 videos/episode_K.mp4 (real | plain | retrace | error). Rollouts start from each episode's real
 first frame and follow its logged actions (open loop); baselines copy_last (the first real frame
 repeated) and tokenizer_recon (the tokenizer's reconstruction of the true frames: the ceiling)
-are scored in the same run. Compare checkpoints with `wm-report compare`.)";
+are scored in the same run. Compare checkpoints with `wm-report compare`.
+Exit codes: 0 success, 1 error (one line naming the file), 2 bad command line.)";
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -71,7 +73,7 @@ int main(int argc, char** argv) {
                  "Depth camera fx,fy,cx,cy at the shard resolution (--masks depth)");
   app.add_option("--device", o.device, "cpu, cuda or cuda:N")->capture_default_str();
   app.add_option("--threads", o.threads, "LibTorch intra-op threads")->capture_default_str();
-  CLI11_PARSE(app, argc, argv);
+  if (const int rc = wm::ParseCommandLine(app, argc, argv); rc >= 0) return rc;
   wm::InitLogging();
   using wm::evaluate::RolloutMode;
   if (rollout == "plain") o.modes = {RolloutMode::kPlain};

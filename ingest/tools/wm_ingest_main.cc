@@ -2,6 +2,7 @@
 #include <CLI/CLI.hpp>
 #include <cstdio>
 
+#include "core/cli_parse.h"
 #include "core/error.h"
 #include "core/log.h"
 #include "core/provenance.h"
@@ -52,7 +53,7 @@ int main(int argc, char** argv) {
   app.add_option("--threads", o.threads, "Decode/check threads")->capture_default_str();
   app.add_flag("--header-check-only", header_only, "Decode only each stream's first frame (faster, pass-through)");
   app.add_option("--log-level", log_level, "trace, debug, info, warn, error")->capture_default_str();
-  CLI11_PARSE(app, argc, argv);
+  if (const int rc = wm::ParseCommandLine(app, argc, argv); rc >= 0) return rc;
   wm::InitLogging(log_level);
   try {
     if (!resize.empty() && !ParseSize(resize, o.resize_width, o.resize_height)) {

@@ -2,6 +2,7 @@
 #include <CLI/CLI.hpp>
 #include <iostream>
 
+#include "core/cli_parse.h"
 #include "core/error.h"
 #include "core/log.h"
 #include "core/provenance.h"
@@ -43,7 +44,7 @@ int main(int argc, char** argv) {
   auto* merge = app.add_subcommand("merge", "Join part directories (in the given order)");
   merge->add_option("--output", output, "Merged dataset directory")->required();
   merge->add_option("parts", parts, "Part directories")->required();
-  CLI11_PARSE(app, argc, argv);
+  if (const int rc = wm::ParseCommandLine(app, argc, argv); rc >= 0) return rc;
   wm::InitLogging("info");
   try {
     if (*info) {

@@ -3,6 +3,7 @@
 #include <CLI/CLI.hpp>
 #include <iostream>
 
+#include "core/cli_parse.h"
 #include "core/error.h"
 #include "core/log.h"
 #include "core/provenance.h"
@@ -79,7 +80,7 @@ int main(int argc, char** argv) {
     std::cout << (format == "json" ? result.dump(2) + "\n"
                                    : wm::metrics::FormatCsv(result, o.metrics));
   } catch (const CLI::ParseError& e) {
-    return app.exit(e);
+    return app.exit(e) == 0 ? 0 : wm::kUsageExitCode;
   } catch (const std::exception& e) {
     spdlog::error("{}", e.what());
     return 1;

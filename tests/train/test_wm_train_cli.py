@@ -54,7 +54,7 @@ def main():
         h = run(["--help"])
         check(h.returncode == 0 and "Example:" in h.stdout and "--nproc" in h.stdout, "--help")
         check(run(["--version"]).stdout.startswith("wm-train"), "--version")
-        check(run(["--config", cfg]).returncode >= 100, "missing --tokens is a usage error")
+        check(run(["--config", cfg]).returncode == 2, "missing --tokens is a usage error (exit 2)")
         bad = os.path.join(tmp, "bad.yaml")
         open(bad, "w").write("model:\n  num_heads: 0\n")
         r = run(["--config", bad, "--tokens", tokens, "--out", os.path.join(tmp, "bad")])

@@ -1,12 +1,12 @@
 // wm-tokenize: train the VQ-VAE video tokenizer on shard datasets, pre-tokenize datasets into
 // token datasets and decode them for inspection (docs/tokenizer.md, docs/token-format.md).
-// Exit codes: 0 success, 1 a wmkit error (bad config, data, checkpoint), CLI11 codes (>= 100)
-// for a bad command line.
+// Exit codes: 0 success, 1 a wmkit error (bad config, data, checkpoint), 2 a bad command line.
 #include <CLI/CLI.hpp>
 #include <exception>
 #include <iostream>
 #include <optional>
 
+#include "core/cli_parse.h"
 #include "core/error.h"
 #include "core/log.h"
 #include "core/malloc_tuning.h"
@@ -126,6 +126,11 @@ void AddDecode(CLI::App& app, wm::tokenize::DecodeOptions& o) {
 int main(int argc, char** argv) {
   wm::KeepLargeAllocationsInHeap();
   CLI::App app{"wm-tokenize: VQ-VAE video tokenizer for wmkit world models"};
+  app.footer(
+      "Example:\n  wm-tokenize train --config configs/tokenizer/tiny.yaml --data data/demo/shards/train \\\n"
+      "    --out runs/tok\n  wm-tokenize encode --checkpoint runs/tok --data data/demo/shards/val \\\n"
+      "    --out runs/tokens/val\n"
+      "Exit codes: 0 success, 1 error (one line naming the file), 2 bad command line.");
   app.set_version_flag("--version", wm::VersionString("wm-tokenize"));
   app.require_subcommand(1);
   TrainArgs train;
@@ -134,7 +139,7 @@ int main(int argc, char** argv) {
   AddEncode(app, encode);
   wm::tokenize::DecodeOptions decode;
   AddDecode(app, decode);
-  CLI11_PARSE(app, argc, argv);
+  if (const int rc = wm::ParseCommandLine(app, argc, argv); rc >= 0) return rc;
   wm::InitLogging();
   try {
     if (app.got_subcommand("train")) return RunTrain(train);

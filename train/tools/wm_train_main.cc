@@ -1,12 +1,13 @@
 // wm-train: train the action- and policy-conditioned dynamics model on token datasets
 // (docs/dynamics.md). Exit codes: 0 success, 1 a wmkit error (bad config, data, checkpoint) or a
-// failed rank, CLI11 codes (>= 100) for a bad command line.
+// failed rank, 2 for a bad command line.
 #include <CLI/CLI.hpp>
 #include <cstdlib>
 #include <exception>
 #include <iostream>
 #include <optional>
 
+#include "core/cli_parse.h"
 #include "core/error.h"
 #include "core/log.h"
 #include "core/malloc_tuning.h"
@@ -32,7 +33,7 @@ void AddOptions(CLI::App& app, Args& a) {
       "MASTER_ADDR, MASTER_PORT in the environment of every process.\n"
       "Re-running with --resume continues from RUN_DIR/checkpoint.wmt; the final checkpoint is\n"
       "byte-identical to an uninterrupted CPU run.\n"
-      "Exit codes: 0 success, 1 error (one line naming file and key), >= 100 bad command line.");
+      "Exit codes: 0 success, 1 error (one line naming file and key), 2 bad command line.");
   app.add_option("--config", a.config, "Dynamics YAML (configs/dynamics/*.yaml)")
       ->required()
       ->check(CLI::ExistingFile);
@@ -83,7 +84,7 @@ int main(int argc, char** argv) {
   app.set_version_flag("--version", wm::VersionString("wm-train"));
   Args args;
   AddOptions(app, args);
-  CLI11_PARSE(app, argc, argv);
+  if (const int rc = wm::ParseCommandLine(app, argc, argv); rc >= 0) return rc;
   wm::InitLogging();
   try {
     return Run(args, argc, argv);
