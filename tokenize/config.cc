@@ -3,6 +3,7 @@
 #include <yaml-cpp/yaml.h>
 
 #include <algorithm>
+#include <cmath>
 #include <set>
 #include <sstream>
 
@@ -74,6 +75,10 @@ TokenizerConfig ParseTokenizerConfig(const std::string& yaml_text, const std::st
     try {
       Check(v.IsScalar(), "expected a scalar", {.file = file, .key = Key(section, key)});
       field = v.as<T>();
+      if constexpr (std::is_floating_point_v<T>) {  // .inf / .nan would reach checkpoints as null
+        Check(std::isfinite(field), "must be a finite number",
+              {.file = file, .key = Key(section, key)});
+      }
     } catch (const YAML::Exception&) {
       throw Error("cannot read '" + v.Scalar() + "' as " +
                       (std::is_same_v<T, bool>       ? "a boolean"

@@ -2,6 +2,8 @@
 
 #include <yaml-cpp/yaml.h>
 
+#include <cmath>
+
 #include <map>
 #include <set>
 
@@ -97,6 +99,10 @@ DynamicsConfig ParseDynamicsConfig(const std::string& yaml_text, const std::stri
     try {
       Check(v.IsScalar(), "expected a scalar", {.file = file, .key = Key(section, key)});
       field = v.as<T>();
+      if constexpr (std::is_floating_point_v<T>) {  // .inf / .nan would reach checkpoints as null
+        Check(std::isfinite(field), "must be a finite number",
+              {.file = file, .key = Key(section, key)});
+      }
     } catch (const YAML::Exception&) {
       throw Error("cannot read '" + v.Scalar() + "' as " + TypeWord<T>(),
                   {.file = file, .key = Key(section, key)});

@@ -160,8 +160,9 @@ SegConfig ParseSegConfig(const std::string& yaml_text, const std::string& file) 
   ReadSection(
       root, "depth", config.depth, [](DepthMaskOptions& d, auto&& f) { VisitDepth(d, f); },
       {"intrinsics"}, file);
-  if (const YAML::Node k = root["depth"] ? root["depth"]["intrinsics"] : YAML::Node()) {
-    config.depth.intrinsics = ReadIntrinsics(k, file);
+  // YAML::Node() is a defined null node, so test for the key instead of the node's truth.
+  if (root["depth"] && root["depth"]["intrinsics"]) {
+    config.depth.intrinsics = ReadIntrinsics(root["depth"]["intrinsics"], file);
   }
   try {
     config.motion.Check();
