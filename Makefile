@@ -4,7 +4,24 @@ SHELL := /bin/bash
 BUILD ?= build
 JOBS ?= $(shell nproc)
 BIN := $(BUILD)/bin
-DATA ?= data
+DEMO_DIR ?= data/demo
+# make tokenize|train SHARDS=<train shards> VAL=<val shards> [RUN=runs/main]
+#   [TOKENIZER_CONFIG=...] [DYNAMICS_CONFIG=...]
+SHARDS ?=
+VAL ?=
+RUN ?= runs/main
+TOKENIZER_CONFIG ?= configs/tokenizer/tiny.yaml
+DYNAMICS_CONFIG ?= configs/dynamics/tiny.yaml
+# make eval CHECKPOINTS="runs/a/dynamics runs/b/dynamics" DATA=<val shards> [TOKENS=<val tokens>]
+#   [TOKENIZER=<tokenizer run>] [REPORTS=reports] [EVAL_ARGS=...]; make report REPORTS=...
+CHECKPOINTS ?=
+DATA ?=
+TOKENS ?= $(RUN)/tokens/val
+TOKENIZER ?= $(RUN)/tokenizer
+REPORTS ?= reports
+# make ablation [ABLATION_CONFIG=configs/ablation/tiny.yaml] [ABLATION_DIR=data/ablation]
+ABLATION_CONFIG ?= configs/ablation/tiny.yaml
+ABLATION_DIR ?= data/ablation
 # make ingest RAW=<input> OUT=<dataset dir> FORMAT=rlds|hdf5|folder [SPLIT=train] [ARGS=...]
 RAW ?=
 OUT ?=
@@ -12,7 +29,7 @@ FORMAT ?= rlds
 SPLIT ?= train
 ARGS ?=
 
-.PHONY: all deps configure build test demo ingest tokenize train eval report bench format lint clean
+.PHONY: all deps configure build test demo ingest tokenize train eval report ablation bench format lint clean
 
 all: build
 
@@ -29,7 +46,7 @@ test: build
 	@cd $(BUILD) && ctest --output-on-failure -j $(JOBS)
 
 demo: build
-	@bash scripts/demo.sh $(BIN) $(DATA)/demo
+	@bash scripts/demo.sh $(BIN) $(DEMO_DIR)
 
 ingest: build
 	@if [ -z "$(RAW)" ] || [ -z "$(OUT)" ]; then \
@@ -37,8 +54,23 @@ ingest: build
 	@$(BIN)/wm-ingest --format $(FORMAT) --input $(RAW) --output $(OUT) --split $(SPLIT) $(ARGS)
 	@$(BIN)/wm-shard verify $(OUT)
 
-tokenize train eval report:
-	@echo "make $@: not yet — arrives with its issue (see README, Status; wm-tokenize train works by hand)"; exit 0
+tokenize train: build
+	@if [ -z "$(SHARDS)" ] || [ -z "$(VAL)" ]; then \
+	  echo "usage: make $@ SHARDS=<train shards> VAL=<val shards> [RUN=runs/main] [TOKENIZER_CONFIG=...] [DYNAMICS_CONFIG=...]"; exit 2; fi
+	@TOKENS_ONLY=$(if $(filter tokenize,$@),1,0) bash scripts/train.sh $(BIN) $(RUN) $(SHARDS) $(VAL) \
+	  $(TOKENIZER_CONFIG) $(DYNAMICS_CONFIG)
+
+eval: build
+	@if [ -z "$(CHECKPOINTS)" ] || [ -z "$(DATA)" ]; then \
+	  echo "usage: make eval CHECKPOINTS=\"runs/a/dynamics runs/b/dynamics\" DATA=<val shards> [TOKENS=...] [TOKENIZER=...] [REPORTS=reports]"; exit 2; fi
+	@bash scripts/eval.sh $(BIN) $(REPORTS) $(TOKENIZER) $(DATA) $(TOKENS) $(CHECKPOINTS)
+
+report: build
+	@$(BIN)/wm-report compare $$(find $(REPORTS) -mindepth 2 -maxdepth 2 -name manifest.json -printf '%h\n' | sort) \
+	  --out $(REPORTS)/compare.csv --markdown $(REPORTS)/compare.md && cat $(REPORTS)/compare.md
+
+ablation: build
+	@/usr/bin/python3 scripts/ablation.py --bin $(BIN) --config $(ABLATION_CONFIG) --out $(ABLATION_DIR)
 
 bench: build
 	@bash bench/run.sh $(BIN)
@@ -50,4 +82,4 @@ lint: configure
 	@git ls-files '*.cc' | grep -v '^tests/' | xargs clang-tidy -p $(BUILD) --quiet
 
 clean:
-	@rm -rf $(BUILD) $(DATA)/demo
+	@rm -rf $(BUILD) $(DEMO_DIR)

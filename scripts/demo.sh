@@ -1,28 +1,34 @@
 #!/usr/bin/env bash
 # `make demo`: the embedded synthetic tabletop dataset, in real RLDS TFRecord form, through the
-# pipeline stages that exist so far: generate -> ingest (train, val) -> verify -> summary.
+# whole pipeline: generate -> ingest (train, val) -> verify -> tokenizer -> token datasets ->
+# dynamics model (an early and a final checkpoint) -> wm-eval -> wm-report compare + plots.
+# About 6 minutes on 2 cores; every stage is rerunnable and resumes.
 set -euo pipefail
 BIN=${1:-build/bin}
 OUT=${2:-data/demo}
 SEED=${SEED:-0}
+DYN_STEPS=${DYN_STEPS:-300}
+EARLY_STEPS=${EARLY_STEPS:-60}
 RAW=$OUT/raw
 SHARDS=$OUT/shards
 start=$(date +%s)
 
-echo "== 1/3 generate the synthetic tabletop dataset (RLDS/TFDS layout) -> $RAW"
+echo "== 1/6 generate the synthetic tabletop dataset (RLDS/TFDS layout) -> $RAW"
 if [ ! -f "$RAW/wm_tabletop/1.0.0/dataset_info.json" ]; then
-  "$BIN/wm-gen-tabletop" --out "$RAW" --seed "$SEED"
+  # 64x64 like the tiny tokenizer; 200 training episodes (fewer and the dynamics model overfits)
+  "$BIN/wm-gen-tabletop" --out "$RAW" --seed "$SEED" --size 64 --train-episodes 200 \
+    --val-episodes 16
 else
   echo "already generated"
 fi
 
-echo "== 2/3 ingest train and val splits -> $SHARDS"
+echo "== 2/6 ingest train and val splits -> $SHARDS"
 for split in train val; do
   "$BIN/wm-ingest" --format rlds --input "$RAW/wm_tabletop/1.0.0" --split "$split" \
     --output "$SHARDS/$split" --shard-size-mb 8
 done
 
-echo "== 3/3 verify every checksum, and cross-check with the independent Python reader"
+echo "== 3/6 verify every checksum, and cross-check with the independent Python reader"
 for split in train val; do
   "$BIN/wm-shard" verify "$SHARDS/$split"
   /usr/bin/python3 scripts/wmshard.py "$SHARDS/$split" --verify
@@ -44,4 +50,33 @@ for split in ("train", "val"):
     print("       action mean " + " ".join(f"{v:+.3f}" for v in st["mean"]))
     print("       action std  " + " ".join(f"{v:.3f}" for v in st["std"]))
 PY
-echo "demo finished in $(( $(date +%s) - start )) s; datasets in $SHARDS (inspect: $BIN/wm-shard info $SHARDS/train)"
+
+RUN=$OUT/run
+echo
+echo "== 4/6 tokenizer + token datasets (configs/tokenizer/tiny.yaml) -> $RUN"
+TOKENS_ONLY=1 bash scripts/train.sh "$BIN" "$RUN" "$SHARDS/train" "$SHARDS/val"
+echo "validation reconstruction (step, PSNR dB, SSIM, L1): $(tail -n 1 "$RUN/tokenizer/val.csv")"
+"$BIN/wm-tokenize" decode --checkpoint "$RUN/tokenizer" --tokens "$RUN/tokens/val" --episode 0 \
+  --originals "$SHARDS/val" --out "$OUT/tokenizer_episode0.png" > /dev/null
+echo "originals above reconstructions, val episode 0: $OUT/tokenizer_episode0.png"
+
+echo
+echo "== 5/6 dynamics model (configs/dynamics/tiny.yaml, $DYN_STEPS steps): early checkpoint at" \
+  "step $EARLY_STEPS, then resumed to the end"
+DYN="--steps $DYN_STEPS --threads 2"
+if [ ! -f "$RUN/early/dynamics/checkpoint.wmt" ]; then
+  DYNAMICS_ARGS="$DYN --stop-after $EARLY_STEPS" bash scripts/train.sh "$BIN" "$RUN" \
+    "$SHARDS/train" "$SHARDS/val"
+  mkdir -p "$RUN/early" && cp -r "$RUN/dynamics" "$RUN/early/"
+fi
+DYNAMICS_ARGS="$DYN" bash scripts/train.sh "$BIN" "$RUN" "$SHARDS/train" "$SHARDS/val"
+
+echo
+echo "== 6/6 evaluate both checkpoints on val (plain + retracing rollouts, baselines) and compare"
+COMPARE_ARGS="--metrics psnr,ssim,lpips_style,fvd_style,mse_arm" \
+EVAL_ARGS="--horizon 8 --episodes 8 --masks files --seg-config configs/segmentation/tabletop.yaml --resamples 500" \
+  bash scripts/eval.sh "$BIN" "$OUT/reports" "$RUN/tokenizer" "$SHARDS/val" "$RUN/tokens/val" \
+  "$RUN/early/dynamics" "$RUN/dynamics"
+echo
+echo "demo finished in $(( $(date +%s) - start )) s: datasets $SHARDS, runs $RUN, reports" \
+  "$OUT/reports (compare.csv, plots/, <checkpoint>/videos/)"

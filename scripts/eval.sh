@@ -1,0 +1,32 @@
+#!/usr/bin/env bash
+# `make eval`: wm-eval every checkpoint on held-out data, then wm-report compare (CSV + markdown
+# table printed) and wm-report plot.
+#   scripts/eval.sh BIN REPORTS TOKENIZER VAL_SHARDS VAL_TOKENS CHECKPOINT...
+# Extra wm-eval flags: EVAL_ARGS in the environment (e.g. EVAL_ARGS="--horizon 8 --masks files
+# --seg-config configs/segmentation/tabletop.yaml"), extra wm-report compare flags in
+# COMPARE_ARGS (e.g. COMPARE_ARGS="--metrics psnr,ssim"). The first checkpoint is the baseline.
+set -euo pipefail
+if [ $# -lt 6 ]; then
+  sed -n '2,7p' "$0" >&2
+  exit 2
+fi
+BIN=$1 REPORTS=$2 TOKENIZER=$3 VAL=$4 VAL_TOKENS=$5
+shift 5
+names=()
+for ckpt in "$@"; do
+  name=$(basename "$ckpt")
+  [ "$name" = dynamics ] && name=$(basename "$(dirname "$ckpt")")  # RUN/dynamics -> RUN
+  names+=("$name")
+done
+echo "== wm-eval ${names[*]} on $VAL -> $REPORTS"
+# shellcheck disable=SC2086
+"$BIN/wm-eval" --checkpoint "$@" --name "${names[@]}" --tokenizer "$TOKENIZER" --data "$VAL" \
+  --tokens "$VAL_TOKENS" --out "$REPORTS" ${EVAL_ARGS:-}
+dirs=()
+for n in "${names[@]}"; do dirs+=("$REPORTS/$n"); done
+echo "== wm-report compare -> $REPORTS/compare.csv"
+"$BIN/wm-report" compare "${dirs[@]}" --baseline "${names[0]}" --out "$REPORTS/compare.csv" \
+  --markdown "$REPORTS/compare.md" ${COMPARE_ARGS:-}
+cat "$REPORTS/compare.md"
+echo "== wm-report plot -> $REPORTS/plots"
+"$BIN/wm-report" plot "${dirs[@]}" --out "$REPORTS/plots"
