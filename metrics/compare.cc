@@ -8,6 +8,7 @@
 #include "metrics/frechet.h"
 #include "metrics/image_io.h"
 #include "metrics/lpips/lpips.h"
+#include "metrics/masked_metrics.h"
 #include "metrics/pixel_metrics.h"
 #include "tokenize/frame_sampler.h"
 #include "tokenize/tokenizer.h"
@@ -79,6 +80,30 @@ double FvdStyle(const tokenize::Tokenizer& tok, const std::vector<float>& ref,
   return FrechetDistance(a, b);
 }
 
+// Per frame, mse / psnr / ssim inside the mask, as FrameMetrics (ms_ssim unused).
+std::vector<FrameMetrics> MaskedFrames(const CompareOptions& o, const Frames& ref,
+                                       const Frames& pred, std::vector<int64_t>* pixels) {
+  const Frames masks = LoadFrames(o.mask);
+  Check(masks.images.size() == 1 || masks.images.size() == ref.images.size(),
+        "expected one mask for every frame or one per frame (" + std::to_string(ref.images.size()) +
+            "), found " + std::to_string(masks.images.size()),
+        {.file = o.mask});
+  std::vector<FrameMetrics> out;
+  for (size_t i = 0; i < ref.images.size(); ++i) {
+    const size_t m = masks.images.size() == 1 ? 0 : i;
+    MaskedMetrics r;
+    try {
+      r = CompareMasked(ref.images[i], pred.images[i], masks.images[m], Wants(o, "ssim"),
+                        o.threads);
+    } catch (const Error& e) {
+      throw Error(e.message(), {.file = masks.sources[m]});
+    }
+    out.push_back({.mse = r.mse, .psnr = r.psnr, .ssim = r.ssim, .ms_ssim = NAN});
+    pixels->push_back(r.pixels);
+  }
+  return out;
+}
+
 double Mean(const std::vector<double>& v) {
   double s = 0;
   for (double x : v) s += x;
@@ -99,6 +124,11 @@ void CompareOptions::Check() const {
               m + " needs --feature-net: a wm-tokenize run whose encoder gives the features");
   }
   wm::Check(clip_length >= 1, "must be >= 1", {.key = "--clip-length"});
+  for (const auto& m : metrics) {
+    wm::Check(mask.empty() || m == "mse" || m == "psnr" || m == "ssim",
+              "--mask restricts mse, psnr and ssim only; '" + m + "' has no masked form",
+              {.key = "--metrics"});
+  }
   wm::Check(!Wants(*this, "lpips") || !lpips_weights.empty(),
             "lpips needs --lpips-weights FILE (made once by scripts/export_lpips_weights.py)");
 }
@@ -111,7 +141,19 @@ json CompareFrameSets(const CompareOptions& o) {
   mo.ssim = Wants(o, "ssim");
   mo.ms_ssim = Wants(o, "ms_ssim");
   mo.threads = o.threads;
-  VideoMetrics video = CompareVideos(ref.images, pred.images, mo);
+  VideoMetrics video;
+  std::vector<int64_t> mask_pixels;
+  if (o.mask.empty()) {
+    video = CompareVideos(ref.images, pred.images, mo);
+  } else {  // frames whose mask is empty are left out of the means
+    video.frames = MaskedFrames(o, ref, pred, &mask_pixels);
+    std::vector<FrameMetrics> defined;
+    for (const auto& f : video.frames) {
+      if (!std::isnan(f.mse)) defined.push_back(f);
+    }
+    Check(!defined.empty(), "the mask is empty in every frame", {.file = o.mask});
+    video.mean = MeanMetrics(defined);
+  }
   std::map<std::string, std::vector<double>> deep;  // per-frame values of the deep metrics
   if (Wants(o, "lpips")) deep["lpips"] = LpipsOf(o, ref, pred);
   json result = json::object();
@@ -136,15 +178,19 @@ json CompareFrameSets(const CompareOptions& o) {
   json means = ToJson(video.mean);
   for (const auto& m : o.metrics) {
     if (m == "fvd_style") continue;
-    result[m] = deep.count(m) ? json(Mean(deep[m])) : means.at(m);
+    result[m] = deep.count(m) ? json(Mean(deep[m])) : means.value(m, json(nullptr));
   }
   result["frames"] = ref.images.size();
+  if (!o.mask.empty()) result["mask"] = o.mask;
   if (o.per_frame) {
     json rows = json::array();
     for (size_t i = 0; i < ref.images.size(); ++i) {
       json all = ToJson(video.frames[i]), row = {{"source", pred.sources[i]}};
+      if (!mask_pixels.empty()) row["mask_pixels"] = mask_pixels[i];
       for (const auto& m : o.metrics) {
-        row[m] = m == "fvd_style" ? json(nullptr) : deep.count(m) ? json(deep[m][i]) : all.at(m);
+        row[m] = m == "fvd_style" ? json(nullptr)
+                 : deep.count(m)  ? json(deep[m][i])
+                                  : all.value(m, json(nullptr));
       }
       rows.push_back(row);
     }

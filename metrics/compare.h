@@ -15,7 +15,10 @@ struct CompareOptions {
   // lpips_style / fvd_style: a wm-tokenize run directory or checkpoint whose encoder gives the
   // features (docs/metrics.md); frames are resized to its image size.
   std::string feature_net;
-  int clip_length = 16;        // fvd_style: frames per clip (consecutive, non-overlapping)
+  int clip_length = 16;  // fvd_style: frames per clip (consecutive, non-overlapping)
+  // mse / psnr / ssim inside a mask (metrics/masked_metrics.h): an image (every frame) or one
+  // mask per frame (folder or video); a pixel is inside when non-zero.
+  std::string mask;
   std::string device = "cpu";  // LPIPS device
   int threads = 0;             // 0: all hardware threads
   bool per_frame = false;      // add per-frame values

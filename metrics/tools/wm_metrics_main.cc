@@ -56,6 +56,9 @@ int main(int argc, char** argv) {
       ->delimiter(',')
       ->capture_default_str();
   app.add_option("--lpips-weights", o.lpips_weights, "LPIPS weights (wmkit tensor archive)");
+  app.add_option("--mask", o.mask,
+                 "mse/psnr/ssim inside a mask (non-zero pixels): one image, or a folder or video "
+                 "with one mask per frame");
   app.add_option("--feature-net", o.feature_net,
                  "lpips_style / fvd_style features: a wm-tokenize run or checkpoint");
   app.add_option("--clip-length", o.clip_length, "fvd_style: frames per clip")
