@@ -9,6 +9,7 @@
 
 #include "core/atomic_file.h"
 #include "core/error.h"
+#include "core/sectioned_yaml.h"
 
 namespace wm::tokenize {
 namespace {
@@ -49,55 +50,12 @@ void VisitFields(Config& c, F&& f) {
   f("data", "image_key", c.data.image_key);
 }
 
-std::string Key(const std::string& section, const std::string& key) { return section + "." + key; }
-
 }  // namespace
 
 TokenizerConfig ParseTokenizerConfig(const std::string& yaml_text, const std::string& file) {
-  YAML::Node root;
-  try {
-    root = YAML::Load(yaml_text);
-  } catch (const YAML::Exception& e) {
-    throw Error("invalid YAML: " + std::string(e.what()), {.file = file});
-  }
   TokenizerConfig config;
-  if (root.IsNull()) return config;
-  Check(root.IsMap(), "expected a mapping at the top level", {.file = file});
-  std::map<std::string, std::set<std::string>> known;
-  VisitFields(config, [&](const char* section, const char* key, auto& field) {
-    known[section].insert(key);
-    YAML::Node s = root[section];
-    if (!s) return;
-    Check(s.IsMap(), "expected a mapping", {.file = file, .key = section});
-    YAML::Node v = s[key];
-    if (!v) return;
-    using T = std::decay_t<decltype(field)>;
-    try {
-      Check(v.IsScalar(), "expected a scalar", {.file = file, .key = Key(section, key)});
-      field = v.as<T>();
-      if constexpr (std::is_floating_point_v<T>) {  // .inf / .nan would reach checkpoints as null
-        Check(std::isfinite(field), "must be a finite number",
-              {.file = file, .key = Key(section, key)});
-      }
-    } catch (const YAML::Exception&) {
-      throw Error("cannot read '" + v.Scalar() + "' as " +
-                      (std::is_same_v<T, bool>       ? "a boolean"
-                       : std::is_integral_v<T>       ? "an integer"
-                       : std::is_floating_point_v<T> ? "a number"
-                                                     : "a string"),
-                  {.file = file, .key = Key(section, key)});
-    }
-  });
-  for (const auto& top : root) {
-    const std::string section = top.first.as<std::string>();
-    Check(known.count(section) > 0, "unknown section (expected model, train or data)",
-          {.file = file, .key = section});
-    for (const auto& kv : top.second) {
-      const std::string key = kv.first.as<std::string>();
-      Check(known[section].count(key) > 0, "unknown key (see docs/tokenizer.md)",
-            {.file = file, .key = Key(section, key)});
-    }
-  }
+  ReadSectionedYaml(yaml_text, file, "docs/tokenizer.md", config,
+                    [](auto& c, auto&& f) { VisitFields(c, f); });
   ValidateConfig(config, file);
   return config;
 }

@@ -13,6 +13,7 @@
 
 #include "core/atomic_file.h"
 #include "core/error.h"
+#include "core/step_log.h"
 #include "core/log.h"
 #include "core/progress.h"
 #include "core/provenance.h"
@@ -104,20 +105,6 @@ void LoadCheckpoint(const std::string& path, const std::string& config_hash, Tra
   }
 }
 
-// Keeps the header and the rows up to `step` so a resumed run's metrics continue cleanly.
-void TruncateMetrics(const std::string& path, const char* header, int64_t step) {
-  std::string out = std::string(header) + "\n";
-  if (fs::exists(path)) {
-    std::istringstream in(ReadFile(path));
-    std::string line;
-    std::getline(in, line);
-    while (std::getline(in, line)) {
-      if (!line.empty() && std::stoll(line.substr(0, line.find(','))) <= step) out += line + "\n";
-    }
-  }
-  WriteFileAtomically(path, out);
-}
-
 void SetUpTorch(const TrainConfig& t, const torch::Device& device) {
   torch::set_num_threads(t.threads);
   // CPU kernels used here are deterministic for a fixed thread count; on CUDA some (bincount,
@@ -148,7 +135,7 @@ class Validation {
     const auto refs = sampler->BatchRefs(0, o.config.train.val_frames);
     frames_.resize(refs.size() * 3 * size_ * size_);
     sampler->Load(refs, frames_.data());
-    TruncateMetrics(path_, kValHeader, resume_step);
+    TruncateStepLog(path_, kValHeader, resume_step);
   }
 
   ReconstructionScore Run(VqVae& model, const torch::Device& device, int64_t step) {
@@ -212,7 +199,7 @@ TrainSummary TrainTokenizer(const TrainOptions& o) {
     LoadCheckpoint(ckpt, config_hash, s);
     spdlog::info("resuming {} at step {}", ckpt, s.step);
   }
-  TruncateMetrics(metrics_path, kMetricsHeader, s.step);
+  TruncateStepLog(metrics_path, kMetricsHeader, s.step);
   std::ofstream metrics(metrics_path, std::ios::app);
   std::optional<Validation> val;
   if (!o.val_dirs.empty()) val.emplace(o, s.step);

@@ -7,10 +7,10 @@
 #include <filesystem>
 #include <fstream>
 #include <optional>
-#include <sstream>
 
 #include "core/atomic_file.h"
 #include "core/error.h"
+#include "core/step_log.h"
 #include "core/log.h"
 #include "core/progress.h"
 #include "core/provenance.h"
@@ -56,20 +56,6 @@ class AutocastScope {
  private:
   bool on_;
 };
-
-// Keeps the header and the rows up to `step` so a resumed run's metrics continue cleanly.
-void TruncateMetrics(const std::string& path, int64_t step) {
-  std::string out = std::string(kMetricsHeader) + "\n";
-  if (fs::exists(path)) {
-    std::istringstream in(ReadFile(path));
-    std::string line;
-    std::getline(in, line);
-    while (std::getline(in, line)) {
-      if (!line.empty() && std::stoll(line.substr(0, line.find(','))) <= step) out += line + "\n";
-    }
-  }
-  WriteFileAtomically(path, out);
-}
 
 // Next-frame prediction on fixed validation segments: clean frames 0..T-2, frame T-1 fully
 // masked (the first MaskGIT round). Returns {token CE, token accuracy} over frame T-1.
@@ -188,7 +174,7 @@ TrainSummary TrainDynamics(const TrainOptions& o) {
   }
   std::ofstream metrics;
   if (writer) {
-    TruncateMetrics(metrics_path, step);
+    TruncateStepLog(metrics_path, kMetricsHeader, step);
     metrics.open(metrics_path, std::ios::app);
   }
 

@@ -1,0 +1,75 @@
+#pragma once
+// The two-level YAML configs (`section: {key: scalar}`) of the tokenizer and the dynamics model,
+// read strictly: a value must be a scalar of the field's type (numbers finite), and an unknown
+// section or key is an error, so a typo never silently falls back to a default. Header-only;
+// users link yaml-cpp.
+#include <yaml-cpp/yaml.h>
+
+#include <cmath>
+#include <map>
+#include <set>
+#include <string>
+#include <type_traits>
+
+#include "core/error.h"
+
+namespace wm {
+
+template <class T>
+const char* YamlTypeWord() {
+  if constexpr (std::is_same_v<T, bool>) return "a boolean";
+  if constexpr (std::is_integral_v<T>) return "an integer";
+  if constexpr (std::is_floating_point_v<T>) return "a number";
+  return "a string";
+}
+
+// Reads `yaml_text` into `config`'s fields, which visit_fields(config, f) lists as
+// f(section, key, field). Errors (wm::Error) name `file` and "section.key"; the unknown-key
+// message points at `doc`. An empty document leaves every default.
+template <class Config, class VisitFields>
+void ReadSectionedYaml(const std::string& yaml_text, const std::string& file, const char* doc,
+                       Config& config, VisitFields visit_fields) {
+  YAML::Node root;
+  try {
+    root = YAML::Load(yaml_text);
+  } catch (const YAML::Exception& e) {
+    throw Error("invalid YAML: " + std::string(e.what()), {.file = file});
+  }
+  if (root.IsNull()) return;
+  Check(root.IsMap(), "expected a mapping at the top level", {.file = file});
+  std::map<std::string, std::set<std::string>> known;
+  visit_fields(config, [&](const char* section, const char* key, auto& field) {
+    known[section].insert(key);
+    const std::string where = std::string(section) + "." + key;
+    YAML::Node s = root[section];
+    if (!s) return;
+    Check(s.IsMap(), "expected a mapping", {.file = file, .key = section});
+    YAML::Node v = s[key];
+    if (!v) return;
+    using T = std::decay_t<decltype(field)>;
+    try {
+      Check(v.IsScalar(), "expected a scalar", {.file = file, .key = where});
+      field = v.as<T>();
+      if constexpr (std::is_floating_point_v<T>) {  // .inf / .nan would reach checkpoints as null
+        Check(std::isfinite(field), "must be a finite number", {.file = file, .key = where});
+      }
+    } catch (const YAML::Exception&) {
+      throw Error("cannot read '" + v.Scalar() + "' as " + YamlTypeWord<T>(),
+                  {.file = file, .key = where});
+    }
+  });
+  std::string sections;
+  for (const auto& [name, keys] : known) sections += (sections.empty() ? "" : ", ") + name;
+  for (const auto& top : root) {
+    const std::string section = top.first.as<std::string>();
+    Check(known.count(section) > 0, "unknown section (expected " + sections + ")",
+          {.file = file, .key = section});
+    for (const auto& kv : top.second) {
+      const std::string key = kv.first.as<std::string>();
+      Check(known[section].count(key) > 0, std::string("unknown key (see ") + doc + ")",
+            {.file = file, .key = section + "." + key});
+    }
+  }
+}
+
+}  // namespace wm
