@@ -16,6 +16,7 @@
 #include "evaluate/frame_scores.h"
 #include "evaluate/manifest.h"
 #include "metrics/frechet.h"
+#include "metrics/lpips/lpips.h"
 #include "metrics/value/correlation.h"
 #include "metrics/value/value_metrics.h"
 #include "tokenize/frame_sampler.h"
@@ -125,6 +126,8 @@ std::vector<std::string> EvaluateCheckpoints(const EvalOptions& o) {
   Check(!episodes.empty(), "no episodes to evaluate", {.file = o.tokens_dir});
   const std::string image_key = data.index().tokenizer.image_key;
   const RegionMasks masks(o.masks);
+  std::optional<metrics::Lpips> lpips;
+  if (!o.lpips_weights.empty()) lpips.emplace(o.lpips_weights, o.device);
   std::vector<std::string> written;
   for (size_t c = 0; c < o.checkpoints.size(); ++c) {
     const std::string name = c < o.names.size() ? o.names[c] : DefaultName(o.checkpoints[c]);
@@ -155,7 +158,7 @@ std::vector<std::string> EvaluateCheckpoints(const EvalOptions& o) {
                           o.data_dir + "#episode " + std::to_string(e.source_episode));
       }
       auto add_clip = [&](const std::string& kind, const Clip& pred) {
-        AddScores(t, kind, ScoreFrames(target, pred, tok), h);
+        AddScores(t, kind, ScoreFrames(target, pred, tok, lpips ? &*lpips : nullptr), h);
         if (!maps.empty()) AddScores(t, kind, ScoreRegions(target, pred, maps), h);
         std::vector<double> d = tok.ClipDescriptor(pred.pixels.data(), pred.frames);
         clips[kind].dim = static_cast<int64_t>(d.size());

@@ -20,10 +20,11 @@ struct EvalOptions {
   std::string out_dir;                   // REPORT_DIR
   std::vector<RolloutMode> modes = {RolloutMode::kPlain, RolloutMode::kRetrace};
   RolloutOptions rollout;
-  MaskOptions masks;         // segmented-region MSE (mse_arm, mse_object, mse_background) when set
-  int64_t max_episodes = 0;  // 0 = every episode
-  int resamples = 1000;      // bootstrap replicates for every interval
-  int videos = 2;            // side-by-side MP4s of the first episodes
+  MaskOptions masks;          // segmented-region MSE (mse_arm, mse_object, mse_background) when set
+  std::string lpips_weights;  // official LPIPS (metric "lpips") besides lpips_style when set
+  int64_t max_episodes = 0;   // 0 = every episode
+  int resamples = 1000;       // bootstrap replicates for every interval
+  int videos = 2;             // side-by-side MP4s of the first episodes
   std::string device = "cpu";
   int threads = 1;
   bool show_progress = true;

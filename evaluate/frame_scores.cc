@@ -4,6 +4,7 @@
 
 #include "core/error.h"
 #include "metrics/image.h"
+#include "metrics/lpips/lpips.h"
 #include "metrics/pixel_metrics.h"
 #include "tokenize/tokenizer.h"
 
@@ -18,19 +19,29 @@ Clip SubClip(const Clip& clip, int64_t first, int64_t count) {
 }
 
 std::map<std::string, std::vector<double>> ScoreFrames(const Clip& real, const Clip& pred,
-                                                       const tokenize::Tokenizer& tokenizer) {
+                                                       const tokenize::Tokenizer& tokenizer,
+                                                       metrics::Lpips* lpips) {
   Check(real.frames == pred.frames && real.size == pred.size, "clips differ in shape");
   std::map<std::string, std::vector<double>> out;
   const int s = real.size;
+  std::vector<std::vector<uint8_t>> rgb_a, rgb_b;
   for (int64_t t = 0; t < real.frames; ++t) {
-    auto a = metrics::Image::FromUint8(tokenize::PlanarToRgb8(real.frame(t), s).data(), s, s, 3);
-    auto b = metrics::Image::FromUint8(tokenize::PlanarToRgb8(pred.frame(t), s).data(), s, s, 3);
+    rgb_a.push_back(tokenize::PlanarToRgb8(real.frame(t), s));
+    rgb_b.push_back(tokenize::PlanarToRgb8(pred.frame(t), s));
+    auto a = metrics::Image::FromUint8(rgb_a.back().data(), s, s, 3);
+    auto b = metrics::Image::FromUint8(rgb_b.back().data(), s, s, 3);
     out["mse"].push_back(metrics::Mse(a, b));
     out["psnr"].push_back(metrics::Psnr(a, b));
     out["ssim"].push_back(metrics::Ssim(a, b));
   }
   out["lpips_style"] =
       tokenizer.PerceptualDistance(real.pixels.data(), pred.pixels.data(), real.frames);
+  if (lpips != nullptr) {  // official LPIPS on the same uint8 frames as the pixel metrics
+    std::vector<const uint8_t*> pa, pb;
+    for (size_t t = 0; t < rgb_a.size(); ++t)
+      pa.push_back(rgb_a[t].data()), pb.push_back(rgb_b[t].data());
+    out["lpips"] = lpips->Distance(pa, pb, s, s);
+  }
   return out;
 }
 

@@ -10,6 +10,9 @@
 namespace wm::tokenize {
 class Tokenizer;
 }
+namespace wm::metrics {
+class Lpips;
+}
 
 namespace wm::evaluate {
 
@@ -25,9 +28,11 @@ struct Clip {
 Clip SubClip(const Clip& clip, int64_t first, int64_t count);
 
 // metric -> one value per frame pair ("mse" on [0, 255], "psnr" in dB (+inf for identical
-// frames), "ssim", "lpips_style"). `real` and `pred` have the same frame count and size.
+// frames), "ssim", "lpips_style", and "lpips" when `lpips` is given). `real` and `pred` have the
+// same frame count and size.
 std::map<std::string, std::vector<double>> ScoreFrames(const Clip& real, const Clip& pred,
-                                                       const tokenize::Tokenizer& tokenizer);
+                                                       const tokenize::Tokenizer& tokenizer,
+                                                       metrics::Lpips* lpips = nullptr);
 
 // Mean over pixels of the per-pixel variance across `samples` (same shape): the disagreement
 // between imaginations of one step, one value per frame.

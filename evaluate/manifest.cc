@@ -24,7 +24,11 @@ nlohmann::json EvalConfigJson(const EvalOptions& o) {
           {"seed", o.rollout.seed},
           {"policy_prefix", o.rollout.policy_prefix},
           {"max_episodes", o.max_episodes},
-          {"resamples", o.resamples}};
+          {"resamples", o.resamples},
+          {"masks", o.masks.source},
+          {"seg_config_sha256", o.masks.seg_config.empty() ? "" : Sha256File(o.masks.seg_config)},
+          {"intrinsics", o.masks.intrinsics},
+          {"lpips_weights_sha256", o.lpips_weights.empty() ? "" : Sha256File(o.lpips_weights)}};
 }
 
 void WriteEvalManifest(const std::string& dir, const std::string& name, const EvalOptions& o,

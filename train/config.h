@@ -19,6 +19,7 @@ struct ModelConfig {
   int mlp_ratio = 4;                // MLP hidden = mlp_ratio * d_model
   std::string norm = "layernorm";   // pre-norm type: "layernorm" or "rmsnorm"
   bool policy_conditioning = true;  // WHALE eq. 4-5; false = the ablation without z
+  bool action_conditioning = true;  // false = the action-blind control (actions zeroed)
   double mask_frame_prob = 0.5;     // chance that a frame j >= 1 is a masked target in training;
                                     // the others stay clean context (1 = every frame, as Genie)
   int decode_steps = 8;             // MaskGIT iterations per predicted frame at inference

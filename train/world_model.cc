@@ -45,9 +45,11 @@ DynamicsOutput DynamicsNetImpl::forward(const torch::Tensor& tokens, const torch
                                         const torch::Tensor& z) {
   const int64_t B = tokens.size(0), T = tokens.size(1);
   // Position j carries a_{j-1} and z_{j-1} (eq. 5: x_{h+1} | x_{1:h}, a_{1:h}, z_h).
+  torch::Tensor past = actions.slice(1, 0, T - 1);
+  // The action-blind control sees zeros: same parameters, no information in the actions.
+  if (!config.action_conditioning) past = torch::zeros_like(past);
   torch::Tensor cond =
-      torch::cat({action_start.expand({B, 1, -1}), action_in->forward(actions.slice(1, 0, T - 1))},
-                 1);  // [B, T, D]
+      torch::cat({action_start.expand({B, 1, -1}), action_in->forward(past)}, 1);  // [B, T, D]
   if (z_dim > 0) {
     torch::Tensor zc = z_in->forward(z.slice(1, 0, T - 1));     // [B, T-1, D]
     cond = cond + F::pad(zc, F::PadFuncOptions({0, 0, 1, 0}));  // [B, T, D]

@@ -18,6 +18,7 @@ const std::map<std::string, Direction>& Directions() {
       // A model whose sample spread tracks its error knows where it is wrong.
       {"uncertainty_error_corr", kHigherIsBetter},
       {"mse", kLowerIsBetter},
+      {"lpips", kLowerIsBetter},  // official LPIPS (wm-eval --lpips-weights)
       {"lpips_style", kLowerIsBetter},
       {"fvd_style", kLowerIsBetter},
       {"value_gap", kLowerIsBetter},
@@ -39,6 +40,7 @@ const std::vector<std::string>& HeadlineMetrics() {
   static const std::vector<std::string> metrics = {"psnr",
                                                    "ssim",
                                                    "mse",
+                                                   "lpips",
                                                    "lpips_style",
                                                    "fvd_style",
                                                    "mse_arm",

@@ -71,6 +71,9 @@ int main(int argc, char** argv) {
       ->check(CLI::ExistingFile);
   app.add_option("--intrinsics", o.masks.intrinsics,
                  "Depth camera fx,fy,cx,cy at the shard resolution (--masks depth)");
+  app.add_option("--lpips-weights", o.lpips_weights,
+                 "Official LPIPS weights (scripts/export_lpips_weights.py): adds metric lpips")
+      ->check(CLI::ExistingFile);
   app.add_option("--device", o.device, "cpu, cuda or cuda:N")->capture_default_str();
   app.add_option("--threads", o.threads, "LibTorch intra-op threads")->capture_default_str();
   if (const int rc = wm::ParseCommandLine(app, argc, argv); rc >= 0) return rc;

@@ -73,6 +73,7 @@ def ok(name, *args):
     p = tool(name, *args)
     if p.returncode != 0:
         raise AssertionError(f"{name} {' '.join(map(str, args))}: exit {p.returncode}\n{p.stderr}")
+    return p
 
 
 def decode(blob, flags=cv2.IMREAD_COLOR):
@@ -298,6 +299,29 @@ class WmEval(unittest.TestCase):
             self.assertEqual(p.returncode, 1, p.stderr)
             self.assertIn(f"wm-eval: error: {file}: key '{key}'", p.stderr)
             self.assertFalse(os.path.exists(out), "checked before anything is written")
+
+    def test_official_lpips_of_the_baselines_equals_wm_metrics(self):
+        """--lpips-weights adds `lpips` (here with the exporter's seeded random weights): each
+        baseline episode's mean equals wm-metrics' LPIPS of the same frames written as PNGs."""
+        weights = self.path("lpips-rand.wmt")
+        subprocess.run(["/usr/bin/python3", os.path.join(SRC, "scripts", "export_lpips_weights.py"),
+                        "--random-seed", "0", "--out", weights], check=True, capture_output=True)
+        ok("wm-eval", *self.eval_args(self.path("with_lpips")), "--lpips-weights", weights)
+        rows = read_rows(self.path("with_lpips", "dyn", "per_episode.csv"))
+        for rollout, clips in self.baselines.items():
+            for k, (real, pred) in enumerate(zip(self.real, clips)):
+                dirs = [self.path("lpips_frames", rollout, str(k), side) for side in "ab"]
+                for d, frames in zip(dirs, (real, pred)):
+                    os.makedirs(d)
+                    for t in range(1, HORIZON + 1):
+                        cv2.imwrite(os.path.join(d, f"{t:03d}.png"),
+                                    cv2.cvtColor(frames[t], cv2.COLOR_RGB2BGR))
+                want = json.loads(ok("wm-metrics", "--ref", dirs[0], "--pred", dirs[1],
+                                     "--metrics", "lpips", "--lpips-weights", weights).stdout)
+                got = [r for r in rows if r["rollout"] == rollout and r["metric"] == "lpips"
+                       and int(r["episode"]) == k]
+                self.assertEqual(len(got), 1)
+                self.assert_close(number(got[0]["value"]), want["lpips"], f"{rollout} {k}")
 
     def test_videos_hold_real_model_and_error_panels(self):
         # evaluate/clip_video.cc: frames 1..H, panels real | plain | retrace (std::map order) |
