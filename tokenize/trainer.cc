@@ -85,8 +85,13 @@ void LoadCheckpoint(const std::string& path, const std::string& config_hash, Tra
   TensorArchiveReader r(path);
   try {
     const nlohmann::json& meta = r.meta();
-    Check(meta.value("config_hash", "") == config_hash,
-          "checkpoint was trained with a different config; --resume needs the same config");
+    // The stored config re-read with today's defaults, so a key added to wmkit later (at its
+    // default) does not make the same config look different.
+    const bool same =
+        meta.value("config_hash", "") == config_hash ||
+        (meta.contains("config") &&
+         ConfigHash(ConfigToJson(ConfigFromJson(meta.at("config")))) == config_hash);
+    Check(same, "checkpoint was trained with a different config; --resume needs the same config");
     LoadModule(r, "model/", *s.model);
     const auto& params = s.optimizer->parameters();
     for (size_t i = 0; i < params.size(); ++i) {

@@ -77,7 +77,11 @@ CheckpointMeta LoadCheckpoint(const std::string& path, WorldModel& model, tokeni
   TensorArchiveReader r(path);
   CheckpointMeta meta = MetaFromJson(r.meta(), path);
   try {
-    Check(expected_config_hash.empty() || meta.config_hash == expected_config_hash,
+    // The stored config re-read with today's defaults: a key added to wmkit after the run was
+    // trained (at its default) does not make the same config look different.
+    const std::string stored_hash = ConfigHash(ConfigToJson(ConfigFromJson(meta.config)));
+    Check(expected_config_hash.empty() || meta.config_hash == expected_config_hash ||
+              stored_hash == expected_config_hash,
           "checkpoint was trained with a different config; --resume needs the same config");
     tokenize::LoadModule(r, "model/", *model);
     if (adamw) {
