@@ -39,11 +39,13 @@ void AddTrain(CLI::App& app, TrainArgs& a) {
       ->required()
       ->check(CLI::ExistingDirectory);
   train->add_option("--out", a.options.out_dir, "Run directory (RUN_DIR)")->required();
-  train->add_option("--val-data", a.options.val_dirs,
-                    "Validation shard datasets: reconstruction PSNR/SSIM to RUN_DIR/val.csv")
+  train
+      ->add_option("--val-data", a.options.val_dirs,
+                   "Validation shard datasets: reconstruction PSNR/SSIM to RUN_DIR/val.csv")
       ->check(CLI::ExistingDirectory);
-  train->add_option("--mixture", a.options.mixture_file,
-                    "Dataset weights (configs/mixtures/*.yaml); default: by step count")
+  train
+      ->add_option("--mixture", a.options.mixture_file,
+                   "Dataset weights (configs/mixtures/*.yaml); default: by step count")
       ->check(CLI::ExistingFile);
   train->add_option("--steps", a.steps, "Override train.steps");
   train->add_option("--device", a.options.device, "cpu, cuda or cuda:N")->capture_default_str();
@@ -62,6 +64,11 @@ int RunTrain(TrainArgs& a) {
   if (a.threads > 0) o.config.train.threads = a.threads;
   o.max_steps_this_run = a.stop_after;
   const auto summary = wm::tokenize::TrainTokenizer(o);
+  if (summary.start_step == summary.end_step) {  // a resumed run that had already finished
+    spdlog::info("already at step {}: nothing to train; {} kept", summary.end_step,
+                 summary.checkpoint_path);
+    return 0;
+  }
   spdlog::info("steps {}..{}: loss {:.4f}, recon L1 {:.4f}, perplexity {:.1f}; wrote {}",
                summary.start_step, summary.end_step, summary.last_loss, summary.last_recon_l1,
                summary.last_perplexity, summary.checkpoint_path);
@@ -77,7 +84,8 @@ void AddEncode(CLI::App& app, wm::tokenize::EncodeOptions& o) {
   encode->footer(
       "Example:\n  wm-tokenize encode --checkpoint runs/tok-tiny --data data/tabletop/train \\\n"
       "    --out data/tabletop-tokens/train\n"
-      "As a Slurm array: add --shard-index $SLURM_ARRAY_TASK_ID --num-shards $SLURM_ARRAY_TASK_COUNT;\n"
+      "As a Slurm array: add --shard-index $SLURM_ARRAY_TASK_ID --num-shards "
+      "$SLURM_ARRAY_TASK_COUNT;\n"
       "index.json appears when the last part is written. A rerun skips finished parts.");
   encode->add_option("--checkpoint", o.checkpoint, "Tokenizer run directory or checkpoint.wmt")
       ->required()
@@ -103,7 +111,8 @@ int RunEncode(const wm::tokenize::EncodeOptions& o) {
 void AddDecode(CLI::App& app, wm::tokenize::DecodeOptions& o) {
   CLI::App* decode = app.add_subcommand("decode", "Decode an episode's tokens to PNG or MP4");
   decode->footer(
-      "Example:\n  wm-tokenize decode --checkpoint runs/tok-tiny --tokens data/tabletop-tokens/val \\\n"
+      "Example:\n  wm-tokenize decode --checkpoint runs/tok-tiny --tokens data/tabletop-tokens/val "
+      "\\\n"
       "    --episode 0 --originals data/tabletop/val --out recon.png\n"
       "OUT ending in .png: contact sheet (originals above decoded frames with --originals);\n"
       ".mp4: video (side by side with --originals); anything else: a folder of PNG frames.");
@@ -127,8 +136,10 @@ int main(int argc, char** argv) {
   wm::KeepLargeAllocationsInHeap();
   CLI::App app{"wm-tokenize: VQ-VAE video tokenizer for wmkit world models"};
   app.footer(
-      "Example:\n  wm-tokenize train --config configs/tokenizer/tiny.yaml --data data/demo/shards/train \\\n"
-      "    --out runs/tok\n  wm-tokenize encode --checkpoint runs/tok --data data/demo/shards/val \\\n"
+      "Example:\n  wm-tokenize train --config configs/tokenizer/tiny.yaml --data "
+      "data/demo/shards/train \\\n"
+      "    --out runs/tok\n  wm-tokenize encode --checkpoint runs/tok --data data/demo/shards/val "
+      "\\\n"
       "    --out runs/tokens/val\n"
       "Exit codes: 0 success, 1 error (one line naming the file), 2 bad command line.");
   app.set_version_flag("--version", wm::VersionString("wm-tokenize"));

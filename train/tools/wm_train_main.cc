@@ -63,7 +63,9 @@ int Run(Args& a, int argc, char** argv) {
   if (a.nproc > 1) return wm::train::SpawnLocalRanks(a.nproc, argc, argv);
   wm::train::ReadDistributedEnvironment(o);
   const auto s = wm::train::TrainDynamics(o);
-  if (o.rank == 0) {
+  if (o.rank == 0 && s.start_step == s.end_step) {  // a resumed run that had already finished
+    spdlog::info("already at step {}: nothing to train; {} kept", s.end_step, s.checkpoint_path);
+  } else if (o.rank == 0) {
     spdlog::info(
         "steps {}..{}: loss {:.4f}, token CE {:.4f}, token acc {:.3f}{}; {:.2f} steps/s, "
         "{:.0f} tokens/s, {} parameters; wrote {}",
