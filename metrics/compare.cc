@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <map>
+#include <optional>
 
 #include "core/error.h"
 #include "metrics/frechet.h"
@@ -35,21 +36,6 @@ std::vector<uint8_t> ToRgb8(const Image& image) {
   return out;
 }
 
-std::vector<double> LpipsOf(const CompareOptions& o, const Frames& ref, const Frames& pred) {
-  LpipsOptions lo;
-  lo.device = o.device;
-  lo.threads = o.threads;
-  Lpips net(o.lpips_weights, lo);
-  std::vector<std::vector<uint8_t>> a, b;
-  std::vector<const uint8_t*> pa, pb;
-  for (size_t i = 0; i < ref.images.size(); ++i) {
-    a.push_back(ToRgb8(ref.images[i]));
-    b.push_back(ToRgb8(pred.images[i]));
-  }
-  for (size_t i = 0; i < a.size(); ++i) pa.push_back(a[i].data()), pb.push_back(b[i].data());
-  return net.Distance(pa, pb, ref.images[0].height, ref.images[0].width);
-}
-
 // Every frame as the tokenizer sees it: planar [n, 3, S, S] in [-1, 1].
 std::vector<float> TokenizerInput(const Frames& frames, int size) {
   const size_t floats = 3ull * size * size;
@@ -62,53 +48,179 @@ std::vector<float> TokenizerInput(const Frames& frames, int size) {
   return out;
 }
 
-// fvd_style between the clip sets of the two sides (clip_length consecutive frames per clip).
-double FvdStyle(const tokenize::Tokenizer& tok, const std::vector<float>& ref,
-                const std::vector<float>& pred, int64_t frames, int clip_length, int64_t* clips) {
-  const size_t floats = 3ull * tok.image_size() * tok.image_size();
-  *clips = frames / clip_length;
-  FeatureSet a, b;
-  for (int64_t c = 0; c < *clips; ++c) {
-    for (auto [set, pixels] : {std::pair{&a, &ref}, std::pair{&b, &pred}}) {
-      const std::vector<double> d =
-          tok.ClipDescriptor(pixels->data() + c * clip_length * floats, clip_length);
-      set->dim = static_cast<int64_t>(d.size());
-      set->rows += 1;
-      set->values.insert(set->values.end(), d.begin(), d.end());
-    }
-  }
-  return FrechetDistance(a, b);
-}
-
-// Per frame, mse / psnr / ssim inside the mask, as FrameMetrics (ms_ssim unused).
-std::vector<FrameMetrics> MaskedFrames(const CompareOptions& o, const Frames& ref,
-                                       const Frames& pred, std::vector<int64_t>* pixels) {
-  const Frames masks = LoadFrames(o.mask);
-  Check(masks.images.size() == 1 || masks.images.size() == ref.images.size(),
-        "expected one mask for every frame or one per frame (" + std::to_string(ref.images.size()) +
-            "), found " + std::to_string(masks.images.size()),
-        {.file = o.mask});
-  std::vector<FrameMetrics> out;
-  for (size_t i = 0; i < ref.images.size(); ++i) {
-    const size_t m = masks.images.size() == 1 ? 0 : i;
-    MaskedMetrics r;
-    try {
-      r = CompareMasked(ref.images[i], pred.images[i], masks.images[m], Wants(o, "ssim"),
-                        o.threads);
-    } catch (const Error& e) {
-      throw Error(e.message(), {.file = masks.sources[m]});
-    }
-    out.push_back({.mse = r.mse, .psnr = r.psnr, .ssim = r.ssim, .ms_ssim = NAN});
-    pixels->push_back(r.pixels);
-  }
-  return out;
-}
-
 double Mean(const std::vector<double>& v) {
   double s = 0;
   for (double x : v) s += x;
   return v.empty() ? NAN : s / static_cast<double>(v.size());
 }
+
+// One comparison, fed a chunk of frame pairs at a time; keeps only per-frame numbers (and, for
+// fvd_style, the frames of one unfinished clip).
+class Comparison {
+ public:
+  explicit Comparison(const CompareOptions& o) : o_(o) {
+    mo_.ssim = Wants(o, "ssim");
+    mo_.ms_ssim = Wants(o, "ms_ssim");
+    mo_.threads = o.threads;
+    if (Wants(o, "lpips")) {
+      lpips_.emplace(o.lpips_weights, LpipsOptions{.device = o.device, .threads = o.threads});
+    }
+    if (Wants(o, "lpips_style") || Wants(o, "fvd_style")) tok_.emplace(o.feature_net, o.device);
+    if (!o.mask.empty()) {  // a source of exactly one mask applies it to every frame
+      masks_.emplace(o.mask);
+      masks_->Read(2, &pending_masks_);
+      if (pending_masks_.images.size() == 1) {
+        one_mask_ = std::move(pending_masks_);
+        pending_masks_ = {};
+        masks_.reset();
+      }
+    }
+  }
+
+  void Add(const Frames& ref, const Frames& pred) {
+    for (const auto& src : pred.sources) sources_.push_back(src);
+    if (o_.mask.empty()) {
+      const auto f = CompareFrames(ref.images, pred.images, mo_);
+      frames_.insert(frames_.end(), f.begin(), f.end());
+    } else {
+      AddMasked(ref, pred);
+    }
+    if (lpips_) {
+      std::vector<std::vector<uint8_t>> a, b;
+      std::vector<const uint8_t*> pa, pb;
+      for (size_t i = 0; i < ref.images.size(); ++i) {
+        a.push_back(ToRgb8(ref.images[i]));
+        b.push_back(ToRgb8(pred.images[i]));
+      }
+      for (size_t i = 0; i < a.size(); ++i) pa.push_back(a[i].data()), pb.push_back(b[i].data());
+      Append("lpips", lpips_->Distance(pa, pb, ref.images[0].height, ref.images[0].width));
+    }
+    if (tok_) {
+      const std::vector<float> a = TokenizerInput(ref, tok_->image_size());
+      const std::vector<float> b = TokenizerInput(pred, tok_->image_size());
+      const auto n = static_cast<int64_t>(ref.images.size());
+      if (Wants(o_, "lpips_style")) {
+        Append("lpips_style", tok_->PerceptualDistance(a.data(), b.data(), n));
+      }
+      if (Wants(o_, "fvd_style")) AddClipFrames(a, b);
+    }
+  }
+
+  json Result() {
+    if (masks_) {
+      Frames extra = std::move(pending_masks_);
+      Check(extra.images.empty() && masks_->Read(1, &extra) == 0,
+            "more masks than frames (" + std::to_string(frames_.size()) + ")", {.file = o_.mask});
+    }
+    json result = json::object();
+    if (Wants(o_, "fvd_style")) {
+      Check(fvd_ref_.rows >= 2,
+            "fvd_style needs at least 2 clips of --clip-length (" + std::to_string(o_.clip_length) +
+                ") frames, got " + std::to_string(frames_.size()) + " frames",
+            {.file = o_.ref});
+      result["fvd_style"] = FrechetDistance(fvd_ref_, fvd_pred_);
+      result["fvd_style_clips"] = fvd_ref_.rows;
+    }
+    std::vector<FrameMetrics> defined;  // frames whose mask is empty are left out of the means
+    for (const auto& f : frames_) {
+      if (!std::isnan(f.mse)) defined.push_back(f);
+    }
+    Check(!defined.empty(), "the mask is empty in every frame", {.file = o_.mask});
+    const json means = ToJson(MeanMetrics(defined));
+    for (const auto& m : o_.metrics) {
+      if (m == "fvd_style") continue;
+      result[m] = deep_.count(m) ? json(Mean(deep_[m])) : means.value(m, json(nullptr));
+    }
+    result["frames"] = frames_.size();
+    if (!o_.mask.empty()) result["mask"] = o_.mask;
+    if (o_.per_frame) {
+      json rows = json::array();
+      for (size_t i = 0; i < frames_.size(); ++i) {
+        json all = ToJson(frames_[i]), row = {{"source", sources_[i]}};
+        if (!mask_pixels_.empty()) row["mask_pixels"] = mask_pixels_[i];
+        for (const auto& m : o_.metrics) {
+          row[m] = m == "fvd_style" ? json(nullptr)
+                   : deep_.count(m) ? json(deep_[m][i])
+                                    : all.value(m, json(nullptr));
+        }
+        rows.push_back(row);
+      }
+      result["per_frame"] = rows;
+    }
+    return result;
+  }
+
+ private:
+  void Append(const std::string& metric, const std::vector<double>& values) {
+    auto& v = deep_[metric];
+    v.insert(v.end(), values.begin(), values.end());
+  }
+
+  // mse / psnr / ssim inside the mask of each frame (ms_ssim unused).
+  void AddMasked(const Frames& ref, const Frames& pred) {
+    Frames chunk = std::move(pending_masks_);
+    pending_masks_ = {};
+    if (masks_) {
+      const size_t want = ref.images.size();
+      if (chunk.images.size() < want) masks_->Read(want - chunk.images.size(), &chunk);
+      Check(chunk.images.size() >= want,
+            "fewer masks than frames: expected one mask for every frame or one per frame, found " +
+                std::to_string(frames_.size() + chunk.images.size()) + " masks for more frames",
+            {.file = o_.mask});
+      pending_masks_.images.assign(chunk.images.begin() + want, chunk.images.end());
+      pending_masks_.sources.assign(chunk.sources.begin() + want, chunk.sources.end());
+      chunk.images.resize(want);
+      chunk.sources.resize(want);
+    }
+    const Frames& masks = masks_ ? chunk : one_mask_;
+    for (size_t i = 0; i < ref.images.size(); ++i) {
+      const size_t m = masks_ ? i : 0;
+      MaskedMetrics r;
+      try {
+        r = CompareMasked(ref.images[i], pred.images[i], masks.images[m], Wants(o_, "ssim"),
+                          o_.threads);
+      } catch (const Error& e) {
+        throw Error(e.message(), {.file = masks.sources[m]});
+      }
+      frames_.push_back({.mse = r.mse, .psnr = r.psnr, .ssim = r.ssim, .ms_ssim = NAN});
+      mask_pixels_.push_back(r.pixels);
+    }
+  }
+
+  // fvd_style: consecutive clips of clip_length frames; a clip may span chunks.
+  void AddClipFrames(const std::vector<float>& a, const std::vector<float>& b) {
+    const size_t floats = 3ull * tok_->image_size() * tok_->image_size();
+    const size_t clip = static_cast<size_t>(o_.clip_length) * floats;
+    carry_ref_.insert(carry_ref_.end(), a.begin(), a.end());
+    carry_pred_.insert(carry_pred_.end(), b.begin(), b.end());
+    size_t used = 0;
+    for (; carry_ref_.size() - used >= clip; used += clip) {
+      for (auto [set, pixels] :
+           {std::pair{&fvd_ref_, &carry_ref_}, std::pair{&fvd_pred_, &carry_pred_}}) {
+        const std::vector<double> d = tok_->ClipDescriptor(pixels->data() + used, o_.clip_length);
+        set->dim = static_cast<int64_t>(d.size());
+        set->rows += 1;
+        set->values.insert(set->values.end(), d.begin(), d.end());
+      }
+    }
+    carry_ref_.erase(carry_ref_.begin(), carry_ref_.begin() + used);
+    carry_pred_.erase(carry_pred_.begin(), carry_pred_.begin() + used);
+  }
+
+  const CompareOptions& o_;
+  MetricOptions mo_;
+  std::optional<Lpips> lpips_;
+  std::optional<tokenize::Tokenizer> tok_;
+  std::optional<FrameStream> masks_;
+  Frames one_mask_;
+  Frames pending_masks_;  // read ahead of the frames they belong to
+  std::vector<FrameMetrics> frames_;
+  std::vector<std::string> sources_;
+  std::vector<int64_t> mask_pixels_;
+  std::map<std::string, std::vector<double>> deep_;  // per-frame values of the deep metrics
+  FeatureSet fvd_ref_, fvd_pred_;
+  std::vector<float> carry_ref_, carry_pred_;
+};
 
 }  // namespace
 
@@ -124,6 +236,7 @@ void CompareOptions::Check() const {
               m + " needs --feature-net: a wm-tokenize run whose encoder gives the features");
   }
   wm::Check(clip_length >= 1, "must be >= 1", {.key = "--clip-length"});
+  wm::Check(chunk_frames >= 1, "must be >= 1", {.key = "--chunk-frames"});
   for (const auto& m : metrics) {
     wm::Check(mask.empty() || m == "mse" || m == "psnr" || m == "ssim",
               "--mask restricts mse, psnr and ssim only; '" + m + "' has no masked form",
@@ -135,68 +248,21 @@ void CompareOptions::Check() const {
 
 json CompareFrameSets(const CompareOptions& o) {
   o.Check();
-  Frames ref = LoadFrames(o.ref), pred = LoadFrames(o.pred);
-  CheckPaired(ref, pred);
-  MetricOptions mo;
-  mo.ssim = Wants(o, "ssim");
-  mo.ms_ssim = Wants(o, "ms_ssim");
-  mo.threads = o.threads;
-  VideoMetrics video;
-  std::vector<int64_t> mask_pixels;
-  if (o.mask.empty()) {
-    video = CompareVideos(ref.images, pred.images, mo);
-  } else {  // frames whose mask is empty are left out of the means
-    video.frames = MaskedFrames(o, ref, pred, &mask_pixels);
-    std::vector<FrameMetrics> defined;
-    for (const auto& f : video.frames) {
-      if (!std::isnan(f.mse)) defined.push_back(f);
-    }
-    Check(!defined.empty(), "the mask is empty in every frame", {.file = o.mask});
-    video.mean = MeanMetrics(defined);
+  FrameStream ref(o.ref), pred(o.pred);
+  Comparison comparison(o);
+  size_t total = 0;
+  for (;;) {
+    Frames a, b;
+    const size_t na = ref.Read(o.chunk_frames, &a), nb = pred.Read(o.chunk_frames, &b);
+    Check(na == nb, "frame counts differ: " + o.ref + " has " +
+                        (na < nb ? std::to_string(total + na) : "more") + " frames, " + o.pred +
+                        " has " + (nb < na ? std::to_string(total + nb) : "more"));
+    if (na == 0) break;
+    CheckPaired(a, b);
+    comparison.Add(a, b);
+    total += na;
   }
-  std::map<std::string, std::vector<double>> deep;  // per-frame values of the deep metrics
-  if (Wants(o, "lpips")) deep["lpips"] = LpipsOf(o, ref, pred);
-  json result = json::object();
-  if (Wants(o, "lpips_style") || Wants(o, "fvd_style")) {
-    const tokenize::Tokenizer tok(o.feature_net, o.device);
-    const std::vector<float> a = TokenizerInput(ref, tok.image_size());
-    const std::vector<float> b = TokenizerInput(pred, tok.image_size());
-    const auto n = static_cast<int64_t>(ref.images.size());
-    if (Wants(o, "lpips_style"))
-      deep["lpips_style"] = tok.PerceptualDistance(a.data(), b.data(), n);
-    if (Wants(o, "fvd_style")) {
-      int64_t clips = 0;
-      Check(n >= 2 * o.clip_length,
-            "fvd_style needs at least 2 clips of --clip-length (" + std::to_string(o.clip_length) +
-                ") frames, got " + std::to_string(n) + " frames",
-            {.file = o.ref});
-      result["fvd_style"] = FvdStyle(tok, a, b, n, o.clip_length, &clips);
-      result["fvd_style_clips"] = clips;
-    }
-  }
-
-  json means = ToJson(video.mean);
-  for (const auto& m : o.metrics) {
-    if (m == "fvd_style") continue;
-    result[m] = deep.count(m) ? json(Mean(deep[m])) : means.value(m, json(nullptr));
-  }
-  result["frames"] = ref.images.size();
-  if (!o.mask.empty()) result["mask"] = o.mask;
-  if (o.per_frame) {
-    json rows = json::array();
-    for (size_t i = 0; i < ref.images.size(); ++i) {
-      json all = ToJson(video.frames[i]), row = {{"source", pred.sources[i]}};
-      if (!mask_pixels.empty()) row["mask_pixels"] = mask_pixels[i];
-      for (const auto& m : o.metrics) {
-        row[m] = m == "fvd_style" ? json(nullptr)
-                 : deep.count(m)  ? json(deep[m][i])
-                                  : all.value(m, json(nullptr));
-      }
-      rows.push_back(row);
-    }
-    result["per_frame"] = rows;
-  }
-  return result;
+  return comparison.Result();
 }
 
 std::string FormatCsv(const json& result, const std::vector<std::string>& metrics) {

@@ -21,6 +21,7 @@ struct CompareOptions {
   std::string mask;
   std::string device = "cpu";  // LPIPS device
   int threads = 0;             // 0: all hardware threads
+  int chunk_frames = 64;       // frame pairs held in memory at a time (long inputs stream)
   bool per_frame = false;      // add per-frame values
   void Check() const;          // throws wm::Error naming the offending option
 };

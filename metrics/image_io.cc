@@ -7,6 +7,7 @@
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 #include <opencv2/videoio.hpp>
+#include <optional>
 
 #include "core/error.h"
 
@@ -67,32 +68,6 @@ Image FromMat(const cv::Mat& decoded, const std::string& source) {
                            range);
 }
 
-Frames LoadFolder(const std::string& folder) {
-  Frames frames;
-  for (const auto& file : ListImageFiles(folder)) {
-    frames.images.push_back(LoadImage(file));
-    frames.sources.push_back(file);
-  }
-  return frames;
-}
-
-Frames LoadVideo(const std::string& path) {
-  cv::VideoCapture capture(path);
-  if (!capture.isOpened()) {
-    throw Error("cannot open video (missing, not a video, or no decoder for its codec)",
-                {.file = path});
-  }
-  Frames frames;
-  cv::Mat frame;
-  while (capture.read(frame) && !frame.empty()) {
-    const std::string source = path + "#frame " + std::to_string(frames.images.size());
-    frames.images.push_back(FromMat(frame, source));
-    frames.sources.push_back(source);
-  }
-  Check(!frames.images.empty(), "video has no decodable frame", {.file = path});
-  return frames;
-}
-
 void CheckSameShapeAs(const Image& first, const std::string& first_source, const Image& image,
                       const std::string& source) {
   try {
@@ -140,18 +115,68 @@ bool IsVideoFile(const std::string& path) {
   return std::find(kExtensions.begin(), kExtensions.end(), ext) != kExtensions.end();
 }
 
-Frames LoadFrames(const std::string& path) {
-  Frames frames;
+struct FrameStream::State {
+  std::string path;
+  std::vector<std::string> files;  // folder or single image; empty for a video
+  size_t next = 0;
+  cv::VideoCapture video;
+  bool is_video = false;
+  std::optional<Image> first;  // shape every later frame must have
+  std::string first_source;
+};
+
+FrameStream::FrameStream(const std::string& path) : s_(std::make_unique<State>()) {
+  s_->path = path;
   if (fs::is_directory(path)) {
-    frames = LoadFolder(path);
+    s_->files = ListImageFiles(path);
   } else if (IsVideoFile(path)) {
-    frames = LoadVideo(path);
+    s_->is_video = true;
+    s_->video.open(path);
+    if (!s_->video.isOpened()) {
+      throw Error("cannot open video (missing, not a video, or no decoder for its codec)",
+                  {.file = path});
+    }
   } else {
-    frames.images.push_back(LoadImage(path));
-    frames.sources.push_back(path);
+    s_->files = {path};
   }
-  for (size_t i = 1; i < frames.images.size(); ++i) {
-    CheckSameShapeAs(frames.images[0], frames.sources[0], frames.images[i], frames.sources[i]);
+}
+
+FrameStream::~FrameStream() = default;
+
+const std::string& FrameStream::path() const { return s_->path; }
+
+size_t FrameStream::Read(size_t max_frames, Frames* out) {
+  size_t read = 0;
+  for (; read < max_frames; ++read) {
+    Image image;
+    std::string source;
+    if (s_->is_video) {
+      cv::Mat frame;
+      if (!s_->video.read(frame) || frame.empty()) break;
+      source = s_->path + "#frame " + std::to_string(s_->next++);
+      image = FromMat(frame, source);
+    } else {
+      if (s_->next == s_->files.size()) break;
+      source = s_->files[s_->next++];
+      image = LoadImage(source);
+    }
+    if (!s_->first) {
+      s_->first = image;
+      s_->first_source = source;
+    }
+    CheckSameShapeAs(*s_->first, s_->first_source, image, source);
+    out->images.push_back(std::move(image));
+    out->sources.push_back(std::move(source));
+  }
+  Check(!(s_->is_video && s_->next == 0 && read == 0 && max_frames > 0),
+        "video has no decodable frame", {.file = s_->path});
+  return read;
+}
+
+Frames LoadFrames(const std::string& path) {
+  FrameStream stream(path);
+  Frames frames;
+  while (stream.Read(256, &frames) > 0) {
   }
   return frames;
 }

@@ -1,6 +1,7 @@
 #pragma once
 // Loading frames for the metrics: one image file, a folder of frames, or a video file (OpenCV
 // decoders; OpenCV stays inside image_io.cc). Colour images come out as RGB.
+#include <memory>
 #include <string>
 #include <vector>
 
@@ -31,9 +32,26 @@ struct Frames {
   std::vector<std::string> sources;
 };
 
-// A folder (its images sorted by name), a video file (every frame, RGB, data_range 255), or a
-// single image (one frame). Throws wm::Error naming the file when one is unreadable, a folder
-// is empty, or a frame's shape differs from the first frame's.
+// The frames of a folder (its images sorted by name), a video file (every frame, RGB,
+// data_range 255) or a single image (one frame), read one at a time so long inputs stream in
+// bounded memory. Throws wm::Error naming the file when one is unreadable, a folder is empty,
+// or a frame's shape differs from the first frame's.
+class FrameStream {
+ public:
+  explicit FrameStream(const std::string& path);
+  ~FrameStream();
+  FrameStream(const FrameStream&) = delete;
+  FrameStream& operator=(const FrameStream&) = delete;
+  // Up to `max_frames` next frames appended to `out`; how many were read (0 at the end).
+  size_t Read(size_t max_frames, Frames* out);
+  const std::string& path() const;
+
+ private:
+  struct State;
+  std::unique_ptr<State> s_;
+};
+
+// Every frame of FrameStream(path) at once.
 Frames LoadFrames(const std::string& path);
 
 // Throws wm::Error naming the first pair of sources whose shapes or data ranges differ, or both

@@ -66,6 +66,9 @@ int main(int argc, char** argv) {
   app.add_option("--device", o.device, "LPIPS / feature-net device: cpu, cuda, cuda:N")
       ->capture_default_str();
   app.add_option("--threads", o.threads, "Worker threads (0: all cores)")->capture_default_str();
+  app.add_option("--chunk-frames", o.chunk_frames,
+                 "Frame pairs held in memory at a time (long folders and videos stream)")
+      ->capture_default_str();
   app.add_flag("--per-frame", o.per_frame, "Also print every frame's values");
   app.add_option("--format", format, "json or csv")
       ->check(CLI::IsMember({"json", "csv"}))

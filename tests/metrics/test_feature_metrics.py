@@ -3,7 +3,7 @@
 from the encoder features that tokenizer_ref_tool writes for the same frames (the tool runs the
 Tokenizer API; resizing, scaling, the distances and the Fréchet statistic are redone here), on a
 tokenizer trained for 20 steps and tabletop frames read from the shards with wmshard.py. Also:
-identical inputs give 0, lpips_style is symmetric, usage errors name --feature-net or the file,
+the same numbers when streamed in chunks, identical inputs give 0, lpips_style is symmetric, usage errors name --feature-net or the file,
 and CSV leaves the per-frame fvd_style cells empty."""
 import csv
 import io
@@ -142,6 +142,16 @@ class FeatureMetrics(unittest.TestCase):
                 out = self.metrics("ref", "pred", metrics="fvd_style", clip=clip)
                 self.assertEqual(out["fvd_style_clips"], FRAMES // clip)
                 np.testing.assert_allclose(out["fvd_style"], frechet(x, y), rtol=1e-5, atol=0)
+
+    # Chunks of 3 frames split the second clip of 2 across two chunks: the carried frames must
+    # give the same clips (the encoder runs on other batch sizes, hence not bit-equal).
+    def test_streaming_in_chunks_gives_the_same_numbers(self):
+        whole = self.metrics("ref", "pred", "--per-frame")
+        chunked = self.metrics("ref", "pred", "--per-frame", "--chunk-frames", 3)
+        self.assertEqual(chunked["fvd_style_clips"], whole["fvd_style_clips"])
+        np.testing.assert_allclose(chunked["fvd_style"], whole["fvd_style"], rtol=1e-5)
+        np.testing.assert_allclose([r["lpips_style"] for r in chunked["per_frame"]],
+                                   [r["lpips_style"] for r in whole["per_frame"]], rtol=1e-5)
 
     def test_identical_inputs_give_zero(self):
         out = self.metrics("pred", "pred", "--per-frame")

@@ -1,7 +1,7 @@
 #!/usr/bin/python3
 """`wm-metrics --mask`: MSE, PSNR and SSIM inside a mask against NumPy and scikit-image's SSIM
 map (mean over the mask's pixels inside the 5-pixel border, every channel), one mask for every
-frame or one per frame, and the errors: a metric with no masked form, a mask of another size,
+frame or one per frame, the same numbers when streamed in chunks of 1 or 2 frames, and the errors: a metric with no masked form, a mask of another size,
 a mask empty in every frame."""
 import json
 import os
@@ -58,7 +58,7 @@ class MaskedMetricsTest(unittest.TestCase):
 
     def metrics(self, *args):
         return subprocess.run([os.path.join(BIN, "wm-metrics"), "--ref", self.path("ref"),
-                               "--pred", self.path("pred"), *args],
+                               "--pred", self.path("pred"), *map(str, args)],
                               capture_output=True, text=True)
 
     def test_per_frame_masks_match_numpy_and_skimage(self):
@@ -81,6 +81,24 @@ class MaskedMetricsTest(unittest.TestCase):
         m = self.frames["masks"][1]
         for row, a, b in zip(out["per_frame"], self.frames["ref"], self.frames["pred"]):
             self.assertAlmostEqual(row["ssim"], reference(a, b, m)[2], delta=1e-6)
+
+    def test_streaming_in_chunks_gives_the_same_numbers(self):
+        whole = json.loads(self.metrics("--mask", self.path("masks"), "--per-frame").stdout)
+        for chunk in (1, 2):
+            p = self.metrics("--mask", self.path("masks"), "--per-frame", "--chunk-frames", chunk)
+            self.assertEqual(p.returncode, 0, p.stderr)
+            self.assertEqual(json.loads(p.stdout), whole)
+
+    def test_mask_count_other_than_one_or_one_per_frame_is_refused(self):
+        for count, message in ((2, "fewer masks than frames"), (4, "more masks than frames")):
+            folder = os.path.join(self.tmp.name, f"masks{count}")
+            os.makedirs(folder)
+            for i in range(count):
+                cv2.imwrite(os.path.join(folder, f"{i:03d}.png"), self.frames["masks"][i % 3])
+            p = self.metrics("--mask", folder, "--chunk-frames", 2)
+            self.assertEqual(p.returncode, 1)
+            self.assertIn(message, p.stderr)
+            self.assertIn(folder, p.stderr)
 
     def test_errors_name_the_option_or_file(self):
         p = self.metrics("--mask", self.path("masks"), "--metrics", "psnr,ms_ssim")

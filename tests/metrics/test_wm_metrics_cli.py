@@ -1,6 +1,7 @@
 #!/usr/bin/python3
 """wm-metrics end to end: folder and video inputs against scikit-image's values, CSV output, and
-clear errors (exit 1, the file named) for mismatched sizes, counts, empty folders, bad files."""
+clear errors (exit 1, the file named) for mismatched sizes, counts, empty folders, bad files, and
+peak memory that does not grow with the number of frames."""
 import csv
 import io
 import json
@@ -109,6 +110,29 @@ class WmMetricsCli(unittest.TestCase):
         self.assertEqual(out["ssim"], 1.0)
         vs_ref = json.loads(wm_metrics("--ref", self.ref, "--pred", video).stdout)
         self.assertGreater(vs_ref["psnr"], 25)  # MJPG is lossy but close to the frames
+
+    # Frames stream through in chunks: peak memory must not grow with the number of frames.
+    # 600 frames of 256x256 RGB held as doubles would take 2 x 900 MiB.
+    def test_memory_stays_bounded_on_long_folders(self):
+        frame = cv2.GaussianBlur(np.random.default_rng(1).integers(0, 256, (256, 256, 3),
+                                                                   dtype=np.uint8), (9, 9), 0)
+        peak = {}
+        for count in (60, 600):
+            folder = os.path.join(self.tmp.name, f"long{count}")
+            os.makedirs(folder)
+            for i in range(count):
+                cv2.imwrite(os.path.join(folder, f"{i:04d}.png"), np.roll(frame, i, axis=0))
+            with tempfile.TemporaryFile() as stdout:  # a file: a full pipe would block wait4
+                proc = subprocess.Popen([os.path.join(BIN, "wm-metrics"), "--ref", folder,
+                                         "--pred", folder, "--metrics", "psnr,ssim",
+                                         "--threads", "2"], stdout=stdout)
+                _, status, usage = os.wait4(proc.pid, 0)
+                self.assertEqual(status, 0)
+                stdout.seek(0)
+                out = json.loads(stdout.read())
+            self.assertEqual(out["frames"], count)
+            peak[count] = usage.ru_maxrss / 1024  # MiB
+        self.assertLess(peak[600] - peak[60], 100, peak)
 
 
 if __name__ == "__main__":
