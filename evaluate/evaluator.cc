@@ -3,6 +3,7 @@
 #include <cmath>
 #include <filesystem>
 #include <optional>
+#include <spdlog/spdlog.h>
 
 #include "core/atomic_file.h"
 #include "core/error.h"
@@ -13,6 +14,7 @@
 #include "core/tokens/token_dataset.h"
 #include "evaluate/aggregate.h"
 #include "evaluate/clip_video.h"
+#include "evaluate/episode_record.h"
 #include "evaluate/frame_scores.h"
 #include "evaluate/manifest.h"
 #include "metrics/frechet.h"
@@ -112,20 +114,202 @@ std::string DefaultName(const std::string& checkpoint) {
   return p.filename().string();
 }
 
+// Rolls out and scores `episodes` (positions `positions` in the whole evaluated list, for
+// the videos): one record per episode, nothing aggregated yet.
+std::vector<EpisodeRecord> ScoreEpisodes(const EvalOptions& o, const std::string& name,
+                                         const std::string& dir,
+                                         const train::DynamicsModel& model,
+                                         const tokenize::Tokenizer& tok,
+                                         const tokens::TokenDataset& data,
+                                         const shard::DatasetReader& shards,
+                                         const std::vector<int64_t>& episodes,
+                                         const std::vector<size_t>& positions,
+                                         metrics::Lpips* lpips) {
+  const std::string image_key = data.index().tokenizer.image_key;
+  const RegionMasks masks(o.masks);
+  std::map<RolloutMode, std::vector<EpisodeRollout>> rollouts;
+  for (RolloutMode mode : o.modes) rollouts[mode] = Rollout(model, data, episodes, mode, o.rollout);
+  std::vector<EpisodeRecord> records;
+  std::optional<Progress> progress;
+  if (o.show_progress) progress.emplace("score " + name, episodes.size(), "episodes");
+  for (size_t i = 0; i < episodes.size(); ++i) {
+    const tokens::TokenEpisode& e = data.episode(episodes[i]);
+    const int64_t h = rollouts.begin()->second[i].steps;
+    EpisodeRecord rec{.episode = episodes[i],
+                      .policy_id = e.policy_id.empty() ? "unknown" : e.policy_id,
+                      .steps = h};
+    const Episode ep = shards.ReadEpisode(static_cast<size_t>(e.source_episode));
+    const Clip real = RealClip(ep, image_key, tok.image_size(), h + 1);
+    const Clip target = SubClip(real, 1, h);
+    std::vector<metrics::seg::RegionMap> maps;
+    if (masks.enabled()) {
+      maps = masks.Maps(ep, image_key, 1, h, tok.image_size(),
+                        o.data_dir + "#episode " + std::to_string(e.source_episode));
+    }
+    auto add_clip = [&](const std::string& kind, const Clip& pred) {
+      if (kind != "real") {  // the real clip's scores would all be perfect
+        rec.scores[kind] = ScoreFrames(target, pred, tok, lpips);
+        if (!maps.empty()) rec.scores[kind].merge(ScoreRegions(target, pred, maps));
+      }
+      rec.clip_descriptors[kind] = tok.ClipDescriptor(pred.pixels.data(), pred.frames);
+    };
+    add_clip("real", target);
+    Clip copy_last{h, real.size, {}};
+    for (int64_t s = 0; s < h; ++s) {
+      copy_last.pixels.insert(copy_last.pixels.end(), real.frame(0),
+                              real.frame(0) + 3 * real.size * real.size);
+    }
+    add_clip("copy_last", copy_last);
+    std::vector<int64_t> true_tokens(static_cast<size_t>((h + 1) * data.tokens_per_frame()));
+    data.CopyTokens(episodes[i], 0, h + 1, true_tokens.data());
+    add_clip("tokenizer_recon", DecodeClip(tok, true_tokens, 1, h));
+    for (int64_t s = 0; s < h; ++s) rec.real_return += ep.rewards.at(s);
+    std::map<std::string, Clip> first_samples;
+    for (RolloutMode mode : o.modes) {
+      const std::string kind = RolloutName(mode);
+      const EpisodeRollout& r = rollouts[mode][i];
+      std::vector<Clip> samples;
+      for (const auto& s : r.tokens) samples.push_back(DecodeClip(tok, s, 1, h));
+      add_clip(kind, samples[0]);
+      first_samples[kind] = samples[0];
+      double model_return = 0;
+      for (int64_t s = 0; s < h; ++s) model_return += r.rewards[0][s];
+      rec.model_return[kind] = model_return;
+      if (samples.size() >= 2) {
+        rec.spread[kind] = SampleDisagreement(samples);
+        rec.sample_mse[kind] = ScoreFrames(target, samples[0], tok).at("mse");
+      }
+    }
+    if (static_cast<int>(positions[i]) < o.videos) {
+      WriteClipVideo((fs::path(dir) / "videos").string(), episodes[i], target, first_samples);
+    }
+    records.push_back(std::move(rec));
+    if (progress) progress->Add(1);
+  }
+  if (progress) progress->Finish();
+  return records;
+}
+
+// The report of one checkpoint from the records of every evaluated episode, in episode order.
+void WriteReport(const EvalOptions& o, const std::string& name, const std::string& dir,
+                 const std::vector<EpisodeRecord>& records, const train::DynamicsModel& model,
+                 const tokenize::Tokenizer& tok, const tokens::TokenDataset& data,
+                 const shard::DatasetReader& shards) {
+  ScoreTable t;
+  std::map<std::string, metrics::FeatureSet> clips;
+  std::map<RolloutMode, std::vector<metrics::EpisodeReturn>> returns;
+  std::map<RolloutMode, std::pair<std::vector<double>, std::vector<double>>> uncertainty;
+  for (const EpisodeRecord& rec : records) {
+    t.episodes.push_back(rec.episode);
+    t.policy_ids.push_back(rec.policy_id);
+    for (const auto& [kind, scores] : rec.scores) AddScores(t, kind, scores, rec.steps);
+    for (const auto& [kind, d] : rec.clip_descriptors) {
+      clips[kind].dim = static_cast<int64_t>(d.size());
+      clips[kind].rows += 1;
+      clips[kind].values.insert(clips[kind].values.end(), d.begin(), d.end());
+    }
+    for (RolloutMode mode : o.modes) {
+      const std::string kind = RolloutName(mode);
+      returns[mode].push_back({std::to_string(rec.episode), rec.policy_id, rec.real_return,
+                               rec.model_return.at(kind)});
+      if (!rec.spread.count(kind)) continue;
+      const auto& spread = rec.spread.at(kind);
+      const auto& mse = rec.sample_mse.at(kind);
+      t.per_episode[kind]["uncertainty"].push_back(FiniteMean(spread));
+      uncertainty[mode].first.insert(uncertainty[mode].first.end(), spread.begin(), spread.end());
+      uncertainty[mode].second.insert(uncertainty[mode].second.end(), mse.begin(), mse.end());
+    }
+  }
+  for (const auto& [kind, set] : clips) {
+    if (kind == "real") continue;
+    // A Gaussian fit needs two clips; one episode leaves fvd_style undefined (empty cell).
+    const double fvd = set.rows >= 2 ? metrics::FrechetDistance(clips["real"], set) : NAN;
+    t.whole_set[kind]["fvd_style"] = {fvd, NAN, NAN, set.rows};
+  }
+  std::string values = "checkpoint,rollout,policy_id,n_episodes,real_value,model_value,value_gap\n";
+  for (RolloutMode mode : o.modes) {
+    values += AddValues(t, name, RolloutName(mode), returns[mode], o.resamples, o.rollout.seed);
+    if (!uncertainty[mode].first.empty()) {
+      t.whole_set[RolloutName(mode)]["uncertainty_error_corr"] = {
+          metrics::Pearson(uncertainty[mode].first, uncertainty[mode].second), NAN, NAN,
+          static_cast<int64_t>(uncertainty[mode].first.size())};
+    }
+  }
+  WriteScoreCsvs(dir, name, t, o.resamples, o.rollout.seed);
+  WriteFileAtomically((fs::path(dir) / "values.csv").string(), values);
+  WriteEvalManifest(dir, name, o, model, tok, data, shards);
+}
+
+// What every part of one report must share: settings, checkpoint, tokenizer, data, split.
+nlohmann::json PartIdentity(const EvalOptions& o, const std::string& checkpoint_file,
+                            const tokenize::Tokenizer& tok, const tokens::TokenDataset& data,
+                            const std::vector<int64_t>& episodes) {
+  nlohmann::json parts = nlohmann::json::array();
+  for (const auto& p : data.index().parts) parts.push_back(p.sha256);
+  return {{"eval_config", EvalConfigJson(o)},
+          {"checkpoint_sha256", Sha256File(checkpoint_file)},
+          {"tokenizer_sha256", tok.checkpoint_sha256()},
+          {"token_parts_sha256", parts},
+          {"episodes", episodes},
+          {"num_shards", o.num_shards}};
+}
+
+std::string PartPath(const std::string& dir, int index, int count) {
+  return (fs::path(dir) / "parts" /
+          ("part-" + std::to_string(index) + "-of-" + std::to_string(count) + ".json"))
+      .string();
+}
+
+// Every part's records in episode order once all `num_shards` parts exist; empty otherwise.
+// Parts of other settings, checkpoints or data, and overlapping or missing episodes, are errors.
+std::optional<std::vector<EpisodeRecord>> GatherParts(const std::string& dir,
+                                                      const nlohmann::json& identity,
+                                                      const std::vector<int64_t>& episodes,
+                                                      int num_shards) {
+  std::map<int64_t, EpisodeRecord> by_episode;
+  for (int i = 0; i < num_shards; ++i) {
+    const std::string path = PartPath(dir, i, num_shards);
+    if (!fs::exists(path)) return std::nullopt;
+    EvalPart part = ReadEvalPart(path);
+    Check(part.identity == identity && part.shard_index == i,
+          "part was written by a run with other settings, checkpoint or data than this one "
+          "(remove the parts folder to start over)",
+          {.file = path, .key = "identity"});
+    for (EpisodeRecord& r : part.records) {
+      const int64_t k = r.episode;
+      Check(by_episode.emplace(k, std::move(r)).second,
+            "episode " + std::to_string(k) + " is in more than one part", {.file = path});
+    }
+  }
+  std::vector<EpisodeRecord> records;
+  for (int64_t k : episodes) {
+    auto it = by_episode.find(k);
+    Check(it != by_episode.end(), "no part holds episode " + std::to_string(k), {.file = dir});
+    records.push_back(std::move(it->second));
+  }
+  return records;
+}
+
 }  // namespace
 
 std::vector<std::string> EvaluateCheckpoints(const EvalOptions& o) {
+  Check(o.num_shards >= 1 && o.shard_index >= 0 && o.shard_index < o.num_shards,
+        "--shard-index must be in [0, --num-shards)", {.key = "--shard-index"});
   tokens::TokenDataset data(o.tokens_dir);
   tokenize::Tokenizer tok(o.tokenizer, o.device);
   shard::DatasetReader shards(o.data_dir);
   CheckInputsBelongTogether(data, tok, shards);
-  std::vector<int64_t> episodes;
+  std::vector<int64_t> episodes, mine;
+  std::vector<size_t> positions;
   for (int64_t k = 0; k < data.num_episodes(); ++k) {
-    if (o.max_episodes <= 0 || k < o.max_episodes) episodes.push_back(k);
+    if (o.max_episodes > 0 && k >= o.max_episodes) break;
+    if (static_cast<int>(episodes.size() % o.num_shards) == o.shard_index) {
+      mine.push_back(k);
+      positions.push_back(episodes.size());
+    }
+    episodes.push_back(k);
   }
   Check(!episodes.empty(), "no episodes to evaluate", {.file = o.tokens_dir});
-  const std::string image_key = data.index().tokenizer.image_key;
-  const RegionMasks masks(o.masks);
   std::optional<metrics::Lpips> lpips;
   if (!o.lpips_weights.empty()) lpips.emplace(o.lpips_weights, o.device);
   std::vector<std::string> written;
@@ -133,99 +317,38 @@ std::vector<std::string> EvaluateCheckpoints(const EvalOptions& o) {
     const std::string name = c < o.names.size() ? o.names[c] : DefaultName(o.checkpoints[c]);
     const std::string dir = (fs::path(o.out_dir) / name).string();
     fs::create_directories(dir);
+    // manifest.json is written last and marks a complete report: a killed run leaves none, so
+    // wm-report refuses the folder instead of mixing old and new files.
+    fs::remove(fs::path(dir) / "manifest.json");
     auto model = train::DynamicsModel::Load(o.checkpoints[c], o.device, "", o.threads);
-    std::map<RolloutMode, std::vector<EpisodeRollout>> rollouts;
-    for (RolloutMode mode : o.modes) {
-      rollouts[mode] = Rollout(*model, data, episodes, mode, o.rollout);
+    auto score = [&] {
+      return ScoreEpisodes(o, name, dir, *model, tok, data, shards, mine, positions,
+                           lpips ? &*lpips : nullptr);
+    };
+    if (o.num_shards == 1) {
+      WriteReport(o, name, dir, score(), *model, tok, data, shards);
+      written.push_back(dir);
+      continue;
     }
-    ScoreTable t;
-    t.episodes = episodes;
-    std::map<std::string, metrics::FeatureSet> clips;
-    std::map<RolloutMode, std::vector<metrics::EpisodeReturn>> returns;
-    std::map<RolloutMode, std::pair<std::vector<double>, std::vector<double>>> uncertainty;
-    std::optional<Progress> progress;
-    if (o.show_progress) progress.emplace("score " + name, episodes.size(), "episodes");
-    for (size_t i = 0; i < episodes.size(); ++i) {
-      const tokens::TokenEpisode& e = data.episode(episodes[i]);
-      const int64_t h = rollouts.begin()->second[i].steps;
-      t.policy_ids.push_back(e.policy_id.empty() ? "unknown" : e.policy_id);
-      const Episode ep = shards.ReadEpisode(static_cast<size_t>(e.source_episode));
-      const Clip real = RealClip(ep, image_key, tok.image_size(), h + 1);
-      const Clip target = SubClip(real, 1, h);
-      std::vector<metrics::seg::RegionMap> maps;
-      if (masks.enabled()) {
-        maps = masks.Maps(ep, image_key, 1, h, tok.image_size(),
-                          o.data_dir + "#episode " + std::to_string(e.source_episode));
-      }
-      auto add_clip = [&](const std::string& kind, const Clip& pred) {
-        AddScores(t, kind, ScoreFrames(target, pred, tok, lpips ? &*lpips : nullptr), h);
-        if (!maps.empty()) AddScores(t, kind, ScoreRegions(target, pred, maps), h);
-        std::vector<double> d = tok.ClipDescriptor(pred.pixels.data(), pred.frames);
-        clips[kind].dim = static_cast<int64_t>(d.size());
-        clips[kind].rows += 1;
-        clips[kind].values.insert(clips[kind].values.end(), d.begin(), d.end());
-      };
-      add_clip("real", target);  // descriptors only; its scores are all perfect
-      Clip copy_last{h, real.size, {}};
-      for (int64_t s = 0; s < h; ++s) {
-        copy_last.pixels.insert(copy_last.pixels.end(), real.frame(0),
-                                real.frame(0) + 3 * real.size * real.size);
-      }
-      add_clip("copy_last", copy_last);
-      std::vector<int64_t> true_tokens(static_cast<size_t>((h + 1) * data.tokens_per_frame()));
-      data.CopyTokens(episodes[i], 0, h + 1, true_tokens.data());
-      add_clip("tokenizer_recon", DecodeClip(tok, true_tokens, 1, h));
-      std::map<std::string, Clip> first_samples;
-      for (RolloutMode mode : o.modes) {
-        const EpisodeRollout& r = rollouts[mode][i];
-        std::vector<Clip> samples;
-        for (const auto& s : r.tokens) samples.push_back(DecodeClip(tok, s, 1, h));
-        add_clip(RolloutName(mode), samples[0]);
-        first_samples[RolloutName(mode)] = samples[0];
-        double real_return = 0, model_return = 0;
-        for (int64_t s = 0; s < h; ++s) {
-          real_return += ep.rewards.at(s);
-          model_return += r.rewards[0][s];
-        }
-        returns[mode].push_back(
-            {std::to_string(episodes[i]), t.policy_ids.back(), real_return, model_return});
-        if (samples.size() >= 2) {
-          auto spread = SampleDisagreement(samples);
-          auto mse = ScoreFrames(target, samples[0], tok).at("mse");
-          t.per_episode[RolloutName(mode)]["uncertainty"].push_back(FiniteMean(spread));
-          uncertainty[mode].first.insert(uncertainty[mode].first.end(), spread.begin(),
-                                         spread.end());
-          uncertainty[mode].second.insert(uncertainty[mode].second.end(), mse.begin(), mse.end());
-        }
-      }
-      if (static_cast<int>(i) < o.videos) {
-        WriteClipVideo((fs::path(dir) / "videos").string(), episodes[i], target, first_samples);
-      }
-      if (progress) progress->Add(1);
+    const std::string file = fs::is_directory(o.checkpoints[c])
+                                 ? (fs::path(o.checkpoints[c]) / "checkpoint.wmt").string()
+                                 : o.checkpoints[c];
+    const nlohmann::json identity = PartIdentity(o, file, tok, data, episodes);
+    const std::string part_path = PartPath(dir, o.shard_index, o.num_shards);
+    if (fs::exists(part_path) && ReadEvalPart(part_path).identity == identity) {
+      spdlog::info("{}: part {} of {} already scored", name, o.shard_index, o.num_shards);
+    } else {
+      fs::create_directories(fs::path(part_path).parent_path());
+      WriteEvalPart(part_path, {identity, o.shard_index, score()});
     }
-    if (progress) progress->Finish();
-    t.per_episode.erase("real");
-    t.per_step.erase("real");
-    for (const auto& [kind, set] : clips) {
-      if (kind == "real") continue;
-      // A Gaussian fit needs two clips; one episode leaves fvd_style undefined (empty cell).
-      const double fvd = set.rows >= 2 ? metrics::FrechetDistance(clips["real"], set) : NAN;
-      t.whole_set[kind]["fvd_style"] = {fvd, NAN, NAN, set.rows};
+    // The job that completes the set writes the report (several at once write the same bytes).
+    if (auto records = GatherParts(dir, identity, episodes, o.num_shards)) {
+      WriteReport(o, name, dir, *records, *model, tok, data, shards);
+      written.push_back(dir);
+    } else {
+      spdlog::info("{}: waiting for the other parts in {}", name,
+                   fs::path(part_path).parent_path().string());
     }
-    std::string values =
-        "checkpoint,rollout,policy_id,n_episodes,real_value,model_value,value_gap\n";
-    for (RolloutMode mode : o.modes) {
-      values += AddValues(t, name, RolloutName(mode), returns[mode], o.resamples, o.rollout.seed);
-      if (!uncertainty[mode].first.empty()) {
-        t.whole_set[RolloutName(mode)]["uncertainty_error_corr"] = {
-            metrics::Pearson(uncertainty[mode].first, uncertainty[mode].second), NAN, NAN,
-            static_cast<int64_t>(uncertainty[mode].first.size())};
-      }
-    }
-    WriteScoreCsvs(dir, name, t, o.resamples, o.rollout.seed);
-    WriteFileAtomically((fs::path(dir) / "values.csv").string(), values);
-    WriteEvalManifest(dir, name, o, *model, tok, data, shards);
-    written.push_back(dir);
   }
   return written;
 }

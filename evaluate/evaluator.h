@@ -28,10 +28,15 @@ struct EvalOptions {
   std::string device = "cpu";
   int threads = 1;
   bool show_progress = true;
+  // Slurm-array style sharding: this job scores every num_shards-th episode from shard_index,
+  // writes REPORT_DIR/<name>/parts/part-<i>-of-<n>.json, and the job that completes the set
+  // writes the report, identical to a single job's. A part already there is not redone.
+  int shard_index = 0, num_shards = 1;
 };
 
-// Returns the report directories written (one per checkpoint). Throws wm::Error naming the file
-// when the tokenizer, token data and shard data do not belong together.
+// Returns the report directories written (one per checkpoint; none from a shard job that leaves
+// parts missing). Throws wm::Error naming the file when the tokenizer, token data and shard data
+// do not belong together, or a part belongs to another run.
 std::vector<std::string> EvaluateCheckpoints(const EvalOptions& options);
 
 }  // namespace wm::evaluate

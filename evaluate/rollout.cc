@@ -10,12 +10,18 @@
 namespace wm::evaluate {
 namespace {
 
-// SplitMix64 finaliser: one sampling seed per (run seed, step).
-uint64_t StepSeed(uint64_t seed, int64_t step) {
-  uint64_t x = seed ^ (0x9E3779B97F4A7C15ull * static_cast<uint64_t>(step + 1));
+// SplitMix64 finaliser: derives a seed from (seed, counter).
+uint64_t Mix(uint64_t seed, int64_t counter) {
+  uint64_t x = seed ^ (0x9E3779B97F4A7C15ull * static_cast<uint64_t>(counter + 1));
   x = (x ^ (x >> 30)) * 0xBF58476D1CE4E5B9ull;
   x = (x ^ (x >> 27)) * 0x94D049BB133111EBull;
   return x ^ (x >> 31);
+}
+
+// One sampling seed per (run seed, episode, sample, step): an episode's imagination does not
+// depend on which other episodes share its batch or shard.
+uint64_t RowSeed(uint64_t seed, int64_t episode, int sample, int64_t step) {
+  return Mix(Mix(Mix(seed, episode), sample), step);
 }
 
 // z of each episode from the prior over its first real frames and actions; empty without
@@ -59,59 +65,41 @@ std::vector<EpisodeRollout> Rollout(const train::DynamicsModel& model,
       o.context > 0 ? std::min(o.context, model.max_context_frames()) : model.max_context_frames();
   const auto z = PolicyEmbeddings(model, data, episodes, o.policy_prefix);
   std::vector<EpisodeRollout> out;
-  int64_t longest = 0;
   for (int64_t k : episodes) {
     EpisodeRollout r{.episode = k, .steps = std::min(o.horizon, data.episode(k).num_frames - 1)};
     std::vector<int64_t> first(static_cast<size_t>(n));
     data.CopyTokens(k, 0, 1, first.data());
     r.tokens.assign(o.samples, first);
     r.rewards.assign(o.samples, {});
-    longest = std::max(longest, r.steps);
     out.push_back(std::move(r));
   }
-  for (int64_t t = 0; t < longest; ++t) {
-    // Rows: (episode still imagining, sample). Every row has the same slot layout at step t.
-    std::vector<std::pair<size_t, int>> rows;
-    for (size_t e = 0; e < out.size(); ++e) {
-      for (int s = 0; s < o.samples && t < out[e].steps; ++s) rows.emplace_back(e, s);
-    }
-    train::FrameContext c{.batch = static_cast<int64_t>(rows.size())};
-    for (auto [e, s] : rows) {
-      const float* actions = data.actions(out[e].episode);
-      auto slots = mode == RolloutMode::kPlain ? PlainContext(actions, t, context)
-                                               : RetraceContext(actions, t, context);
-      c.frames = static_cast<int64_t>(slots.size());
-      for (const ContextSlot& slot : slots) {
-        const auto& frames = out[e].tokens[s];
-        c.tokens.insert(c.tokens.end(), frames.begin() + slot.frame * n,
-                        frames.begin() + (slot.frame + 1) * n);
-        c.actions.insert(c.actions.end(), slot.action.begin(), slot.action.end());
+  // One row (episode, sample) per model call: batched rows would change the last bits of the
+  // reward head (CPU GEMM kernels depend on the row count), and sharded runs must reproduce
+  // single ones exactly.
+  for (EpisodeRollout& r : out) {
+    const float* actions = data.actions(r.episode);
+    const auto& policy_z = z[&r - out.data()];
+    for (int s = 0; s < o.samples; ++s) {
+      std::vector<int64_t>& frames = r.tokens[s];
+      for (int64_t t = 0; t < r.steps; ++t) {
+        auto slots = mode == RolloutMode::kPlain ? PlainContext(actions, t, context)
+                                                 : RetraceContext(actions, t, context);
+        train::FrameContext c{.batch = 1, .frames = static_cast<int64_t>(slots.size())};
+        for (const ContextSlot& slot : slots) {
+          c.tokens.insert(c.tokens.end(), frames.begin() + slot.frame * n,
+                          frames.begin() + (slot.frame + 1) * n);
+          c.actions.insert(c.actions.end(), slot.action.begin(), slot.action.end());
+        }
+        c.policy_z = policy_z;
+        c.row_seeds = {RowSeed(o.seed, r.episode, s, t)};
+        const std::vector<int64_t> next = model.PredictNextFrame(c);  // [N]
+        // The reward of step t -> t+1 from the context extended by the new frame.
+        c.frames += 1;
+        c.tokens.insert(c.tokens.end(), next.begin(), next.end());
+        c.actions.insert(c.actions.end(), kActionDim, 0.f);  // unused last action
+        r.rewards[s].push_back(model.PredictRewards(c).reward.back());
+        frames.insert(frames.end(), next.begin(), next.end());
       }
-      c.policy_z.insert(c.policy_z.end(), z[e].begin(), z[e].end());
-    }
-    std::vector<int64_t> next = model.PredictNextFrame(c, StepSeed(o.seed, t));  // [rows, N]
-    // The reward of step t -> t+1 from the context extended by the new frame.
-    train::FrameContext with_next = c;
-    with_next.frames = c.frames + 1;
-    with_next.tokens.clear();
-    with_next.actions.clear();
-    for (size_t r = 0; r < rows.size(); ++r) {
-      const size_t span = static_cast<size_t>(c.frames * n);
-      with_next.tokens.insert(with_next.tokens.end(), c.tokens.begin() + r * span,
-                              c.tokens.begin() + (r + 1) * span);
-      with_next.tokens.insert(with_next.tokens.end(), next.begin() + r * n,
-                              next.begin() + (r + 1) * n);
-      const size_t a = static_cast<size_t>(c.frames * kActionDim);
-      with_next.actions.insert(with_next.actions.end(), c.actions.begin() + r * a,
-                               c.actions.begin() + (r + 1) * a);
-      with_next.actions.insert(with_next.actions.end(), kActionDim, 0.f);  // unused last action
-    }
-    train::RewardPrediction rewards = model.PredictRewards(with_next);
-    for (size_t r = 0; r < rows.size(); ++r) {
-      auto [e, s] = rows[r];
-      out[e].tokens[s].insert(out[e].tokens[s].end(), next.begin() + r * n,
-                              next.begin() + (r + 1) * n);
-      out[e].rewards[s].push_back(rewards.reward[(r + 1) * c.frames - 1]);
     }
   }
   return out;

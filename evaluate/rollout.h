@@ -35,7 +35,8 @@ struct EpisodeRollout {
   std::vector<std::vector<float>> rewards;
 };
 
-// Rolls out every episode in `episodes`, all of them batched per step. Throws wm::Error when
+// Rolls out every episode in `episodes`, one (episode, sample) row at a time with its own
+// sampling seed, so an episode's result does not depend on which other episodes are rolled out. Throws wm::Error when
 // the model and the token data disagree on grid or codebook.
 std::vector<EpisodeRollout> Rollout(const train::DynamicsModel& model,
                                     const tokens::TokenDataset& data,

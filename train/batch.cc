@@ -5,6 +5,8 @@
 #include <cmath>
 #include <numbers>
 
+#include "core/error.h"
+
 namespace wm::train {
 
 StepNoise DrawStepNoise(const DynamicsConfig& c, uint64_t seed, int64_t step, int64_t batch) {
@@ -43,11 +45,15 @@ SegmentBatch MakeSegmentBatch(const DynamicsConfig& c, const SegmentData& d, con
 
 torch::Tensor DecodeNextFrame(WorldModel& model, const torch::Tensor& tokens,
                               const torch::Tensor& actions, const torch::Tensor& z, int steps,
-                              double temperature, uint64_t seed) {
+                              double temperature, const std::vector<uint64_t>& row_seeds) {
   torch::NoGradGuard no_grad;
   const int64_t B = tokens.size(0), Tc = tokens.size(1), N = tokens.size(2);
   const int64_t K = model->config.model.num_codes;
-  at::Generator gen = at::detail::createCPUGenerator(seed);
+  Check(static_cast<int64_t>(row_seeds.size()) == B,
+        "DecodeNextFrame: " + std::to_string(row_seeds.size()) + " row seeds for " +
+            std::to_string(B) + " rows");
+  std::vector<at::Generator> gens;
+  for (uint64_t seed : row_seeds) gens.push_back(at::detail::createCPUGenerator(seed));
   auto pad_frame = [](const torch::Tensor& x) {  // [B, Tc, ...] -> [B, Tc + 1, ...]
     return torch::cat({x, torch::zeros_like(x.slice(1, 0, 1))}, 1);
   };
@@ -59,8 +65,11 @@ torch::Tensor DecodeNextFrame(WorldModel& model, const torch::Tensor& tokens,
     torch::Tensor logp = torch::log_softmax(logits.to(torch::kCPU, torch::kFloat), -1);
     torch::Tensor choice;
     if (temperature > 0) {
-      torch::Tensor probs = torch::softmax(logp / temperature, -1).view({B * N, K});
-      choice = torch::multinomial(probs, 1, /*replacement=*/true, gen).view({B, N});
+      torch::Tensor probs = torch::softmax(logp / temperature, -1);  // [B, N, K]
+      choice = torch::empty({B, N}, torch::kInt64);
+      for (int64_t b = 0; b < B; ++b) {
+        choice[b].copy_(torch::multinomial(probs[b], 1, /*replacement=*/true, gens[b]).view({N}));
+      }
     } else {
       choice = logp.argmax(-1);  // [B, N]
     }

@@ -31,9 +31,11 @@ SegmentBatch MakeSegmentBatch(const DynamicsConfig& config, const SegmentData& d
 // [B, Tc, 7] (normalised; the last one leads to the new frame) and z [B, Tc, z_dim] (undefined
 // without policy conditioning): `steps` rounds, each sampling every masked token (temperature
 // 0 = argmax) and keeping the most confident so that cos(pi/2 * (s+1)/steps) of the frame stays
-// masked. Deterministic given `seed` (a CPU generator). Returns [B, N] int64.
+// masked. Row b samples with its own CPU generator seeded `row_seeds[b]`, so a row's frame does
+// not depend on the other rows of the batch (sharded evaluation reproduces a whole run).
+// Returns [B, N] int64.
 torch::Tensor DecodeNextFrame(WorldModel& model, const torch::Tensor& tokens,
                               const torch::Tensor& actions, const torch::Tensor& z, int steps,
-                              double temperature, uint64_t seed);
+                              double temperature, const std::vector<uint64_t>& row_seeds);
 
 }  // namespace wm::train

@@ -107,7 +107,14 @@ std::vector<int64_t> DynamicsModel::PredictNextFrame(const FrameContext& context
   s.Tensors(context, max_context_frames(), tokens, actions, z);
   const int n_steps = steps > 0 ? steps : s.config.model.decode_steps;
   const double temp = temperature >= 0 ? temperature : s.config.model.decode_temperature;
-  torch::Tensor next = DecodeNextFrame(s.model, tokens, actions, z, n_steps, temp, seed);  // [B,N]
+  std::vector<uint64_t> row_seeds = context.row_seeds;
+  if (row_seeds.empty()) {
+    for (int64_t b = 0; b < context.batch; ++b) row_seeds.push_back(MixSeed(seed, b));
+  }
+  Check(static_cast<int64_t>(row_seeds.size()) == context.batch,
+        "row_seeds must have one seed per row (" + std::to_string(context.batch) + ")");
+  torch::Tensor next =
+      DecodeNextFrame(s.model, tokens, actions, z, n_steps, temp, row_seeds);  // [B, N]
   return std::vector<int64_t>(next.data_ptr<int64_t>(), next.data_ptr<int64_t>() + next.numel());
 }
 

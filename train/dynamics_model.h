@@ -21,6 +21,8 @@ struct FrameContext {
   // Optional [batch, categories * classes] class probabilities (or one-hots) used as z for
   // every step instead of the prior's inference; empty = the prior p(z | tau_h) (WHALE eq. 5).
   std::vector<float> policy_z;
+  // Optional [batch] MaskGIT sampling seeds, one per row; empty = MixSeed(seed, row).
+  std::vector<uint64_t> row_seeds;
 };
 
 struct RewardPrediction {
@@ -47,7 +49,8 @@ class DynamicsModel {
   int64_t max_context_frames() const;
 
   // Tokens of frame `frames` [batch, N]. `steps` / `temperature` <= 0 / < 0 take the config's
-  // model.decode_steps / model.decode_temperature. Deterministic for a given seed on CPU.
+  // model.decode_steps / model.decode_temperature. Deterministic for a given seed on CPU; a row's
+  // frame depends only on its own context and seed, not on the other rows.
   std::vector<int64_t> PredictNextFrame(const FrameContext& context, uint64_t seed = 0,
                                         int steps = 0, double temperature = -1) const;
   // Reward and terminal probability of each step between the context's frames.

@@ -20,6 +20,9 @@ videos/episode_K.mp4 (real | plain | retrace | error). Rollouts start from each 
 first frame and follow its logged actions (open loop); baselines copy_last (the first real frame
 repeated) and tokenizer_recon (the tokenizer's reconstruction of the true frames: the ceiling)
 are scored in the same run. Compare checkpoints with `wm-report compare`.
+Sharded (e.g. a Slurm array): --shard-index $SLURM_ARRAY_TASK_ID --num-shards N in every job;
+each writes REPORT_DIR/<name>/parts/, and the job that completes the set writes the report,
+byte-identical to a single job's. Rerunning a job whose part exists only retries the report.
 Exit codes: 0 success, 1 error (one line naming the file), 2 bad command line.)";
 }  // namespace
 
@@ -76,6 +79,11 @@ int main(int argc, char** argv) {
       ->check(CLI::ExistingFile);
   app.add_option("--device", o.device, "cpu, cuda or cuda:N")->capture_default_str();
   app.add_option("--threads", o.threads, "LibTorch intra-op threads")->capture_default_str();
+  app.add_option("--shard-index", o.shard_index, "This job's shard (Slurm array task id)")
+      ->capture_default_str();
+  app.add_option("--num-shards", o.num_shards, "Jobs sharing the episodes")
+      ->check(CLI::PositiveNumber)
+      ->capture_default_str();
   if (const int rc = wm::ParseCommandLine(app, argc, argv); rc >= 0) return rc;
   wm::InitLogging();
   using wm::evaluate::RolloutMode;

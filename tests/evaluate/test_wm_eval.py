@@ -4,7 +4,8 @@ for a few steps here): every report row validates against schemas/report-*.schem
 gives the same bytes; the copy_last and tokenizer_recon baselines (PSNR, SSIM, MSE and segmented
 MSE) equal an independent NumPy / scikit-image re-computation from the shards and from
 `wm-tokenize decode`; summary means and intervals agree with per_episode.csv; inputs that do not
-belong together exit 1 naming the file; the MP4s hold real | plain | retrace | error panels."""
+belong together exit 1 naming the file; the MP4s hold real | plain | retrace | error panels;
+two sharded jobs write the single job's report byte for byte and refuse a corrupted part."""
 import csv
 import hashlib
 import json
@@ -254,6 +255,31 @@ class WmEval(unittest.TestCase):
         self.assertEqual((m["data"]["split"], m["config"]["horizon"], m["seed"]), ("val", 3, 0))
         compact = json.dumps(m["config"], separators=(",", ":"), sort_keys=True)
         self.assertEqual(m["config_hash"], hashlib.sha256(compact.encode()).hexdigest())
+
+    def test_sharded_jobs_write_the_single_job_report(self):
+        args = self.eval_args(self.path("sharded"))
+        report = self.path("sharded", "dyn")
+        ok("wm-eval", *args, "--shard-index", 1, "--num-shards", 2)
+        self.assertFalse(os.path.exists(os.path.join(report, "manifest.json")), "1 part of 2")
+        ok("wm-eval", *args, "--shard-index", 0, "--num-shards", 2)
+        videos = [os.path.join("videos", f"episode_{k}.mp4") for k in range(EPISODES)]
+        for file in [*CSVS, "manifest.json", *videos]:
+            self.assertEqual(read_bytes(os.path.join(report, file)),
+                             read_bytes(os.path.join(self.reports[0], file)), file)
+        paths = [os.path.join(report, "parts", f"part-{i}-of-2.json") for i in range(2)]
+        parts = [json.loads(read_bytes(path)) for path in paths]
+        for part in parts:
+            jsonschema.validate(part, schema("eval-part"))
+        self.assertEqual([[r["episode"] for r in p["records"]] for p in parts], [[0], [1]])
+        # Job 0 again keeps its part and retries the report, which checks every part's checksum.
+        parts[1]["records"][0]["real_return"] = 123.0
+        with open(paths[1], "w", encoding="utf-8") as f:
+            json.dump(parts[1], f)
+        p = tool("wm-eval", *args, "--shard-index", 0, "--num-shards", 2)
+        self.assertEqual(p.returncode, 1, p.stderr)
+        self.assertIn(paths[1], p.stderr)
+        self.assertIn("checksum mismatch", p.stderr)
+        self.assertIn("already scored", p.stderr)
 
     def test_baseline_pixel_metrics_equal_numpy(self):
         # Exact up to printing: the same decoder (libopencv/libjpeg), uint8 frames on both sides.

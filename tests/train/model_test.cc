@@ -191,13 +191,18 @@ TEST(MaskGit, DecodingIsDeterministicGivenSeedAndFillsEveryToken) {
   Inputs in = RandomInputs(c, 2, 11);
   torch::Tensor ctx = in.tokens.slice(1, 0, 3), act = in.actions.slice(1, 0, 3);
   torch::Tensor z = m->DynamicsZ(ctx, act);
-  torch::Tensor a = DecodeNextFrame(m, ctx, act, z, 4, 1.0, 123);
-  torch::Tensor b = DecodeNextFrame(m, ctx, act, z, 4, 1.0, 123);
+  torch::Tensor a = DecodeNextFrame(m, ctx, act, z, 4, 1.0, {123, 124});
+  torch::Tensor b = DecodeNextFrame(m, ctx, act, z, 4, 1.0, {123, 124});
   EXPECT_TRUE(torch::equal(a, b));
   EXPECT_EQ(a.sizes(), (std::vector<int64_t>{2, 6}));
+  // A row's frame depends on its own seed and context only, not on the rest of the batch.
+  torch::Tensor row1 = DecodeNextFrame(m, ctx.slice(0, 1, 2), act.slice(0, 1, 2),
+                                       z.slice(0, 1, 2), 4, 1.0, {124});
+  EXPECT_TRUE(torch::equal(row1[0], a[1]));
+  EXPECT_FALSE(torch::equal(DecodeNextFrame(m, ctx, act, z, 4, 1.0, {123, 999}), a));
   EXPECT_TRUE((a >= 0).all().item<bool>() && (a < c.model.num_codes).all().item<bool>());
-  torch::Tensor g1 = DecodeNextFrame(m, ctx, act, z, 1, 0.0, 1);
-  torch::Tensor g2 = DecodeNextFrame(m, ctx, act, z, 1, 0.0, 2);
+  torch::Tensor g1 = DecodeNextFrame(m, ctx, act, z, 1, 0.0, {1, 2});
+  torch::Tensor g2 = DecodeNextFrame(m, ctx, act, z, 1, 0.0, {3, 4});
   EXPECT_TRUE(torch::equal(g1, g2));  // argmax ignores the seed
   torch::NoGradGuard no_grad;
   torch::Tensor seq = torch::cat({ctx, torch::full({2, 1, 6}, c.model.num_codes)}, 1);
