@@ -33,7 +33,9 @@ std::string TempPathFor(const std::string& path) {
 AtomicFileWriter::AtomicFileWriter(std::string path)
     : path_(std::move(path)), temp_path_(TempPathFor(path_)) {
   file_ = std::fopen(temp_path_.c_str(), "wb");
-  Check(file_ != nullptr, "cannot create file: " + ErrnoText(), {.file = temp_path_});
+  // Errors name the file the user asked for; the temp file is an implementation detail.
+  Check(file_ != nullptr, "cannot create file (temp " + temp_path_ + "): " + ErrnoText(),
+        {.file = path_});
 }
 
 AtomicFileWriter::~AtomicFileWriter() {
@@ -47,7 +49,7 @@ void AtomicFileWriter::Write(const void* data, size_t n) {
   Check(file_ != nullptr, "write after commit", {.file = path_});
   if (n == 0) return;
   if (std::fwrite(data, 1, n, file_) != n) {
-    throw Error("write failed: " + ErrnoText(), {.file = temp_path_});
+    throw Error("write failed (temp " + temp_path_ + "): " + ErrnoText(), {.file = path_});
   }
   bytes_ += n;
 }

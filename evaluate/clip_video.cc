@@ -2,9 +2,8 @@
 
 #include <filesystem>
 #include <opencv2/imgproc.hpp>
-#include <opencv2/videoio.hpp>
 
-#include "core/error.h"
+#include "tokenize/mp4_writer.h"
 #include "tokenize/tokenizer.h"
 
 namespace wm::evaluate {
@@ -26,9 +25,7 @@ void WriteClipVideo(const std::string& dir, int64_t episode, const Clip& real,
       (std::filesystem::path(dir) / ("episode_" + std::to_string(episode) + ".mp4")).string();
   const int panels = 1 + static_cast<int>(rollouts.size()) + (rollouts.empty() ? 0 : 1);
   const int scale = 2;  // 64 px frames are too small to look at
-  cv::VideoWriter video(path, cv::VideoWriter::fourcc('m', 'p', '4', 'v'), 4.0,
-                        cv::Size(panels * real.size * scale, real.size * scale));
-  Check(video.isOpened(), "cannot open video writer (mp4v)", {.file = path});
+  tokenize::Mp4Writer video(path, 4.0, panels * real.size * scale, real.size * scale);
   for (int64_t t = 0; t < real.frames; ++t) {
     std::vector<cv::Mat> row = {Bgr(real, t)};
     for (const auto& [name, clip] : rollouts) row.push_back(Bgr(clip, t));
@@ -42,8 +39,9 @@ void WriteClipVideo(const std::string& dir, int64_t episode, const Clip& real,
     cv::Mat strip, big;
     cv::hconcat(row, strip);
     cv::resize(strip, big, cv::Size(), scale, scale, cv::INTER_NEAREST);
-    video.write(big);
+    video.Write(big);
   }
+  video.Commit();  // whole or an error naming the file (VideoWriter ignores failed writes)
 }
 
 }  // namespace wm::evaluate

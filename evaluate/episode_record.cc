@@ -60,7 +60,8 @@ json RecordJson(const EpisodeRecord& r) {
           {"model_return", returns},
           {"real_return", Number(r.real_return)},
           {"spread", SeriesJson(r.spread)},
-          {"sample_mse", SeriesJson(r.sample_mse)}};
+          {"sample_mse", SeriesJson(r.sample_mse)},
+          {"contexts", r.contexts}};
 }
 
 EpisodeRecord RecordFrom(const json& j) {
@@ -74,6 +75,7 @@ EpisodeRecord RecordFrom(const json& j) {
   r.real_return = NumberFrom(j.at("real_return"));
   r.spread = SeriesFrom(j.at("spread"));
   r.sample_mse = SeriesFrom(j.at("sample_mse"));
+  j.at("contexts").get_to(r.contexts);
   return r;
 }
 

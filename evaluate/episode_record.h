@@ -21,6 +21,8 @@ struct EpisodeRecord {
   double real_return = 0;
   // rollout -> per step: disagreement between samples and the first sample's MSE (samples >= 2)
   std::map<std::string, std::vector<double>> spread, sample_mse;
+  // rollout -> one row per (step, context slot) of sample 0: step, slot, frame, action[7]
+  std::map<std::string, std::vector<std::vector<double>>> contexts;
 };
 
 // One shard job's episodes of one checkpoint. `identity` holds what must agree between the parts

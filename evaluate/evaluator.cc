@@ -175,6 +175,15 @@ std::vector<EpisodeRecord> ScoreEpisodes(const EvalOptions& o, const std::string
       double model_return = 0;
       for (int64_t s = 0; s < h; ++s) model_return += r.rewards[0][s];
       rec.model_return[kind] = model_return;
+      for (size_t t = 0; t < r.contexts.size(); ++t) {
+        for (size_t slot = 0; slot < r.contexts[t].size(); ++slot) {
+          const ContextSlot& c = r.contexts[t][slot];
+          std::vector<double> row = {static_cast<double>(t), static_cast<double>(slot),
+                                     static_cast<double>(c.frame)};
+          row.insert(row.end(), c.action.begin(), c.action.end());
+          rec.contexts[kind].push_back(std::move(row));
+        }
+      }
       if (samples.size() >= 2) {
         rec.spread[kind] = SampleDisagreement(samples);
         rec.sample_mse[kind] = ScoreFrames(target, samples[0], tok).at("mse");
@@ -188,6 +197,25 @@ std::vector<EpisodeRecord> ScoreEpisodes(const EvalOptions& o, const std::string
   }
   if (progress) progress->Finish();
   return records;
+}
+
+// contexts.csv: the frames and actions the model was given at every step of sample 0.
+std::string ContextsCsv(const std::string& name, const std::vector<RolloutMode>& modes,
+                        const std::vector<EpisodeRecord>& records) {
+  std::string csv = "checkpoint,rollout,episode,step,slot,frame,a0,a1,a2,a3,a4,a5,a6\n";
+  for (RolloutMode mode : modes) {
+    for (const EpisodeRecord& rec : records) {
+      for (const auto& row : rec.contexts.at(RolloutName(mode))) {
+        const auto step = static_cast<int64_t>(row[0]) + 1;  // from 1, as in per_step.csv
+        csv += name + "," + RolloutName(mode) + "," + std::to_string(rec.episode) + "," +
+               std::to_string(step) + "," + std::to_string(static_cast<int64_t>(row[1])) + "," +
+               std::to_string(static_cast<int64_t>(row[2]));
+        for (size_t i = 3; i < row.size(); ++i) csv += "," + Cell(row[i]);
+        csv += "\n";
+      }
+    }
+  }
+  return csv;
 }
 
 // The report of one checkpoint from the records of every evaluated episode, in episode order.
@@ -237,6 +265,7 @@ void WriteReport(const EvalOptions& o, const std::string& name, const std::strin
   }
   WriteScoreCsvs(dir, name, t, o.resamples, o.rollout.seed);
   WriteFileAtomically((fs::path(dir) / "values.csv").string(), values);
+  WriteFileAtomically((fs::path(dir) / "contexts.csv").string(), ContextsCsv(name, o.modes, records));
   WriteEvalManifest(dir, name, o, model, tok, data, shards);
 }
 

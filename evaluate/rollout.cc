@@ -84,6 +84,7 @@ std::vector<EpisodeRollout> Rollout(const train::DynamicsModel& model,
       for (int64_t t = 0; t < r.steps; ++t) {
         auto slots = mode == RolloutMode::kPlain ? PlainContext(actions, t, context)
                                                  : RetraceContext(actions, t, context);
+        if (s == 0) r.contexts.push_back(slots);
         train::FrameContext c{.batch = 1, .frames = static_cast<int64_t>(slots.size())};
         for (const ContextSlot& slot : slots) {
           c.tokens.insert(c.tokens.end(), frames.begin() + slot.frame * n,

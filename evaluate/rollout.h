@@ -6,6 +6,8 @@
 #include <string>
 #include <vector>
 
+#include "evaluate/retrace.h"
+
 namespace wm::tokens {
 class TokenDataset;
 }
@@ -33,6 +35,7 @@ struct EpisodeRollout {
   // reward head's prediction for each imagined step ([H_e]).
   std::vector<std::vector<int64_t>> tokens;
   std::vector<std::vector<float>> rewards;
+  std::vector<std::vector<ContextSlot>> contexts;  // per step: the context sample 0 was given
 };
 
 // Rolls out every episode in `episodes`, one (episode, sample) row at a time with its own

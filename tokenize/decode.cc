@@ -3,12 +3,12 @@
 #include <filesystem>
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
-#include <opencv2/videoio.hpp>
 
 #include "core/error.h"
 #include "core/shard/dataset_reader.h"
 #include "core/tokens/token_dataset.h"
 #include "tokenize/frame_sampler.h"
+#include "tokenize/mp4_writer.h"
 #include "tokenize/tokenizer.h"
 
 namespace wm::tokenize {
@@ -81,14 +81,13 @@ int64_t DecodeEpisode(const DecodeOptions& o) {
     WriteImage(o.out, ContactSheet(decoded, originals, o.columns));
   } else if (ext == ".mp4") {
     const int size = tok.image_size(), width = originals.empty() ? size : 2 * size;
-    cv::VideoWriter video(o.out, cv::VideoWriter::fourcc('m', 'p', '4', 'v'), 10.0,
-                          cv::Size(width, size));
-    Check(video.isOpened(), "cannot open video writer (mp4v)", {.file = o.out});
+    Mp4Writer video(o.out, 10.0, width, size);
     for (size_t t = 0; t < decoded.size(); ++t) {
       cv::Mat frame = decoded[t];
       if (!originals.empty()) cv::hconcat(originals[t], decoded[t], frame);
-      video.write(frame);
+      video.Write(frame);
     }
+    video.Commit();
   } else {
     fs::create_directories(o.out);
     for (size_t t = 0; t < decoded.size(); ++t) {

@@ -150,8 +150,10 @@ class Validation {
     torch::Tensor recon = model->forward(images).reconstruction.to(torch::kCPU).contiguous();
     ReconstructionScore score =
         ScoreReconstruction(frames_.data(), recon.data_ptr<float>(), n, size_);
-    std::ofstream(path_, std::ios::app)
-        << step << ',' << score.psnr << ',' << score.ssim << ',' << score.l1 << '\n';
+    std::ofstream out(path_, std::ios::app);
+    out << step << ',' << score.psnr << ',' << score.ssim << ',' << score.l1 << '\n';
+    out.flush();
+    Check(out.good(), "cannot append a row (disk full?)", {.file = path_});
     return score;
   }
 
@@ -262,6 +264,7 @@ TrainSummary TrainTokenizer(const TrainOptions& o) {
                 << out.quant.usage << ',' << reseeded << ',' << lr << ','
                 << (secs > 0 ? window_frames / secs : 0.0) << '\n';
         metrics.flush();
+        Check(metrics.good(), "cannot append a row (disk full?)", {.file = metrics_path});
         window_start = now;
         window_frames = 0;
       }

@@ -254,6 +254,7 @@ TrainSummary TrainDynamics(const TrainOptions& o) {
           metrics << ',';
         metrics << '\n';
         metrics.flush();
+        Check(metrics.good(), "cannot append a row (disk full?)", {.file = metrics_path});
         window_start = now;
         window_steps = 0;
       }

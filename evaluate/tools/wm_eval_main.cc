@@ -15,11 +15,11 @@ Example:
   wm-eval --checkpoint runs/dyn-tiny --tokenizer runs/tok-tiny \
     --data data/tabletop/val --tokens data/tabletop-tokens/val --out reports/
 
-Writes REPORT_DIR/<checkpoint name>/{summary,per_step,per_episode,values}.csv, manifest.json and
-videos/episode_K.mp4 (real | plain | retrace | error). Rollouts start from each episode's real
-first frame and follow its logged actions (open loop); baselines copy_last (the first real frame
-repeated) and tokenizer_recon (the tokenizer's reconstruction of the true frames: the ceiling)
-are scored in the same run. Compare checkpoints with `wm-report compare`.
+Writes REPORT_DIR/<checkpoint name>/{summary,per_step,per_episode,values,contexts}.csv,
+manifest.json and videos/episode_K.mp4 (real | plain | retrace | error). Rollouts start from
+each episode's real first frame and follow its logged actions (open loop); baselines copy_last
+(the first real frame repeated) and tokenizer_recon (the tokenizer's reconstruction of the true
+frames: the ceiling) are scored in the same run. Compare checkpoints with `wm-report compare`.
 Sharded (e.g. a Slurm array): --shard-index $SLURM_ARRAY_TASK_ID --num-shards N in every job;
 each writes REPORT_DIR/<name>/parts/, and the job that completes the set writes the report,
 byte-identical to a single job's. Rerunning a job whose part exists only retries the report.

@@ -28,8 +28,9 @@ import wmshard  # noqa: E402  (the independent Python reader of shards and token
 
 HORIZON, EPISODES, SIZE = 3, 2, 64  # SIZE: configs/tokenizer/tiny.yaml model.image_size
 CSVS = {"summary.csv": "report-summary", "per_step.csv": "report-per-step",
-        "per_episode.csv": "report-per-episode", "values.csv": "report-values"}
-INTEGER_COLUMNS = {"n", "step", "episode", "n_episodes"}
+        "per_episode.csv": "report-per-episode", "values.csv": "report-values",
+        "contexts.csv": "report-contexts"}
+INTEGER_COLUMNS = {"n", "step", "episode", "n_episodes", "slot", "frame"}
 TEXT_COLUMNS = {"checkpoint", "rollout", "metric", "policy_id"}
 # configs/segmentation/tabletop.yaml: segmentation label values -> region.
 REGIONS = {"arm": [1], "object": [2], "background": [0, 3]}

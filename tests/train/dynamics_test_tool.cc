@@ -83,7 +83,7 @@ void EvalNextFrame(const std::string& run, const std::string& dir, int frames, i
   auto model = DynamicsModel::Load(run, "cpu", "", 1);
   wm::tokens::TokenDataset data(dir);
   const int64_t N = data.tokens_per_frame();
-  int64_t hits = 0, copy_hits = 0, total = 0, windows = 0;
+  int64_t hits = 0, copy_hits = 0, total = 0, windows = 0, changed_hits = 0;
   for (int64_t k = 0; k < data.num_episodes() && windows < max_windows; ++k) {
     const int64_t F = data.episode(k).num_frames;
     for (int64_t t = frames; t < F && windows < max_windows; t += frames, ++windows) {
@@ -94,14 +94,19 @@ void EvalNextFrame(const std::string& run, const std::string& dir, int frames, i
       c.actions.assign(data.actions(k) + (t - frames) * 7, data.actions(k) + t * 7);
       const auto next = model->PredictNextFrame(c, 0, 0, 0.0);
       for (int64_t i = 0; i < N; ++i) {
-        hits += next[i] == all[frames * N + i];
-        copy_hits += all[(frames - 1) * N + i] == all[frames * N + i];
+        const bool right = next[i] == all[frames * N + i];
+        const bool same = all[(frames - 1) * N + i] == all[frames * N + i];
+        hits += right;
+        copy_hits += same;
+        changed_hits += right && !same;
       }
       total += N;
     }
   }
   std::cout << "windows " << windows << ", next-frame token accuracy: model "
-            << double(hits) / total << ", copy-last-frame " << double(copy_hits) / total << "\n";
+            << double(hits) / total << ", copy-last-frame " << double(copy_hits) / total
+            << "; tokens that change: " << changed_hits << " of " << total - copy_hits
+            << " predicted\n";
 }
 
 }  // namespace

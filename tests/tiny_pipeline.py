@@ -1,0 +1,110 @@
+"""A tiny tabletop pipeline made by the built tools, for tests that need real outputs of every
+stage: `wm-gen-tabletop` RLDS episodes -> `wm-ingest` shard datasets -> `wm-tokenize train` ->
+`wm-tokenize encode` token datasets -> `wm-train` dynamics run, all single-threaded on CPU.
+
+Layout under ROOT (the one tests/evaluate/test_wm_eval.py builds by hand):
+raw/wm_tabletop/1.0.0, shards/{train,val}, tok, tokens/{train,val}, dyn, and the derived configs
+tokenizer.yaml / dynamics.yaml when train-section overrides are given.
+
+Each stage's command line is also available on its own (`*_argv`), so a test can run a stage
+under a fault (killed, disk full, read-only) and compare with the reference output here."""
+import os
+import subprocess
+
+import yaml
+
+SRC = os.environ.get("WM_SOURCE_DIR",
+                     os.path.join(os.path.dirname(os.path.abspath(__file__)), ".."))
+BIN = os.environ.get("WM_BIN_DIR", os.path.join(SRC, "build", "bin"))
+CONFIGS = os.path.join(SRC, "configs")
+
+
+def argv(name, *args):
+    return [os.path.join(BIN, name), *map(str, args)]
+
+
+def derived_config(kind, out, train):
+    """configs/<kind>/tiny.yaml with `train` keys replaced, written to `out` (YAML)."""
+    with open(os.path.join(CONFIGS, kind, "tiny.yaml"), encoding="utf-8") as f:
+        config = yaml.safe_load(f)
+    config["train"].update(train)
+    with open(out, "w", encoding="utf-8") as f:
+        yaml.safe_dump(config, f)
+    return out
+
+
+class TinyPipeline:
+    """Stages are made on first use of their output and reused after."""
+
+    def __init__(self, root, *, train_episodes, val_episodes, tokenizer_steps, dynamics_steps,
+                 size=64, max_steps=40, tokenizer_train=None, dynamics_train=None,
+                 validate=False):
+        """validate: the trainers also score the val split (--val-data, --val-tokens)."""
+        self.root, self.validate = root, validate
+        self.gen_args = ["--size", size, "--train-episodes", train_episodes, "--val-episodes",
+                         val_episodes, "--max-steps", max_steps, "--seed", 0]
+        self.tokenizer_steps, self.dynamics_steps = tokenizer_steps, dynamics_steps
+        self.tokenizer_config = os.path.join(CONFIGS, "tokenizer", "tiny.yaml")
+        if tokenizer_train:
+            self.tokenizer_config = derived_config("tokenizer", self.path("tokenizer.yaml"),
+                                                   tokenizer_train)
+        self.dynamics_config = os.path.join(CONFIGS, "dynamics", "tiny.yaml")
+        if dynamics_train:
+            self.dynamics_config = derived_config("dynamics", self.path("dynamics.yaml"),
+                                                  dynamics_train)
+
+    def path(self, *parts):
+        return os.path.join(self.root, *parts)
+
+    # Command lines, writing to `out`.
+    def ingest_argv(self, split, out, *extra):
+        return argv("wm-ingest", "--format", "rlds", "--input", self.raw(), "--split", split,
+                    "--output", out, "--threads", 1, "--log-level", "warn", *extra)
+
+    def tokenizer_argv(self, out, *extra):
+        val = ["--val-data", self.shards("val")] if self.validate else []
+        return argv("wm-tokenize", "train", "--config", self.tokenizer_config, "--data",
+                    self.shards("train"), *val, "--out", out, "--steps", self.tokenizer_steps,
+                    "--threads", 1, *extra)
+
+    def encode_argv(self, split, out):
+        return argv("wm-tokenize", "encode", "--checkpoint", self.tokenizer(), "--data",
+                    self.shards(split), "--out", out, "--threads", 1)
+
+    def dynamics_argv(self, out, *extra):
+        val = ["--val-tokens", self.tokens("val")] if self.validate else []
+        return argv("wm-train", "--config", self.dynamics_config, "--tokens",
+                    self.tokens("train"), *val, "--out", out, "--steps", self.dynamics_steps,
+                    "--threads", 1, *extra)
+
+    def eval_argv(self, out, *extra):
+        """wm-eval of the dynamics run on the val split (options in `extra`)."""
+        return argv("wm-eval", "--checkpoint", self.dynamics(), "--tokenizer", self.tokenizer(),
+                    "--data", self.shards("val"), "--tokens", self.tokens("val"), "--out", out,
+                    "--threads", 1, *extra)
+
+    # The reference outputs.
+    def _make(self, out, command):
+        if not os.path.exists(out):
+            p = subprocess.run(command, capture_output=True, text=True)
+            if p.returncode != 0:
+                raise AssertionError(f"{' '.join(command)}: exit {p.returncode}\n{p.stderr}")
+        return out
+
+    def raw(self):
+        return self._make(self.path("raw", "wm_tabletop", "1.0.0"),
+                          argv("wm-gen-tabletop", "--out", self.path("raw"), *self.gen_args))
+
+    def shards(self, split):
+        out = self.path("shards", split)
+        return self._make(out, self.ingest_argv(split, out))
+
+    def tokenizer(self):
+        return self._make(self.path("tok"), self.tokenizer_argv(self.path("tok")))
+
+    def tokens(self, split):
+        out = self.path("tokens", split)
+        return self._make(out, self.encode_argv(split, out))
+
+    def dynamics(self):
+        return self._make(self.path("dyn"), self.dynamics_argv(self.path("dyn")))
