@@ -39,6 +39,10 @@ void ReadDistributedEnvironment(TrainOptions& o) {
   }
   o.master_port = EnvInt("MASTER_PORT", 29500, 1);
   if (o.rank != 0) o.show_progress = false;
+  // One GPU per process on a node, as torchrun sets it up: a bare "cuda" is cuda:LOCAL_RANK.
+  if (const int local = EnvInt("LOCAL_RANK", -1, 0); o.device == "cuda" && local >= 0) {
+    o.device = "cuda:" + std::to_string(local);
+  }
 }
 
 int SpawnLocalRanks(int nproc, int argc, char** argv) {

@@ -5,7 +5,8 @@
 namespace wm::train {
 
 // torchrun-style: RANK, WORLD_SIZE, MASTER_ADDR, MASTER_PORT (all optional; absent = one
-// process). Throws wm::Error naming the variable when a value is malformed.
+// process), and LOCAL_RANK, which turns --device cuda into cuda:LOCAL_RANK. Throws wm::Error
+// naming the variable when a value is malformed.
 void ReadDistributedEnvironment(TrainOptions& options);
 
 // Runs this executable `nproc` times with --nproc removed from argv and RANK / WORLD_SIZE /

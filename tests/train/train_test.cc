@@ -14,6 +14,7 @@
 #include "tests/train/moving_block.h"
 #include "tests/train/test_config.h"
 #include "train/dynamics_model.h"
+#include "train/launch.h"
 #include "train/segment_sampler.h"
 #include "train/trainer.h"
 
@@ -243,6 +244,29 @@ TEST(DynamicsConfig, PresetsLoadAndErrorsNameFileAndKey) {
   EXPECT_NE(error("model:\n  norm: batchnorm\n").find("key 'model.norm'"), std::string::npos);
   EXPECT_NE(error("optim: {}\n").find("key 'optim'"), std::string::npos);
   EXPECT_NE(error("model: [1\n").find("dyn.yaml"), std::string::npos);
+}
+
+TEST(DistributedEnvironment, TorchrunVariablesSetRankAndTheLocalGpu) {
+  setenv("RANK", "3", 1);
+  setenv("WORLD_SIZE", "4", 1);
+  setenv("LOCAL_RANK", "1", 1);
+  setenv("MASTER_ADDR", "node7", 1);
+  TrainOptions o;
+  o.device = "cuda";
+  ReadDistributedEnvironment(o);
+  EXPECT_EQ(o.rank, 3);
+  EXPECT_EQ(o.world_size, 4);
+  EXPECT_EQ(o.master_addr, "node7");
+  EXPECT_EQ(o.device, "cuda:1");
+  EXPECT_FALSE(o.show_progress);
+  TrainOptions pinned;
+  pinned.device = "cuda:0";  // an explicit index is kept
+  ReadDistributedEnvironment(pinned);
+  EXPECT_EQ(pinned.device, "cuda:0");
+  setenv("RANK", "4", 1);
+  EXPECT_NE(wm::test::ErrorText([&] { ReadDistributedEnvironment(o); }).find("RANK"),
+            std::string::npos);
+  for (const char* v : {"RANK", "WORLD_SIZE", "LOCAL_RANK", "MASTER_ADDR"}) unsetenv(v);
 }
 
 TEST(LearningRate, AdaptsTheTokenizerSchedule) {
