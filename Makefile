@@ -28,8 +28,16 @@ OUT ?=
 FORMAT ?= rlds
 SPLIT ?= train
 ARGS ?=
+# make test-sanitize: core/ + ingest/ and their tests under ASan + UBSan, in SANITIZE_BUILD.
+SANITIZE_BUILD ?= build-asan
+# make fuzz [FUZZ_SECONDS=600] [FUZZ_TARGETS="shard tokens"]: each libFuzzer target (clang) runs
+# FUZZ_SECONDS on its corpus in FUZZ_BUILD; exits non-zero on any crash (docs/testing.md).
+FUZZ_BUILD ?= build-fuzz
+FUZZ_SECONDS ?= 600
+FUZZ_TARGETS ?= tfrecord example shard tokens hdf5 yaml_config
+HARDENING_CONFIG := -DCMAKE_BUILD_TYPE=RelWithDebInfo -DWM_DATA_ONLY=ON -DWM_BUILD_BENCH=OFF
 
-.PHONY: all deps configure build test demo ingest tokenize train eval report ablation bench format lint clean
+.PHONY: all deps configure build test test-sanitize fuzz demo ingest tokenize train eval report ablation bench format lint clean
 
 all: build
 
@@ -44,6 +52,18 @@ build: configure
 
 test: build
 	@cd $(BUILD) && ctest --output-on-failure -j $(JOBS)
+
+test-sanitize: deps
+	@cmake -S . -B $(SANITIZE_BUILD) $(HARDENING_CONFIG) -DWM_SANITIZE=ON > /dev/null
+	@cmake --build $(SANITIZE_BUILD) -j $(JOBS)
+	@cd $(SANITIZE_BUILD) && ctest --output-on-failure -j $(JOBS)
+
+fuzz:
+	@bash scripts/install-deps.sh clang libclang-rt-dev
+	@cmake -S . -B $(FUZZ_BUILD) $(HARDENING_CONFIG) -DWM_FUZZ=ON -DWM_BUILD_TESTS=OFF \
+	  -DCMAKE_C_COMPILER=clang -DCMAKE_CXX_COMPILER=clang++ > /dev/null
+	@cmake --build $(FUZZ_BUILD) -j $(JOBS) --target wm_fuzzers
+	@bash tests/fuzz/run.sh $(FUZZ_BUILD)/bin $(FUZZ_BUILD)/fuzz $(FUZZ_SECONDS) $(FUZZ_TARGETS)
 
 demo: build
 	@bash scripts/demo.sh $(BIN) $(DEMO_DIR)
@@ -82,4 +102,4 @@ lint: configure
 	@git ls-files '*.cc' | grep -v '^tests/' | xargs clang-tidy -p $(BUILD) --quiet
 
 clean:
-	@rm -rf $(BUILD) $(DEMO_DIR)
+	@rm -rf $(BUILD) $(SANITIZE_BUILD) $(FUZZ_BUILD) $(DEMO_DIR)

@@ -21,6 +21,20 @@ MappedFile::MappedFile(std::string path) : path_(std::move(path)) {
     throw Error("cannot stat file", {.file = path_});
   }
   size_ = static_cast<size_t>(st.st_size);
+#if WM_MAPPED_FILE_ON_HEAP
+  // Sanitizer builds: an exact-size heap copy, so ASan reports any read past the end.
+  if (size_ > 0) {
+    auto* copy = new uint8_t[size_];
+    const bool ok = ::pread(fd, copy, size_, 0) == static_cast<ssize_t>(size_);
+    ::close(fd);
+    if (!ok) {
+      delete[] copy;
+      throw Error("cannot read file", {.file = path_});
+    }
+    data_ = copy;
+    return;
+  }
+#else
   if (size_ > 0) {
     void* p = ::mmap(nullptr, size_, PROT_READ, MAP_PRIVATE, fd, 0);
     if (p == MAP_FAILED) {
@@ -29,11 +43,16 @@ MappedFile::MappedFile(std::string path) : path_(std::move(path)) {
     }
     data_ = static_cast<const uint8_t*>(p);
   }
+#endif
   ::close(fd);
 }
 
 MappedFile::~MappedFile() {
+#if WM_MAPPED_FILE_ON_HEAP
+  delete[] data_;
+#else
   if (data_ != nullptr) ::munmap(const_cast<uint8_t*>(data_), size_);
+#endif
 }
 
 }  // namespace wm

@@ -60,12 +60,20 @@ void ReadSectionedYaml(const std::string& yaml_text, const std::string& file, co
   });
   std::string sections;
   for (const auto& [name, keys] : known) sections += (sections.empty() ? "" : ", ") + name;
+  // YAML allows a list or mapping as a key ("? [a]: b"); here every key must be a plain name.
+  auto name_of = [&](const YAML::Node& key, const std::string& where) {
+    Check(key.IsScalar(), "expected a plain name as key, found a list or mapping",
+          {.file = file, .key = where});
+    return key.Scalar();
+  };
   for (const auto& top : root) {
-    const std::string section = top.first.as<std::string>();
+    const std::string section = name_of(top.first, "");
     Check(known.count(section) > 0, "unknown section (expected " + sections + ")",
           {.file = file, .key = section});
+    // A repeated section name reaches here without the mapping check above.
+    Check(top.second.IsMap(), "expected a mapping", {.file = file, .key = section});
     for (const auto& kv : top.second) {
-      const std::string key = kv.first.as<std::string>();
+      const std::string key = name_of(kv.first, section);
       Check(known[section].count(key) > 0, std::string("unknown key (see ") + doc + ")",
             {.file = file, .key = section + "." + key});
     }

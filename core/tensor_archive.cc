@@ -8,6 +8,7 @@
 #include "core/atomic_file.h"
 #include "core/crc32c.h"
 #include "core/error.h"
+#include "core/json_int.h"
 #include "core/mapped_file.h"
 
 namespace wm {
@@ -49,10 +50,10 @@ ArchiveTensor ParseEntry(const std::string& name, const nlohmann::json& e, const
   t.name = name;
   try {
     t.dtype = ParseDType(e.at("dtype").get<std::string>());
-    t.shape = e.at("shape").get<std::vector<int64_t>>();
-    const uint64_t offset = e.at("offset").get<uint64_t>();
-    t.length = e.at("length").get<uint64_t>();
-    const uint32_t stored_crc = e.at("crc32c").get<uint32_t>();
+    t.shape = JsonInts<int64_t>(e.at("shape"));
+    const uint64_t offset = JsonInt<uint64_t>(e.at("offset"));
+    t.length = JsonInt<uint64_t>(e.at("length"));
+    const uint32_t stored_crc = JsonInt<uint32_t>(e.at("crc32c"));
     for (int64_t d : t.shape) Check(d >= 0, "negative dimension in shape " + ShapeString(t.shape));
     Check(t.length == static_cast<uint64_t>(t.numel()) * DTypeSize(t.dtype),
           "length " + std::to_string(t.length) + " does not match shape " + ShapeString(t.shape) +
@@ -157,18 +158,19 @@ TensorArchiveReader::TensorArchiveReader(std::string path) : path_(std::move(pat
   } catch (const nlohmann::json::exception& ex) {
     throw Error(std::string("header is not valid JSON: ") + ex.what(), at_file);
   }
-  Check(header.is_object() && header.value("format", "") == kTensorArchiveFormat,
+  Check(header.is_object() && header.contains("format") &&
+            header["format"] == kTensorArchiveFormat,
         "header 'format' is not \"wmkit-tensors\"", {.file = path_, .key = "format"});
   Check(header.contains("version") && header["version"].is_number_integer(),
         "header lacks an integer 'version'", {.file = path_, .key = "version"});
-  const int version = header["version"].get<int>();
+  const int version = JsonInt<int>(header["version"]);
   Check(version == kTensorArchiveVersion,
         "unsupported archive version " + std::to_string(version) + " (this build reads 1)",
         {.file = path_, .key = "version"});
   Check(header.contains("data_length") && header["data_length"].is_number_unsigned(),
         "header lacks an unsigned 'data_length'", {.file = path_, .key = "data_length"});
   const uint64_t data_start = kPreambleSize + header_length;
-  const uint64_t data_length = header["data_length"].get<uint64_t>();
+  const uint64_t data_length = JsonInt<uint64_t>(header["data_length"]);
   Check(data_start % kTensorArchiveAlignment == 0,
         "data section does not start on a 64-byte boundary", {.file = path_, .key = "data_length"});
   Check(size - data_start == data_length,

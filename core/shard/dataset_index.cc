@@ -6,6 +6,7 @@
 
 #include "core/atomic_file.h"
 #include "core/error.h"
+#include "core/json_int.h"
 #include "core/shard/shard_format.h"
 
 namespace wm::shard {
@@ -63,7 +64,7 @@ json IndexToJson(const DatasetIndex& x) {
 
 DatasetIndex IndexFromJson(const json& j, const std::string& file) {
   Check(j.is_object(), "index is not a JSON object", {.file = file});
-  Check(j.value("format", "") == kFormatName,
+  Check(j.contains("format") && j["format"] == kFormatName,
         std::string("not a wmkit shard index (format must be \"") + kFormatName + "\")",
         {.file = file, .key = "format"});
   const json& version = j.contains("format_version") ? j["format_version"] : json();
@@ -81,16 +82,17 @@ DatasetIndex IndexFromJson(const json& j, const std::string& file) {
     key = "features", x.features = j.at(key);
     key = "shards";
     for (const auto& s : j.at(key)) {
-      x.shards.push_back({s.at("file").get<std::string>(), s.at("bytes").get<uint64_t>(),
-                          s.at("sha256").get<std::string>(), s.at("num_episodes").get<uint64_t>(),
-                          s.at("num_steps").get<uint64_t>()});
+      x.shards.push_back({s.at("file").get<std::string>(), JsonInt<uint64_t>(s.at("bytes")),
+                          s.at("sha256").get<std::string>(),
+                          JsonInt<uint64_t>(s.at("num_episodes")),
+                          JsonInt<uint64_t>(s.at("num_steps"))});
     }
-    key = "num_episodes", x.num_episodes = j.at(key).get<uint64_t>();
-    key = "num_steps", x.num_steps = j.at(key).get<uint64_t>();
+    key = "num_episodes", x.num_episodes = JsonInt<uint64_t>(j.at(key));
+    key = "num_steps", x.num_steps = JsonInt<uint64_t>(j.at(key));
     key = "action_stats", x.action_stats = StatsFromJson(j.at(key));
     key = "skipped";
     for (const auto& s : j.at(key).at("episodes")) {
-      x.skipped.push_back({s.at("file").get<std::string>(), s.at("record").get<int64_t>(),
+      x.skipped.push_back({s.at("file").get<std::string>(), JsonInt<int64_t>(s.at("record")),
                            s.at("reason").get<std::string>()});
     }
     key = "provenance", x.provenance = j.at(key);

@@ -6,6 +6,7 @@
 
 #include "core/atomic_file.h"
 #include "core/error.h"
+#include "core/json_int.h"
 #include "core/sha256.h"
 #include "core/shard/shard_reader.h"
 
@@ -36,7 +37,7 @@ DatasetWriter::DatasetWriter(DatasetWriterOptions options) : options_(std::move(
   }
   for (const auto& s : state.at("skipped")) skipped_.push_back({s.at("file"), s.at("record"), s.at("reason")});
   features_ = state.at("features");
-  consumed_ = next_position_ = state.at("consumed").get<uint64_t>();
+  consumed_ = next_position_ = JsonInt<uint64_t>(state.at("consumed"));
   resumed_shards_ = shards_.size();
 }
 

@@ -3,6 +3,7 @@
 #include <nlohmann/json.hpp>
 
 #include "core/error.h"
+#include "core/json_int.h"
 #include "core/shard/shard_format.h"
 #include "core/zstd_codec.h"
 
@@ -45,7 +46,7 @@ json AppendBlobs(std::string& body, const std::string& name, const EncodedFrames
 }
 
 std::string_view SectionBytes(const json& s, std::string_view body) {
-  uint64_t off = s.at("offset").get<uint64_t>(), len = s.at("length").get<uint64_t>();
+  uint64_t off = JsonInt<uint64_t>(s.at("offset")), len = JsonInt<uint64_t>(s.at("length"));
   Check(off <= body.size() && len <= body.size() - off,
         "section runs past the record body (offset " + std::to_string(off) + " + length " +
             std::to_string(len) + " > body " + std::to_string(body.size()) + ")");
@@ -56,8 +57,11 @@ template <typename T>
 std::vector<T> ReadArray(const json& s, std::string_view body, int64_t rows, int64_t cols) {
   Check(s.at("kind") == "array" && s.at("dtype") == DtypeName<T>(),
         std::string("expected an array section of dtype ") + DtypeName<T>());
-  size_t expected = static_cast<size_t>(rows * std::max<int64_t>(cols, 1)) * sizeof(T);
-  Check(s.at("raw_length").get<uint64_t>() == expected,
+  uint64_t expected = 0;  // rows x cols x sizeof(T); rows is num_steps, which damage can set
+  Check(rows >= 0 && !__builtin_mul_overflow(static_cast<uint64_t>(rows),
+                                             std::max<int64_t>(cols, 1) * sizeof(T), &expected),
+        "num_steps " + std::to_string(rows) + " gives no valid array size");
+  Check(JsonInt<uint64_t>(s.at("raw_length")) == expected,
         "raw_length " + s.at("raw_length").dump() + " != " + std::to_string(expected));
   std::string_view bytes = SectionBytes(s, body);
   std::string raw = s.at("codec") == "zstd" ? ZstdDecompress(bytes, expected) : std::string(bytes);
@@ -70,14 +74,15 @@ std::vector<T> ReadArray(const json& s, std::string_view body, int64_t rows, int
 
 EncodedFrames ReadBlobs(const json& s, std::string_view body, int64_t count) {
   Check(s.at("kind") == "blobs", "expected a blobs section");
-  Check(s.at("count").get<int64_t>() == count, "blob count " + s.at("count").dump() +
+  Check(JsonInt<int64_t>(s.at("count")) == count, "blob count " + s.at("count").dump() +
                                                   " != num_steps " + std::to_string(count));
   std::string_view bytes = SectionBytes(s, body);
-  Check(bytes.size() >= 8 * static_cast<size_t>(count), "blob length table truncated");
+  Check(count >= 0 && static_cast<uint64_t>(count) <= bytes.size() / 8,
+        "blob length table truncated");
   EncodedFrames f;
   f.encoding = s.at("encoding").get<std::string>();
   f.dtype = s.at("dtype").get<std::string>();
-  auto shape = s.at("shape").get<std::vector<int>>();
+  auto shape = JsonInts<int>(s.at("shape"));
   Check(shape.size() == 3, "blob shape must be [H, W, C]");
   f.height = shape[0], f.width = shape[1], f.channels = shape[2];
   size_t pos = 8 * static_cast<size_t>(count);
@@ -123,11 +128,13 @@ Episode DecodeEpisode(std::string_view meta_text, std::string_view body, bool wi
   try {
     e.episode_key = meta.at("episode_key").get<std::string>();
     e.source_file = meta.at("source").at("file").get<std::string>();
-    e.source_record = meta.at("source").at("record").get<int64_t>();
-    e.num_steps = meta.at("num_steps").get<int64_t>();
+    e.source_record = JsonInt<int64_t>(meta.at("source").at("record"));
+    e.num_steps = JsonInt<int64_t>(meta.at("num_steps"));
     e.language_instruction = meta.at("language_instruction").get<std::string>();
     e.policy_id = meta.at("policy_id").get<std::string>();
-    if (!meta.at("episode_seed").is_null()) e.episode_seed = meta["episode_seed"].get<int64_t>();
+    if (!meta.at("episode_seed").is_null()) {
+      e.episode_seed = JsonInt<int64_t>(meta["episode_seed"]);
+    }
     const int64_t t = e.num_steps;
     for (const auto& s : meta.at("sections")) {
       current_key = s.at("name").get<std::string>();

@@ -39,8 +39,10 @@ ShardReader::ShardReader(const std::string& path) : file_(std::make_unique<Mappe
   if (Crc32c(t, 28) != GetU32(t + 28)) fail("trailer", "CRC mismatch");
   CheckVersion(GetU32(t + 20), path, "trailer");
   uint64_t index_offset = GetU64(t), count = GetU64(t + 8);
+  // count is compared by division: count * kIndexEntrySize can wrap around for a damaged count.
   if (index_offset < kFileHeaderSize || index_offset > n - kTrailerSize ||
-      (n - kTrailerSize - index_offset) != count * kIndexEntrySize) {
+      (n - kTrailerSize - index_offset) % kIndexEntrySize != 0 ||
+      (n - kTrailerSize - index_offset) / kIndexEntrySize != count) {
     fail("trailer", "footer index offset/count do not match the file size");
   }
   const uint8_t* idx = p + index_offset;

@@ -4,6 +4,7 @@
 
 #include "core/atomic_file.h"
 #include "core/error.h"
+#include "core/json_int.h"
 #include "core/provenance.h"
 #include "core/tokens/token_dataset.h"
 #include "core/tokens/token_format.h"
@@ -23,10 +24,10 @@ TokenizerInfo TokenizerFromJson(const json& j) {
   TokenizerInfo t;
   t.checkpoint_sha256 = j.at("checkpoint_sha256").get<std::string>();
   t.config_hash = j.at("config_hash").get<std::string>();
-  t.num_codes = j.at("num_codes").get<int64_t>();
-  t.grid_h = j.at("grid").at(0).get<int>();
-  t.grid_w = j.at("grid").at(1).get<int>();
-  t.image_size = j.at("image_size").get<int>();
+  t.num_codes = JsonInt<int64_t>(j.at("num_codes"));
+  t.grid_h = JsonInt<int>(j.at("grid").at(0));
+  t.grid_w = JsonInt<int>(j.at("grid").at(1));
+  t.image_size = JsonInt<int>(j.at("image_size"));
   t.image_key = j.at("image_key").get<std::string>();
   return t;
 }
@@ -48,14 +49,14 @@ json PartToJson(const PartInfo& p) {
 PartInfo PartFromJson(const json& j) {
   PartInfo p;
   p.file = j.at("file").get<std::string>();
-  p.bytes = j.at("bytes").get<uint64_t>();
+  p.bytes = JsonInt<uint64_t>(j.at("bytes"));
   p.sha256 = j.at("sha256").get<std::string>();
-  p.num_episodes = j.at("num_episodes").get<int64_t>();
-  p.num_frames = j.at("num_frames").get<int64_t>();
+  p.num_episodes = JsonInt<int64_t>(j.at("num_episodes"));
+  p.num_frames = JsonInt<int64_t>(j.at("num_frames"));
   for (const auto& [name, s] : j.at("sections").items()) {
-    p.sections[name] = {s.at("offset").get<uint64_t>(), s.at("dtype").get<std::string>(),
-                        s.at("shape").get<std::vector<int64_t>>(),
-                        s.at("crc32c").get<uint32_t>()};
+    p.sections[name] = {JsonInt<uint64_t>(s.at("offset")), s.at("dtype").get<std::string>(),
+                        JsonInts<int64_t>(s.at("shape")),
+                        JsonInt<uint32_t>(s.at("crc32c"))};
   }
   return p;
 }
@@ -75,14 +76,14 @@ json EpisodeToJson(const TokenEpisode& e) {
 
 TokenEpisode EpisodeFromJson(const json& j) {
   TokenEpisode e;
-  e.part = j.at("part").get<int>();
-  e.frame_offset = j.at("frame_offset").get<int64_t>();
-  e.num_frames = j.at("num_frames").get<int64_t>();
-  e.source_episode = j.at("source_episode").get<int64_t>();
+  e.part = JsonInt<int>(j.at("part"));
+  e.frame_offset = JsonInt<int64_t>(j.at("frame_offset"));
+  e.num_frames = JsonInt<int64_t>(j.at("num_frames"));
+  e.source_episode = JsonInt<int64_t>(j.at("source_episode"));
   e.episode_key = j.at("episode_key").get<std::string>();
   e.policy_id = j.at("policy_id").get<std::string>();
   e.language_instruction = j.at("language_instruction").get<std::string>();
-  if (!j.at("episode_seed").is_null()) e.episode_seed = j["episode_seed"].get<int64_t>();
+  if (!j.at("episode_seed").is_null()) e.episode_seed = JsonInt<int64_t>(j["episode_seed"]);
   return e;
 }
 
@@ -144,7 +145,7 @@ json TokenIndexToJson(const TokenIndex& x) {
 }
 
 TokenIndex TokenIndexFromJson(const json& j, const std::string& file) {
-  Check(j.is_object() && j.value("format", "") == kTokenFormatName,
+  Check(j.is_object() && j.contains("format") && j["format"] == kTokenFormatName,
         std::string("not a wmkit token index (format must be \"") + kTokenFormatName + "\")",
         {.file = file, .key = "format"});
   const json version = j.contains("format_version") ? j["format_version"] : json();
@@ -161,12 +162,12 @@ TokenIndex TokenIndexFromJson(const json& j, const std::string& file) {
     key = "token_dtype", x.token_dtype = j.at(key).get<std::string>();
     key = "source", x.source = j.at(key);
     key = "action_stats", x.action_stats = shard::StatsFromJson(j.at(key));
-    key = "num_parts", x.num_parts = j.at(key).get<int>();
+    key = "num_parts", x.num_parts = JsonInt<int>(j.at(key));
     key = "parts";
     for (const auto& p : j.at(key)) x.parts.push_back(PartFromJson(p));
     key = "episodes";
     for (const auto& e : j.at(key)) x.episodes.push_back(EpisodeFromJson(e));
-    key = "num_frames", x.num_frames = j.at(key).get<int64_t>();
+    key = "num_frames", x.num_frames = JsonInt<int64_t>(j.at(key));
     key = "provenance", x.provenance = j.at(key);
   } catch (const json::exception& e) {
     throw Error(std::string("malformed token index: ") + e.what(), {.file = file, .key = key});
@@ -176,12 +177,13 @@ TokenIndex TokenIndexFromJson(const json& j, const std::string& file) {
   Check(static_cast<int>(x.parts.size()) == x.num_parts, "parts has not num_parts entries",
         {.file = file, .key = "parts"});
   int64_t frames = 0;
+  bool summed = true;  // false when the sum overflows, which only damage can cause
   for (const auto& e : x.episodes) {
     Check(e.part >= 0 && e.part < x.num_parts, "episode refers to a missing part",
           {.file = file, .key = "episodes"});
-    frames += e.num_frames;
+    summed = summed && !__builtin_add_overflow(frames, e.num_frames, &frames);
   }
-  Check(frames == x.num_frames, "num_frames disagrees with the sum over episodes",
+  Check(summed && frames == x.num_frames, "num_frames disagrees with the sum over episodes",
         {.file = file, .key = "num_frames"});
   return x;
 }

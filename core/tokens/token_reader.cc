@@ -34,10 +34,15 @@ const uint8_t* CheckSection(const MappedFile& f, const PartInfo& part, const std
   Check(it != part.sections.end(), "section missing from index.json", at);
   const Section& s = it->second;
   Check(s.shape == shape && s.dtype == dtype, "section shape or dtype differs from expected", at);
+  // Negative or huge sizes from a damaged index.json must not wrap around into a small number.
   uint64_t bytes = DtypeSize(dtype);
-  for (int64_t d : shape) bytes *= static_cast<uint64_t>(d);
-  Check(s.offset % kSectionAlignment == 0 && s.offset >= kPartHeaderSize &&
-            s.offset + bytes <= f.size(),
+  bool sized = true;
+  for (int64_t d : shape) {
+    sized = sized && d >= 0 && !__builtin_mul_overflow(bytes, static_cast<uint64_t>(d), &bytes);
+  }
+  Check(sized, "section shape gives no valid size", at);
+  Check(s.offset % kSectionAlignment == 0 && s.offset >= kPartHeaderSize && s.offset <= f.size() &&
+            bytes <= f.size() - s.offset,
         "section lies outside the file (truncated?)", at);
   Check(Crc32c(f.data() + s.offset, bytes) == s.crc32c, "section checksum mismatch (corrupt file)",
         at);
@@ -94,8 +99,9 @@ TokenDataset::TokenDataset(const std::string& dir) : state_(std::make_unique<Sta
   }
   for (size_t k = 0; k < s.index.episodes.size(); ++k) {
     const TokenEpisode& e = s.index.episodes[k];
-    Check(e.frame_offset >= 0 && e.num_frames > 0 &&
-              e.frame_offset + e.num_frames <= s.index.parts[e.part].num_frames,
+    const int64_t part_frames = s.index.parts[e.part].num_frames;  // >= 0: its sections fit
+    Check(e.frame_offset >= 0 && e.num_frames > 0 && e.frame_offset <= part_frames &&
+              e.num_frames <= part_frames - e.frame_offset,
           "episode frames lie outside its part", {.file = path, .record = int64_t(k),
                                                   .record_label = "episode"});
   }

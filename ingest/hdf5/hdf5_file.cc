@@ -88,6 +88,8 @@ std::optional<std::string> ReadStringAttr(hid_t obj, const char* name) {
     return out;
   }
   size_t size = H5Tget_size(type.get());
+  // The type's size is read from the file; the attribute must actually store that many bytes.
+  Check(size <= H5Aget_storage_size(attr.get()), cannot_read + ": larger than its stored data");
   H5Tset_size(mem.get(), size);
   H5Tset_strpad(mem.get(), H5T_STR_NULLPAD);  // NULLTERM would drop the last of `size` chars
   std::string out(size, '\0');
@@ -102,8 +104,19 @@ bool Dataset::IsUnsignedInt(size_t width) const {
 
 size_t Dataset::NumElements() const {
   size_t n = 1;
-  for (hsize_t d : dims) n *= d;
+  for (hsize_t d : dims) {
+    if (__builtin_mul_overflow(n, d, &n)) return SIZE_MAX;
+  }
   return n;
+}
+
+bool Dataset::DimsFitStoredData() const {
+  constexpr uint64_t kMaxDeflateExpansion = 1032;
+  const uint64_t element_bytes = std::max<uint64_t>(bytes, 1);  // 0 when the type is unreadable
+  uint64_t logical = 0;
+  return NumElements() != SIZE_MAX &&
+         !__builtin_mul_overflow(NumElements(), element_bytes, &logical) &&
+         logical / kMaxDeflateExpansion <= stored_bytes;
 }
 
 std::string Dataset::Describe() const {
@@ -131,6 +144,11 @@ Dataset OpenDataset(hid_t loc, const std::string& path) {
   d.cls = H5Tget_class(d.type.get());
   d.bytes = H5Tget_size(d.type.get());
   d.is_signed = d.cls == H5T_INTEGER && H5Tget_sign(d.type.get()) == H5T_SGN_2;
+  // The storage size is layout metadata, which damage can set to anything: cap it at the file's.
+  Handle file(H5Iget_file_id(d.id.get()), H5Fclose);
+  hsize_t file_bytes = 0;
+  if (!file.ok() || H5Fget_filesize(file.get(), &file_bytes) < 0) file_bytes = 0;
+  d.stored_bytes = std::min(H5Dget_storage_size(d.id.get()), file_bytes);
   int rank = H5Sget_simple_extent_ndims(space.get());
   d.dims.resize(static_cast<size_t>(std::max(rank, 0)));
   H5Sget_simple_extent_dims(space.get(), d.dims.data(), nullptr);

@@ -57,9 +57,15 @@ struct Dataset {
   size_t bytes = 0;  // per element
   bool is_signed = false;
   std::vector<hsize_t> dims;
+  hsize_t stored_bytes = 0;  // raw data bytes the file holds for it (compressed, if filtered),
+                             // at most the file's size
 
   bool IsUnsignedInt(size_t width) const;
-  size_t NumElements() const;
+  size_t NumElements() const;  // SIZE_MAX when the product of dims overflows
+  // Whether the dims could describe the stored data: at most what deflate (robomimic's and
+  // LIBERO's gzip filter, at most 1032:1) expands stored_bytes to. A damaged dataspace can
+  // declare any size, and ReadAll's buffer must not be sized blindly from it.
+  bool DimsFitStoredData() const;
   // e.g. "float64 [50, 6]", for error messages.
   std::string Describe() const;
   // Every element, converted by HDF5 from the file type to `mem_type`; false on failure.

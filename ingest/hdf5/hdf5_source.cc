@@ -87,6 +87,9 @@ class DemoReader {
   // All elements, converted by HDF5 to `mem_type` (e.g. float64 or int64 -> float).
   template <class T>
   std::vector<T> Read(const Dataset& d, hid_t mem_type, const std::string& key) const {
+    if (!d.DimsFitStoredData()) {
+      throw Fail(key, d.Describe() + " is larger than the data stored for it (damaged file?)");
+    }
     std::vector<T> out(d.NumElements());
     if (!d.ReadAll(mem_type, out.data())) {
       throw Fail(key, "cannot read " + d.Describe() + " (damaged file?)");

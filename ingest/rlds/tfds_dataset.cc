@@ -6,6 +6,7 @@
 
 #include "core/atomic_file.h"
 #include "core/error.h"
+#include "core/json_int.h"
 
 namespace wm::rlds {
 namespace fs = std::filesystem;
@@ -53,7 +54,8 @@ void Flatten(const json& node, const std::string& prefix, bool per_step,
     spec.dtype = t->value("dtype", "");
     if (t->contains("shape") && (*t)["shape"].contains("dimensions")) {
       for (const auto& d : (*t)["shape"]["dimensions"]) {
-        spec.shape.push_back(d.is_string() ? std::stoll(d.get<std::string>()) : d.get<int64_t>());
+        spec.shape.push_back(d.is_string() ? std::stoll(d.get<std::string>())
+                                           : JsonInt<int64_t>(d));
       }
     }
     spec.encoding = t->value("encodingFormat", "");

@@ -1,10 +1,11 @@
-// Errors, atomic files, hashes, provenance and progress formatting.
+// Errors, atomic files, hashes, provenance, progress formatting, zstd and strict JSON integers.
 #include <gtest/gtest.h>
 
 #include <filesystem>
 
 #include "core/atomic_file.h"
 #include "core/error.h"
+#include "core/json_int.h"
 #include "core/progress.h"
 #include "core/provenance.h"
 #include "core/sha256.h"
@@ -58,6 +59,22 @@ TEST(Zstd, RoundTripAndCorruption) {
   EXPECT_THROW(ZstdDecompress(packed, raw.size() + 1), Error);
   packed[packed.size() / 2] ^= 0x55;
   EXPECT_THROW(ZstdDecompress(packed.substr(0, packed.size() / 2), raw.size()), Error);
+  // A damaged raw_length of 1 PB is an error about the size, not an allocation of 1 PB.
+  EXPECT_NE(test::ErrorText([&] { ZstdDecompress(ZstdCompress(raw), uint64_t{1} << 50); })
+                .find("decompressed to 10000 bytes"),
+            std::string::npos);
+}
+
+TEST(JsonInt, AcceptsOnlyIntegersInRange) {
+  using nlohmann::json;
+  EXPECT_EQ(JsonInt<uint32_t>(json(4294967295u)), 4294967295u);
+  EXPECT_EQ(JsonInt<int>(json(-3)), -3);
+  for (const json& bad : {json(1.44e120), json(3.5), json(-1), json(true), json("7")}) {
+    EXPECT_THROW(JsonInt<uint32_t>(bad), json::type_error) << bad.dump();
+  }
+  EXPECT_THROW(JsonInt<int>(json(int64_t{1} << 40)), json::type_error);
+  EXPECT_EQ(JsonInts<int64_t>(json::parse("[2, -1]")), (std::vector<int64_t>{2, -1}));
+  EXPECT_THROW(JsonInts<int64_t>(json::parse("[2, 0.5]")), json::type_error);
 }
 
 TEST(Provenance, ConfigHashIgnoresKeyOrderButNotValues) {

@@ -83,7 +83,7 @@ void EvalNextFrame(const std::string& run, const std::string& dir, int frames, i
   auto model = DynamicsModel::Load(run, "cpu", "", 1);
   wm::tokens::TokenDataset data(dir);
   const int64_t N = data.tokens_per_frame();
-  int64_t hits = 0, copy_hits = 0, total = 0, windows = 0, changed_hits = 0;
+  int64_t hits = 0, copy_hits = 0, total = 0, windows = 0, changed_hits = 0, flipped = 0;
   for (int64_t k = 0; k < data.num_episodes() && windows < max_windows; ++k) {
     const int64_t F = data.episode(k).num_frames;
     for (int64_t t = frames; t < F && windows < max_windows; t += frames, ++windows) {
@@ -93,6 +93,11 @@ void EvalNextFrame(const std::string& run, const std::string& dir, int frames, i
       c.tokens.assign(all.begin(), all.begin() + frames * N);
       c.actions.assign(data.actions(k) + (t - frames) * 7, data.actions(k) + t * 7);
       const auto next = model->PredictNextFrame(c, 0, 0, 0.0);
+      // Action sensitivity: the same context with the last move's x/y direction reversed.
+      FrameContext mirrored = c;
+      for (int d : {0, 1}) mirrored.actions[(frames - 1) * 7 + d] *= -1;
+      const auto other = model->PredictNextFrame(mirrored, 0, 0, 0.0);
+      for (int64_t i = 0; i < N; ++i) flipped += next[i] != other[i];
       for (int64_t i = 0; i < N; ++i) {
         const bool right = next[i] == all[frames * N + i];
         const bool same = all[(frames - 1) * N + i] == all[frames * N + i];
@@ -106,7 +111,7 @@ void EvalNextFrame(const std::string& run, const std::string& dir, int frames, i
   std::cout << "windows " << windows << ", next-frame token accuracy: model "
             << double(hits) / total << ", copy-last-frame " << double(copy_hits) / total
             << "; tokens that change: " << changed_hits << " of " << total - copy_hits
-            << " predicted\n";
+            << " predicted; " << flipped << " tokens differ when the last move is reversed\n";
 }
 
 }  // namespace
