@@ -359,10 +359,8 @@ std::vector<std::string> EvaluateCheckpoints(const EvalOptions& o) {
       written.push_back(dir);
       continue;
     }
-    const std::string file = fs::is_directory(o.checkpoints[c])
-                                 ? (fs::path(o.checkpoints[c]) / "checkpoint.wmt").string()
-                                 : o.checkpoints[c];
-    const nlohmann::json identity = PartIdentity(o, file, tok, data, episodes);
+    const nlohmann::json identity =
+        PartIdentity(o, model->checkpoint_file(), tok, data, episodes);
     const std::string part_path = PartPath(dir, o.shard_index, o.num_shards);
     if (fs::exists(part_path) && ReadEvalPart(part_path).identity == identity) {
       spdlog::info("{}: part {} of {} already scored", name, o.shard_index, o.num_shards);

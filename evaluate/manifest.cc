@@ -41,11 +41,9 @@ void WriteEvalManifest(const std::string& dir, const std::string& name, const Ev
     const std::string n = i < o.names.size() ? o.names[i] : "";
     if (n == name || fs::path(o.checkpoints[i]).filename() == name) ckpt = o.checkpoints[i];
   }
-  const std::string file =
-      fs::is_directory(ckpt) ? (fs::path(ckpt) / "checkpoint.wmt").string() : ckpt;
   m["checkpoint"] = {{"name", name},
                      {"path_basename", fs::path(ckpt).filename().string()},
-                     {"sha256", Sha256File(file)},
+                     {"sha256", Sha256File(model.checkpoint_file())},
                      {"step", model.step()},
                      {"policy_conditioning", model.config().model.policy_conditioning}};
   m["seed"] = o.rollout.seed;

@@ -18,6 +18,7 @@ struct DynamicsModel::State {
   ActionNorm norm;
   torch::Device device{torch::kCPU};
   int64_t step = 0;
+  std::string file;  // the loaded checkpoint.wmt
 
   int64_t N() const { return int64_t{config.model.grid_h} * config.model.grid_w; }
 
@@ -70,6 +71,7 @@ std::unique_ptr<DynamicsModel> DynamicsModel::Load(const std::string& path,
                                : path;
   std::unique_ptr<DynamicsModel> m(new DynamicsModel());
   State& s = *m->state_;
+  s.file = file;
   if (threads > 0) torch::set_num_threads(threads);
   CheckpointMeta meta = ReadCheckpointMeta(file);
   s.config = ConfigFromJson(meta.config);
@@ -95,6 +97,7 @@ std::unique_ptr<DynamicsModel> DynamicsModel::Load(const std::string& path,
 const DynamicsConfig& DynamicsModel::config() const { return state_->config; }
 int64_t DynamicsModel::tokens_per_frame() const { return state_->N(); }
 int64_t DynamicsModel::step() const { return state_->step; }
+const std::string& DynamicsModel::checkpoint_file() const { return state_->file; }
 int64_t DynamicsModel::max_context_frames() const {
   return state_->config.model.context_frames - 1;
 }

@@ -44,6 +44,7 @@ class DynamicsModel {
   const DynamicsConfig& config() const;
   int64_t tokens_per_frame() const;
   int64_t step() const;  // training step of the checkpoint
+  const std::string& checkpoint_file() const;  // the checkpoint.wmt that was loaded
   // Longest context PredictNextFrame takes (context_frames - 1); longer contexts keep their
   // last frames (a sliding window).
   int64_t max_context_frames() const;
