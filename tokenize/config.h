@@ -12,6 +12,8 @@ struct ModelConfig {
   int image_size = 64;        // frames are resized (INTER_AREA) to image_size x image_size
   int patch_size = 8;         // total encoder downsampling (power of 2); tokens per side =
                               // image_size / patch_size
+  int stem_factor = 1;        // pixel-unshuffle factor before the first conv (power of 2
+                              // dividing patch_size; 1 = a full-resolution conv stem)
   int encoder_channels = 64;  // conv width of the encoder (Table 4 "Encoder d_model")
   int encoder_layers = 1;     // residual blocks at token resolution (Table 4 "num_layers")
   int decoder_channels = 64;  // conv width of the decoder (Table 4 "Decoder d_model")

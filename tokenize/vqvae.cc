@@ -108,16 +108,19 @@ int64_t VectorQuantizerImpl::UpdateUsageAndReseed(const QuantizerOutput& out, in
 VqVaeImpl::VqVaeImpl(const ModelConfig& c) : config(c) {
   using torch::nn::Conv2dOptions;
   using torch::nn::ConvTranspose2dOptions;
-  const int downs = Log2(c.patch_size);
-  const int64_t d = c.latent_dim;
+  // The stem trades resolution for channels (pixel unshuffle) so no conv runs at full
+  // resolution; the strided convs do the rest of patch_size.
+  const int f = c.stem_factor, downs = Log2(c.patch_size / f);
+  const int64_t d = c.latent_dim, pixels = 3 * f * f;
   // Width `level` resolutions above the token grid: halved per level, floored at min_channels.
   auto width = [&c](int64_t channels, int level) {
     return c.min_channels > 0 ? std::max<int64_t>(c.min_channels, channels >> level) : channels;
   };
   const int64_t ce = c.encoder_channels, cd = c.decoder_channels;
-  encoder =
-      torch::nn::Sequential(torch::nn::Conv2d(Conv2dOptions(3, width(ce, downs), 3).padding(1)),
-                            torch::nn::ReLU());  // [B, Ce(downs), H, W]
+  encoder = torch::nn::Sequential();
+  if (f > 1) encoder->push_back(torch::nn::PixelUnshuffle(f));  // [B, 3f^2, H/f, W/f]
+  encoder->push_back(torch::nn::Conv2d(Conv2dOptions(pixels, width(ce, downs), 3).padding(1)));
+  encoder->push_back(torch::nn::ReLU());  // [B, Ce(downs), H/f, W/f]
   for (int level = downs; level > 0; --level) {
     encoder->push_back(torch::nn::Conv2d(
         Conv2dOptions(width(ce, level), width(ce, level - 1), 4).stride(2).padding(1)));
@@ -135,8 +138,8 @@ VqVaeImpl::VqVaeImpl(const ModelConfig& c) : config(c) {
         ConvTranspose2dOptions(width(cd, level), width(cd, level + 1), 4).stride(2).padding(1)));
   }
   decoder->push_back(torch::nn::ReLU());
-  decoder->push_back(torch::nn::Conv2d(Conv2dOptions(width(cd, downs), 3, 3).padding(1)));
-  // [B, 3, H, W]
+  decoder->push_back(torch::nn::Conv2d(Conv2dOptions(width(cd, downs), pixels, 3).padding(1)));
+  if (f > 1) decoder->push_back(torch::nn::PixelShuffle(f));  // [B, 3, H, W]
 
   register_module("encoder", encoder);
   register_module("decoder", decoder);

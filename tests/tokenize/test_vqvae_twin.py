@@ -3,7 +3,8 @@
 
 Two small C++ checkpoints are trained here (wm-tokenize train, 20 steps, 1 thread) on a tabletop
 set from wm-gen-tabletop + wm-ingest: A with the channel schedule (min_channels 8, 2 stride-2
-levels) and L2-normalised lookup, B with Euclidean lookup, constant width and 3 levels. For each,
+levels) and L2-normalised lookup, B with Euclidean lookup, constant width, a pixel-unshuffle
+stem (factor 2) and 2 levels. For each,
 the twin loads checkpoint.wmt with its own archive reader and must give, on the set's frames plus
 random frames (tokenizer_ref_tool runs the C++ side):
   - identical codes (Tokenizer::Encode), reconstructions and encoder features within 1e-5;
@@ -39,8 +40,8 @@ model: {image_size: 32, patch_size: 4, encoder_channels: 32, encoder_layers: 1,
 train: {batch_size: 8, steps: 20, max_lr: 3.0e-3, min_lr: 3.0e-4, warmup_steps: 3, threads: 1,
         seed: 3, checkpoint_every: 20, log_every: 5}
 """,
-    "B (euclidean, constant width)": """
-model: {image_size: 32, patch_size: 8, encoder_channels: 16, encoder_layers: 2,
+    "B (euclidean, constant width, pixel-unshuffle stem)": """
+model: {image_size: 32, patch_size: 8, stem_factor: 2, encoder_channels: 16, encoder_layers: 2,
         decoder_channels: 24, decoder_layers: 1, min_channels: 0, latent_dim: 6,
         num_codes: 32, l2_normalize: false, beta: 0.5, dead_code_steps: 4}
 train: {batch_size: 6, steps: 20, max_lr: 2.0e-3, min_lr: 1.0e-4, warmup_steps: 5, threads: 1,

@@ -33,7 +33,7 @@ SOURCE = os.environ.get("WM_SOURCE_DIR", os.path.join(os.path.dirname(os.path.ab
 DTYPES = {"float32": "<f4", "float64": "<f8", "float16": "<f2", "int32": "<i4", "int64": "<i8",
           "uint8": "u1"}
 # ModelConfig's defaults (tokenize/config.h): ConfigFromJson keeps them for absent keys.
-MODEL_DEFAULTS = {"image_size": 64, "patch_size": 8, "encoder_channels": 64, "encoder_layers": 1,
+MODEL_DEFAULTS = {"image_size": 64, "patch_size": 8, "stem_factor": 1, "encoder_channels": 64, "encoder_layers": 1,
                   "decoder_channels": 64, "decoder_layers": 1, "min_channels": 0, "latent_dim": 32,
                   "num_codes": 1024, "l2_normalize": True, "beta": 0.25, "dead_code_steps": 100}
 CHUNK = 64  # tokenizer.cc kChunk: frames per forward pass
@@ -149,14 +149,16 @@ class VqVae(nn.Module):
     def __init__(self, c):
         super().__init__()
         self.beta = c["beta"]
-        downs = int(math.log2(c["patch_size"]))
+        f = c["stem_factor"]  # pixel unshuffle before the first conv, pixel shuffle after the last
+        downs = int(math.log2(c["patch_size"] // f))
         mc = c["min_channels"]
 
         def width(channels, level):  # halved per level above the token grid, floor min_channels
             return max(mc, channels >> level) if mc > 0 else channels
 
         ce, cd, d = c["encoder_channels"], c["decoder_channels"], c["latent_dim"]
-        enc = [nn.Conv2d(3, width(ce, downs), 3, padding=1), nn.ReLU()]  # [B, C, H, W]
+        enc = [nn.PixelUnshuffle(f)] if f > 1 else []  # [B, 3f^2, H/f, W/f]
+        enc += [nn.Conv2d(3 * f * f, width(ce, downs), 3, padding=1), nn.ReLU()]
         for level in range(downs, 0, -1):  # each halves H and W
             enc += [nn.Conv2d(width(ce, level), width(ce, level - 1), 4, stride=2, padding=1),
                     nn.ReLU()]
@@ -168,7 +170,8 @@ class VqVae(nn.Module):
         for level in range(downs):  # each doubles H and W
             dec += [nn.ReLU(), nn.ConvTranspose2d(width(cd, level), width(cd, level + 1), 4,
                                                   stride=2, padding=1)]
-        dec += [nn.ReLU(), nn.Conv2d(width(cd, downs), 3, 3, padding=1)]  # [B, 3, H, W]
+        dec += [nn.ReLU(), nn.Conv2d(width(cd, downs), 3 * f * f, 3, padding=1)]
+        dec += [nn.PixelShuffle(f)] if f > 1 else []  # [B, 3, H, W]
         decoder = nn.Sequential(*dec)
         self.encoder, self.decoder = encoder, decoder
         self.quantizer = VectorQuantizer(c["num_codes"], d, c["l2_normalize"])
