@@ -19,4 +19,9 @@ std::string DefaultConfigsDir() {
   return "configs";
 }
 
+std::string CheckpointFileIn(const std::string& run_dir_or_file) {
+  return fs::is_directory(run_dir_or_file) ? (fs::path(run_dir_or_file) / kCheckpointFile).string()
+                                           : run_dir_or_file;
+}
+
 }  // namespace wm

@@ -7,4 +7,10 @@ namespace wm {
 
 std::string DefaultConfigsDir();
 
+// Every run directory keeps its model in this file (tokenizer and dynamics runs alike).
+inline constexpr const char* kCheckpointFile = "checkpoint.wmt";
+
+// A run directory -> its checkpoint.wmt; any other path is taken as the checkpoint file itself.
+std::string CheckpointFileIn(const std::string& run_dir_or_file);
+
 }  // namespace wm

@@ -2,23 +2,18 @@
 
 #include <algorithm>
 #include <cmath>
-#include <filesystem>
 
 #include "core/error.h"
+#include "core/paths.h"
 #include "core/sha256.h"
 #include "core/tensor_archive.h"
 #include "tokenize/module_archive.h"
 #include "tokenize/vqvae.h"
 
 namespace wm::tokenize {
-namespace fs = std::filesystem;
 namespace {
 
 constexpr int64_t kChunk = 64;  // frames per forward pass: bounds memory on long episodes
-
-std::string CheckpointFile(const std::string& path) {
-  return fs::is_directory(path) ? (fs::path(path) / "checkpoint.wmt").string() : path;
-}
 
 }  // namespace
 
@@ -37,7 +32,7 @@ struct Tokenizer::State {
 Tokenizer::Tokenizer(const std::string& checkpoint, const std::string& device)
     : state_(std::make_unique<State>()) {
   State& s = *state_;
-  s.path = CheckpointFile(checkpoint);
+  s.path = CheckpointFileIn(checkpoint);
   s.device = torch::Device(device);
   Check(!s.device.is_cuda() || torch::cuda::is_available(),
         "--device " + device + " requested but CUDA is not available");

@@ -15,6 +15,7 @@
 #include "core/error.h"
 #include "core/step_log.h"
 #include "core/log.h"
+#include "core/paths.h"
 #include "core/progress.h"
 #include "core/provenance.h"
 #include "core/sha256.h"
@@ -30,7 +31,6 @@ namespace wm::tokenize {
 namespace fs = std::filesystem;
 namespace {
 
-constexpr const char* kCheckpoint = "checkpoint.wmt";
 constexpr const char* kManifest = "checkpoint.json";
 constexpr const char* kMetrics = "metrics.csv";
 constexpr const char* kValMetrics = "val.csv";
@@ -68,14 +68,14 @@ void SaveCheckpoint(const TrainOptions& o, TrainState& s, const std::string& con
              {"config", ConfigToJson(o.config)},  // makes the archive loadable on its own
              {"config_hash", config_hash},
              {"rng", rng}});
-  const std::string path = (fs::path(o.out_dir) / kCheckpoint).string();
+  const std::string path = (fs::path(o.out_dir) / kCheckpointFile).string();
   w.Write(path);  // atomic
 
   nlohmann::json manifest =
       MakeProvenance("wm-tokenize train", ConfigToJson(o.config), {{"libtorch", TorchVersion()}});
   manifest["step"] = s.step;
   manifest["checkpoint"] = {
-      {"file", kCheckpoint}, {"sha256", Sha256File(path)}, {"format", kTensorArchiveFormat}};
+      {"file", kCheckpointFile}, {"sha256", Sha256File(path)}, {"format", kTensorArchiveFormat}};
   manifest["data"] = s.sampler->DataProvenance();
   manifest["rng"] = rng;
   WriteFileAtomically((fs::path(o.out_dir) / kManifest).string(), manifest.dump(2) + "\n");
@@ -181,7 +181,7 @@ TrainSummary TrainTokenizer(const TrainOptions& o) {
   Check(!device.is_cuda() || torch::cuda::is_available(),
         "--device " + o.device + " requested but CUDA is not available");
   fs::create_directories(o.out_dir);
-  const std::string ckpt = (fs::path(o.out_dir) / kCheckpoint).string();
+  const std::string ckpt = (fs::path(o.out_dir) / kCheckpointFile).string();
   const std::string metrics_path = (fs::path(o.out_dir) / kMetrics).string();
   Check(o.resume || !fs::exists(ckpt),
         "run directory already has a checkpoint; pass --resume or choose another --out",

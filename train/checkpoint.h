@@ -5,13 +5,13 @@
 #include <nlohmann/json.hpp>
 #include <string>
 
+#include "core/paths.h"  // kCheckpointFile
 #include "tokenize/adamw.h"
 #include "train/config.h"
 #include "train/world_model.h"
 
 namespace wm::train {
 
-inline constexpr const char* kCheckpointFile = "checkpoint.wmt";
 inline constexpr const char* kManifestFile = "checkpoint.json";
 
 // What the archive's meta holds besides the tensors. The config and action statistics make the

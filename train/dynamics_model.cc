@@ -2,7 +2,6 @@
 
 #include <torch/torch.h>
 
-#include <filesystem>
 
 #include "core/error.h"
 #include "train/batch.h"
@@ -66,9 +65,7 @@ DynamicsModel::~DynamicsModel() = default;
 std::unique_ptr<DynamicsModel> DynamicsModel::Load(const std::string& path,
                                                    const std::string& device,
                                                    const std::string& action_dataset, int threads) {
-  const std::string file = std::filesystem::is_directory(path)
-                               ? (std::filesystem::path(path) / kCheckpointFile).string()
-                               : path;
+  const std::string file = CheckpointFileIn(path);
   std::unique_ptr<DynamicsModel> m(new DynamicsModel());
   State& s = *m->state_;
   s.file = file;
