@@ -6,7 +6,8 @@ in one run, on the same config, data, batch size and torch thread count.
                                    [--threads N] [--steps 60] [--repeat 5] [--rounds 3]
                                    [--tuned-malloc]
 
-Data: wm-gen-tabletop (48 train episodes, up to 40 steps, 64x64 JPEG) + wm-ingest, made once in
+Data: wm-gen-tabletop (160 train episodes, up to 40 steps, 64x64 JPEG; enough frames that the C++
+process start-up does not decide the end-to-end row) + wm-ingest, made once in
 $BENCH_DIR/tokenizer (default /tmp/wmkit-bench).
   train   C++: `wm-tokenize train --steps N`; steps/s from metrics.csv after its first row
           (start-up and code seeding excluded); its frame loader runs on a second thread,
@@ -125,11 +126,14 @@ def twin_end_to_end(run_dir, shards, tokens_dir, threads):
 
 # ---- C++ side and the comparison ----
 
+EPISODES = 160
+
+
 def make_data(bin_dir, work):
-    shards = os.path.join(work, "shards")
+    shards = os.path.join(work, f"shards-{EPISODES}")
     if not os.path.exists(os.path.join(shards, "index.json")):
         raw = os.path.join(work, "raw")
-        run([os.path.join(bin_dir, "wm-gen-tabletop"), "--out", raw, "--train-episodes", 48,
+        run([os.path.join(bin_dir, "wm-gen-tabletop"), "--out", raw, "--train-episodes", EPISODES,
              "--val-episodes", 1, "--size", 64, "--max-steps", 40, "--seed", 1])
         run([os.path.join(bin_dir, "wm-ingest"), "--format", "rlds", "--input",
              os.path.join(raw, "wm_tabletop/1.0.0"), "--split", "train", "--output", shards,
