@@ -23,6 +23,21 @@ const char* YamlTypeWord() {
   return "a string";
 }
 
+// Refuses a key of the mapping `node` that is not in `known`, naming it as `where`.key (or key
+// at the top level): a typo must not silently fall back to a default. Non-mappings pass; the
+// caller's own type checks name them.
+inline void CheckKnownYamlKeys(const YAML::Node& node, const std::set<std::string>& known,
+                               const std::string& file, const std::string& where = "") {
+  if (!node.IsMap()) return;
+  std::string list;
+  for (const std::string& k : known) list += (list.empty() ? "" : ", ") + k;
+  for (const auto& kv : node) {
+    const std::string name = kv.first.IsScalar() ? kv.first.Scalar() : "?";
+    Check(kv.first.IsScalar() && known.count(name) > 0, "unknown key (expected " + list + ")",
+          {.file = file, .key = where.empty() ? name : where + "." + name});
+  }
+}
+
 // Reads `yaml_text` into `config`'s fields, which visit_fields(config, f) lists as
 // f(section, key, field). Errors (wm::Error) name `file` and "section.key"; the unknown-key
 // message points at `doc`. An empty document leaves every default.

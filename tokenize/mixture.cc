@@ -5,6 +5,7 @@
 #include <cmath>
 
 #include "core/error.h"
+#include "core/sectioned_yaml.h"
 
 namespace wm::tokenize {
 
@@ -15,14 +16,17 @@ std::map<std::string, double> LoadMixture(const std::string& path) {
   } catch (const YAML::Exception& e) {
     throw Error(std::string("cannot parse mixture YAML: ") + e.what(), {.file = path});
   }
+  CheckKnownYamlKeys(root, {"datasets"}, path);
   Check(root["datasets"] && root["datasets"].IsSequence(), "expected a 'datasets' list",
         {.file = path, .key = "datasets"});
   std::map<std::string, double> weights;
   int i = 0;
   for (const YAML::Node& entry : root["datasets"]) {
     const std::string key = "datasets[" + std::to_string(i++) + "]";
+    CheckKnownYamlKeys(entry, {"name", "weight"}, path, key);
     try {
       const std::string name = entry["name"].as<std::string>();
+      Check(!name.empty(), "must not be empty", {.file = path, .key = key + ".name"});
       const double weight = entry["weight"].as<double>();
       Check(std::isfinite(weight) && weight > 0, "weight must be a positive number",
             {.file = path, .key = key + ".weight"});

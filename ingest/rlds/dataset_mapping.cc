@@ -6,6 +6,7 @@
 
 #include "core/error.h"
 #include "core/episode.h"
+#include "core/sectioned_yaml.h"
 
 namespace wm::rlds {
 namespace fs = std::filesystem;
@@ -37,6 +38,11 @@ DatasetMapping LoadDatasetMapping(const std::string& file) {
   std::string key;
   try {
     YAML::Node y = YAML::LoadFile(file);
+    CheckKnownYamlKeys(y,
+                       {"dataset", "image", "depth", "segmentation", "action", "reward",
+                        "discount", "is_first", "is_last", "is_terminal", "language_instruction",
+                        "policy_id", "episode_seed"},
+                       file);
     auto optional = [&](const char* k) -> std::optional<std::string> {
       key = k;
       if (!y[k] || y[k].IsNull()) return std::nullopt;
@@ -56,7 +62,12 @@ DatasetMapping LoadDatasetMapping(const std::string& file) {
     m.is_terminal = optional("is_terminal").value_or(m.is_terminal);
     key = "action";
     Check(y[key] && y[key].IsSequence(), "must be a list of parts");
+    int index = 0;
     for (const auto& p : y[key]) {
+      const std::string where = "action[" + std::to_string(index++) + "]";
+      CheckKnownYamlKeys(p, p["zeros"] ? std::set<std::string>{"zeros"}
+                                       : std::set<std::string>{"key", "select", "scale", "offset"},
+                         file, where);
       ActionPart part;
       if (p["zeros"]) {
         part.zeros = p["zeros"].as<int>();

@@ -62,11 +62,8 @@ int main(int argc, char** argv) {
     }
     spdlog::info("wrote {} episodes, {} steps, {:.1f} MB to {}", s.episodes, s.steps,
                  static_cast<double>(s.bytes) / 1e6, s.dataset_dir);
-  } catch (const wm::Error& e) {
-    spdlog::error("{}", e.what());
-    return 1;
-  } catch (const std::exception& e) {  // a library or OS failure that escaped the wm::Error net
-    spdlog::error("unexpected error: {}", e.what());
+  } catch (const std::exception& e) {
+    std::cerr << "wm-gen-tabletop: error: " << e.what() << "\n";
     return 1;
   }
   return 0;

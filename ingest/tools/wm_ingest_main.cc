@@ -1,6 +1,7 @@
 // wm-ingest: raw robot episodes (RLDS / HDF5 / image folders) -> a checksummed shard dataset.
 #include <CLI/CLI.hpp>
 #include <cstdio>
+#include <iostream>
 
 #include "core/cli_parse.h"
 #include "core/error.h"
@@ -67,7 +68,7 @@ int main(int argc, char** argv) {
                    s.episodes, s.steps, s.bytes / 1048576.0, s.seconds, s.skipped, o.output);
     }
   } catch (const std::exception& e) {
-    spdlog::error("{}", e.what());
+    std::cerr << "wm-ingest: error: " << e.what() << "\n";
     return 1;
   }
   return 0;

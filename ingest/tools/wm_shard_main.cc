@@ -72,7 +72,7 @@ int main(int argc, char** argv) {
                    index.num_episodes, index.shards.size(), output);
     }
   } catch (const std::exception& e) {
-    spdlog::error("{}", e.what());
+    std::cerr << "wm-shard: error: " << e.what() << "\n";
     return 1;
   }
   return 0;

@@ -88,7 +88,7 @@ int main(int argc, char** argv) {
   } catch (const CLI::ParseError& e) {
     return app.exit(e) == 0 ? 0 : wm::kUsageExitCode;
   } catch (const std::exception& e) {
-    spdlog::error("{}", e.what());
+    std::cerr << "wm-metrics: error: " << e.what() << "\n";
     return 1;
   }
   return 0;

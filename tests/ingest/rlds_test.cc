@@ -144,6 +144,17 @@ TEST(RldsSource, MappingErrorsAreClear) {
   msg = ErrorText([&] { RldsSource s(FractalDir(), "train", mapping, ConfigsDir()); });
   EXPECT_NE(msg.find("select index 5 is outside"), std::string::npos) << msg;
 
+  // A misspelt key must not fall back to a default (here: no language instructions).
+  WriteFileAtomically(mapping, "dataset: x\nimage: steps/observation/image\naction: []\n"
+                               "language_instuction: steps/language_instruction\n");
+  msg = ErrorText([&] { RldsSource s(FractalDir(), "train", mapping, ConfigsDir()); });
+  EXPECT_NE(msg.find("key 'language_instuction'"), std::string::npos) << msg;
+  EXPECT_NE(msg.find("unknown key"), std::string::npos) << msg;
+  WriteFileAtomically(mapping, "dataset: x\nimage: steps/observation/image\naction:\n"
+                               "  - {key: steps/action/world_vector, scal: 2}\n");
+  msg = ErrorText([&] { RldsSource s(FractalDir(), "train", mapping, ConfigsDir()); });
+  EXPECT_NE(msg.find("key 'action[0].scal'"), std::string::npos) << msg;
+
   msg = ErrorText([&] { RldsSource s(FractalDir(), "train", "", dir.path().string()); });
   EXPECT_NE(msg.find("no dataset mapping for 'fractal20220817_data'"), std::string::npos) << msg;
 }

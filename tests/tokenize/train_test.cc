@@ -74,6 +74,12 @@ TEST_F(TrainTest, MixtureWeightsSetHowOftenEachDatasetIsDrawn) {
   WriteFileAtomically(mix, "datasets:\n  - name: shapes\n    weight: -1\n");
   EXPECT_NE(test::ErrorText([&] { LoadMixture(mix); }).find("datasets[0].weight"),
             std::string::npos);
+  // Misspelt keys are errors, not silently ignored.
+  WriteFileAtomically(mix, "datasets:\n  - name: shapes\n    weight: 1\n    wieght: 3\n");
+  EXPECT_NE(test::ErrorText([&] { LoadMixture(mix); }).find("key 'datasets[0].wieght'"),
+            std::string::npos);
+  WriteFileAtomically(mix, "datasets:\n  - name: shapes\n    weight: 1\ndataset: [x]\n");
+  EXPECT_NE(test::ErrorText([&] { LoadMixture(mix); }).find("key 'dataset'"), std::string::npos);
 }
 
 TEST_F(TrainTest, LossDecreasesOverSixtySteps) {
