@@ -155,6 +155,11 @@ struct RawDemo {
   std::string language_instruction;
 };
 
+// Image sides wmkit accepts from HDF5: an empty image has no pixels to encode, and larger sides
+// than this are damage, not cameras.
+constexpr hsize_t kMaxImageSide = 16384;
+bool ImageSide(hsize_t side) { return side >= 1 && side <= kMaxImageSide; }
+
 void ReadImages(const DemoReader& r, const std::string& camera, bool read_depth, RawDemo& raw) {
   std::vector<std::string> obs = r.Children("obs");
   raw.camera = camera.empty() ? ChooseCamera(obs) : camera;
@@ -167,10 +172,12 @@ void ReadImages(const DemoReader& r, const std::string& camera, bool read_depth,
                      (found.empty() ? "nothing" : found) + "); name one with the camera option");
   }
   std::string key = "obs/" + raw.camera;
-  const std::string expected = "uint8 [T, H, W, 3], T = " + std::to_string(raw.num_steps);
+  const std::string expected = "uint8 [T, H, W, 3], T = " + std::to_string(raw.num_steps) +
+                               ", 1 <= H, W <= " + std::to_string(kMaxImageSide);
   Dataset rgb = r.Open(key, expected);
   if (!rgb.IsUnsignedInt(1) || rgb.dims.size() != 4 || rgb.dims[3] != 3 ||
-      rgb.dims[0] != static_cast<hsize_t>(raw.num_steps)) {
+      rgb.dims[0] != static_cast<hsize_t>(raw.num_steps) || !ImageSide(rgb.dims[1]) ||
+      !ImageSide(rgb.dims[2])) {
     throw r.Fail(key, "expected " + expected + ", got " + rgb.Describe());
   }
   raw.height = static_cast<int>(rgb.dims[1]), raw.width = static_cast<int>(rgb.dims[2]);
@@ -180,9 +187,11 @@ void ReadImages(const DemoReader& r, const std::string& camera, bool read_depth,
   if (!read_depth || !r.Has(depth_key)) return;
   Dataset depth = r.Open(depth_key, "uint16 [T, H, W]");
   bool rank_ok = depth.dims.size() == 3 || (depth.dims.size() == 4 && depth.dims[3] == 1);
-  if (!depth.IsUnsignedInt(2) || !rank_ok || depth.dims[0] != static_cast<hsize_t>(raw.num_steps)) {
+  if (!depth.IsUnsignedInt(2) || !rank_ok || depth.dims[0] != static_cast<hsize_t>(raw.num_steps) ||
+      !ImageSide(depth.dims[1]) || !ImageSide(depth.dims[2])) {
     throw r.Fail(depth_key,
                  "expected uint16 [T, H, W] or [T, H, W, 1], T = " + std::to_string(raw.num_steps) +
+                     ", 1 <= H, W <= " + std::to_string(kMaxImageSide) +
                      ", got " + depth.Describe() + "; pass --hdf5-no-depth to ignore depth");
   }
   raw.depth_height = static_cast<int>(depth.dims[1]);

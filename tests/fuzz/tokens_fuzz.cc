@@ -5,6 +5,7 @@
 #include <nlohmann/json.hpp>
 
 #include "core/crc32c.h"
+#include "core/json_int.h"
 #include "core/shard/shard_format.h"
 #include "core/tokens/token_dataset.h"
 #include "core/tokens/token_format.h"
@@ -19,7 +20,7 @@ namespace {
 std::optional<uint64_t> SectionBytes(const json& s) {
   uint64_t bytes = tokens::DtypeSize(s.at("dtype").get<std::string>());
   for (const json& d : s.at("shape")) {
-    const int64_t dim = d.get<int64_t>();
+    const int64_t dim = JsonInt<int64_t>(d);  // get<> would cast 1e88 (UB)
     if (dim < 0 || __builtin_mul_overflow(bytes, static_cast<uint64_t>(dim), &bytes)) return {};
   }
   return bytes;
@@ -38,7 +39,7 @@ std::string WithValidChecksums(const std::string& index, std::string& part) {
       p.at("bytes") = part.size();
       for (json& s : p.at("sections")) {
         std::optional<uint64_t> bytes = SectionBytes(s);
-        const uint64_t offset = s.at("offset").get<uint64_t>();
+        const uint64_t offset = JsonInt<uint64_t>(s.at("offset"));
         if (!bytes || offset > part.size() || *bytes > part.size() - offset) continue;
         s.at("crc32c") = Crc32c(reinterpret_cast<const uint8_t*>(part.data()) + offset, *bytes);
       }
