@@ -1,6 +1,12 @@
 #include "ingest/hdf5/hdf5_file.h"
 
+#include <signal.h>
+#include <sys/syscall.h>
+#include <unistd.h>
+
 #include <algorithm>
+#include <csignal>
+#include <cstdio>
 #include <cstring>
 #include <utility>
 
@@ -14,12 +20,59 @@ std::mutex& Mutex() {
   return mutex;
 }
 
+// What the signal handler may touch: fixed buffers and a flag (async-signal-safe).
+volatile std::sig_atomic_t inside_hdf5 = 0;
+volatile pid_t lock_holder = 0;  // thread id: a crash on another thread is not libhdf5's
+char crash_message[1400];
+size_t crash_message_length = 0;
+char tool_name[64] = "wmkit";
+struct sigaction previous_segv, previous_bus;
+
+void OnCrash(int sig, siginfo_t* info, void* context) {
+  if (inside_hdf5 && lock_holder == static_cast<pid_t>(syscall(SYS_gettid))) {
+    ssize_t ignored = write(STDERR_FILENO, crash_message, crash_message_length);
+    (void)ignored;
+    _exit(1);
+  }
+  // Not ours: hand the signal to whoever handled it before (or the default action).
+  const struct sigaction& prev = sig == SIGBUS ? previous_bus : previous_segv;
+  if (prev.sa_flags & SA_SIGINFO) {
+    prev.sa_sigaction(sig, info, context);
+  } else if (prev.sa_handler != SIG_IGN && prev.sa_handler != SIG_DFL) {
+    prev.sa_handler(sig);
+  } else {
+    signal(sig, SIG_DFL);
+    raise(sig);
+  }
+}
+
 }  // namespace
 
-Lock::Lock() : lock_(Mutex()) {
+void ReportCrashesInsideHdf5(const char* tool) {
+  std::snprintf(tool_name, sizeof(tool_name), "%s", tool);
+  struct sigaction action {};
+  action.sa_sigaction = OnCrash;
+  action.sa_flags = SA_SIGINFO;
+  sigemptyset(&action.sa_mask);
+  sigaction(SIGSEGV, &action, &previous_segv);
+  sigaction(SIGBUS, &action, &previous_bus);
+}
+
+Lock::Lock(const std::string& reading) : lock_(Mutex()) {
   // Failures become wm::Error; HDF5's own error-stack dump on stderr would only add noise.
   H5Eset_auto2(H5E_DEFAULT, nullptr, nullptr);
+  const int n = std::snprintf(
+      crash_message, sizeof(crash_message),
+      "%s: error: libhdf5 crashed (SIGSEGV/SIGBUS) reading %.1100s: the file is damaged (libhdf5 "
+      "keeps no checksums on most metadata, so it cannot report this as an error); remove or "
+      "repair it\n",
+      tool_name, reading.c_str());
+  crash_message_length = std::min(static_cast<size_t>(std::max(n, 0)), sizeof(crash_message) - 1);
+  lock_holder = static_cast<pid_t>(syscall(SYS_gettid));
+  inside_hdf5 = 1;
 }
+
+Lock::~Lock() { inside_hdf5 = 0; }
 
 Handle::Handle(Handle&& other) noexcept : id_(std::exchange(other.id_, -1)), close_(other.close_) {}
 

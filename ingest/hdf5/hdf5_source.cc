@@ -200,7 +200,7 @@ void ReadImages(const DemoReader& r, const std::string& camera, bool read_depth,
 }
 
 RawDemo ReadDemo(const EpisodeRef& ref, const std::string& camera, bool read_depth) {
-  h5::Lock lock;
+  h5::Lock lock(ref.path + ", demo " + std::to_string(ref.record));
   DemoReader r(ref);
   RawDemo raw;
   Dataset actions = r.Open("actions", "float32/float64 [T, 7]");
@@ -227,7 +227,7 @@ std::string EncodePngDepth(const uint16_t* pixels, int height, int width) {
 }
 
 std::vector<std::string> ListDemos(const std::string& path) {
-  h5::Lock lock;
+  h5::Lock lock(path);
   Handle file = h5::OpenFile(path);
   Handle data = OpenDataGroup(file.get(), path);
   return h5::ChildNames(data.get());
@@ -325,5 +325,7 @@ Episode Hdf5Source::Load(const EpisodeRef& ref) const {
 json Hdf5Source::Describe() const {
   return {{"camera", camera_.empty() ? "auto" : camera_}, {"depth", depth_}};
 }
+
+void ReportHdf5CrashesAs(const char* tool) { h5::ReportCrashesInsideHdf5(tool); }
 
 }  // namespace wm::ingest

@@ -36,4 +36,9 @@ class Hdf5Source : public EpisodeSource {
   bool depth_;
 };
 
+// A crash inside libhdf5 on a damaged file exits 1 with "<tool>: error: libhdf5 crashed ...
+// reading FILE, demo K" instead of a bare segfault (h5::ReportCrashesInsideHdf5). Call once at
+// the start of an executable; fuzz targets must not.
+void ReportHdf5CrashesAs(const char* tool);
+
 }  // namespace wm::ingest

@@ -7,6 +7,7 @@
 #include "core/error.h"
 #include "core/log.h"
 #include "core/provenance.h"
+#include "ingest/hdf5/hdf5_source.h"
 #include "ingest/ingest_options.h"
 
 namespace {
@@ -29,6 +30,7 @@ bool ParseSize(const std::string& s, int& w, int& h) {
 }  // namespace
 
 int main(int argc, char** argv) {
+  wm::ingest::ReportHdf5CrashesAs("wm-ingest");
   wm::ingest::IngestOptions o;
   std::string resize, log_level = "info";
   bool header_only = false;

@@ -87,6 +87,17 @@ class HdfAndFolderIngest(unittest.TestCase):
         self.assertIn("empty.hdf5", p.stderr)
         self.assertIn("'data'", p.stderr)
 
+    def test_hdf5_file_that_crashes_libhdf5_is_an_error_naming_file_and_demo(self):
+        """A fuzz-found file on which libhdf5 1.10 itself segfaults (damaged B-tree, no checksum
+        to catch it): wm-ingest reports it instead of dying with a bare signal."""
+        path = os.path.join(SRC, "tests", "data", "hdf5", "crashes_libhdf5.hdf5")
+        out = os.path.join(self.tmp, "out")
+        p = ingest("hdf5", path, out, check=False)
+        self.assertEqual(p.returncode, 1, p.stderr)
+        self.assertIn("wm-ingest: error: libhdf5 crashed", p.stderr)
+        self.assertIn("crashes_libhdf5.hdf5, demo 0", p.stderr)
+        self.assertFalse(os.path.exists(os.path.join(out, "index.json")))
+
     def test_folder_episodes_keep_their_bytes(self):
         root = os.path.join(self.tmp, "folders")
         pixels = self.rng.integers(0, 256, (3, 6, 5, 3), dtype=np.uint8)
