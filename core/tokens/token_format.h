@@ -4,7 +4,9 @@
 //             zeros, u32 CRC32C of bytes [0, 60) at 60
 //   then each section of TokenIndex::parts[i].sections at a 64-byte aligned offset, zero padded.
 #include <cstdint>
+#include <optional>
 #include <string>
+#include <vector>
 
 namespace wm::tokens {
 
@@ -28,5 +30,10 @@ std::string PartJsonName(int part);
 
 // Bytes per element of a numpy dtype string used here ("<u2" -> 2).
 size_t DtypeSize(const std::string& dtype);
+
+// Bytes of a section of `dtype` and `shape`; nullopt for a negative dimension or a product that
+// overflows, which only a damaged index.json can give (it must not wrap into a small number).
+std::optional<uint64_t> SectionByteSize(const std::string& dtype,
+                                        const std::vector<int64_t>& shape);
 
 }  // namespace wm::tokens

@@ -114,6 +114,15 @@ size_t DtypeSize(const std::string& dtype) {
   throw Error("unsupported dtype '" + dtype + "'");
 }
 
+std::optional<uint64_t> SectionByteSize(const std::string& dtype,
+                                        const std::vector<int64_t>& shape) {
+  uint64_t bytes = DtypeSize(dtype);
+  for (int64_t d : shape) {
+    if (d < 0 || __builtin_mul_overflow(bytes, static_cast<uint64_t>(d), &bytes)) return {};
+  }
+  return bytes;
+}
+
 std::string RunKey(const TokenIndex& base, int num_parts) {
   return ConfigHash({{"tokenizer", TokenizerToJson(base.tokenizer)},
                      {"source", base.source},

@@ -34,13 +34,9 @@ const uint8_t* CheckSection(const MappedFile& f, const PartInfo& part, const std
   Check(it != part.sections.end(), "section missing from index.json", at);
   const Section& s = it->second;
   Check(s.shape == shape && s.dtype == dtype, "section shape or dtype differs from expected", at);
-  // Negative or huge sizes from a damaged index.json must not wrap around into a small number.
-  uint64_t bytes = DtypeSize(dtype);
-  bool sized = true;
-  for (int64_t d : shape) {
-    sized = sized && d >= 0 && !__builtin_mul_overflow(bytes, static_cast<uint64_t>(d), &bytes);
-  }
-  Check(sized, "section shape gives no valid size", at);
+  const std::optional<uint64_t> size = SectionByteSize(dtype, shape);
+  Check(size.has_value(), "section shape gives no valid size", at);
+  const uint64_t bytes = *size;
   Check(s.offset % kSectionAlignment == 0 && s.offset >= kPartHeaderSize && s.offset <= f.size() &&
             bytes <= f.size() - s.offset,
         "section lies outside the file (truncated?)", at);

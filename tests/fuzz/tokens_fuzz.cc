@@ -16,16 +16,6 @@ using nlohmann::json;
 
 namespace {
 
-// Bytes of a section of `s`'s dtype and shape, or nullopt when unknown or overflowing.
-std::optional<uint64_t> SectionBytes(const json& s) {
-  uint64_t bytes = tokens::DtypeSize(s.at("dtype").get<std::string>());
-  for (const json& d : s.at("shape")) {
-    const int64_t dim = JsonInt<int64_t>(d);  // get<> would cast 1e88 (UB)
-    if (dim < 0 || __builtin_mul_overflow(bytes, static_cast<uint64_t>(dim), &bytes)) return {};
-  }
-  return bytes;
-}
-
 // index.json with each part's byte count and each in-range section's crc32c matching `part`,
 // whose header CRC is fixed in place; `index` unchanged when it is not the expected JSON.
 std::string WithValidChecksums(const std::string& index, std::string& part) {
@@ -38,7 +28,9 @@ std::string WithValidChecksums(const std::string& index, std::string& part) {
     for (json& p : j.at("parts")) {
       p.at("bytes") = part.size();
       for (json& s : p.at("sections")) {
-        std::optional<uint64_t> bytes = SectionBytes(s);
+        // JsonInts: get<> would cast a damaged 1e88 to an integer (UB).
+        const std::optional<uint64_t> bytes = tokens::SectionByteSize(
+            s.at("dtype").get<std::string>(), JsonInts<int64_t>(s.at("shape")));
         const uint64_t offset = JsonInt<uint64_t>(s.at("offset"));
         if (!bytes || offset > part.size() || *bytes > part.size() - offset) continue;
         s.at("crc32c") = Crc32c(reinterpret_cast<const uint8_t*>(part.data()) + offset, *bytes);
