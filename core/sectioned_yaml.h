@@ -23,17 +23,28 @@ const char* YamlTypeWord() {
   return "a string";
 }
 
+// A mapping key as a plain name. YAML allows a list or mapping as a key ("? [a]: b"); wmkit's
+// files never use one, so it is an error naming `where` (the enclosing key).
+inline std::string YamlKeyName(const YAML::Node& key, const std::string& file,
+                               const std::string& where) {
+  Check(key.IsScalar(), "expected a plain name as key, found a list or mapping",
+        {.file = file, .key = where});
+  return key.Scalar();
+}
+
 // Refuses a key of the mapping `node` that is not in `known`, naming it as `where`.key (or key
-// at the top level): a typo must not silently fall back to a default. Non-mappings pass; the
-// caller's own type checks name them.
+// at the top level): a typo must not silently fall back to a default. The message ends in
+// "(hint)", by default the known keys. Non-mappings pass; the caller's type checks name them.
 inline void CheckKnownYamlKeys(const YAML::Node& node, const std::set<std::string>& known,
-                               const std::string& file, const std::string& where = "") {
+                               const std::string& file, const std::string& where = "",
+                               const std::string& hint = "") {
   if (!node.IsMap()) return;
   std::string list;
   for (const std::string& k : known) list += (list.empty() ? "" : ", ") + k;
+  const std::string why = "unknown key (" + (hint.empty() ? "expected " + list : hint) + ")";
   for (const auto& kv : node) {
-    const std::string name = kv.first.IsScalar() ? kv.first.Scalar() : "?";
-    Check(kv.first.IsScalar() && known.count(name) > 0, "unknown key (expected " + list + ")",
+    const std::string name = YamlKeyName(kv.first, file, where);
+    Check(known.count(name) > 0, why,
           {.file = file, .key = where.empty() ? name : where + "." + name});
   }
 }
@@ -75,23 +86,13 @@ void ReadSectionedYaml(const std::string& yaml_text, const std::string& file, co
   });
   std::string sections;
   for (const auto& [name, keys] : known) sections += (sections.empty() ? "" : ", ") + name;
-  // YAML allows a list or mapping as a key ("? [a]: b"); here every key must be a plain name.
-  auto name_of = [&](const YAML::Node& key, const std::string& where) {
-    Check(key.IsScalar(), "expected a plain name as key, found a list or mapping",
-          {.file = file, .key = where});
-    return key.Scalar();
-  };
   for (const auto& top : root) {
-    const std::string section = name_of(top.first, "");
+    const std::string section = YamlKeyName(top.first, file, "");
     Check(known.count(section) > 0, "unknown section (expected " + sections + ")",
           {.file = file, .key = section});
     // A repeated section name reaches here without the mapping check above.
     Check(top.second.IsMap(), "expected a mapping", {.file = file, .key = section});
-    for (const auto& kv : top.second) {
-      const std::string key = name_of(kv.first, section);
-      Check(known[section].count(key) > 0, std::string("unknown key (see ") + doc + ")",
-            {.file = file, .key = section + "." + key});
-    }
+    CheckKnownYamlKeys(top.second, known[section], file, section, std::string("see ") + doc);
   }
 }
 

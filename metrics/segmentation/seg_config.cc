@@ -7,6 +7,7 @@
 
 #include "core/atomic_file.h"
 #include "core/error.h"
+#include "core/sectioned_yaml.h"
 
 namespace wm::metrics::seg {
 namespace {
@@ -70,11 +71,7 @@ void ReadSection(const YAML::Node& root, const std::string& name, Options& optio
       field = ReadScalar<std::decay_t<decltype(field)>>(v, file, Dotted(name, key));
     }
   });
-  for (const auto& kv : section) {
-    const std::string key = kv.first.as<std::string>();
-    Check(known.count(key) > 0, "unknown key (see docs/metrics-segmentation.md)",
-          {.file = file, .key = Dotted(name, key)});
-  }
+  CheckKnownYamlKeys(section, known, file, name, "see docs/metrics-segmentation.md");
 }
 
 LabelMap ReadLabels(const YAML::Node& root, const std::string& file) {
@@ -120,17 +117,6 @@ CameraIntrinsics ReadIntrinsics(const YAML::Node& v, const std::string& file) {
   }
 }
 
-void CheckTopLevelKeys(const YAML::Node& root, const std::string& file) {
-  static const std::set<std::string> kKnown = {"labels", "unlisted", "arm_borders", "motion",
-                                               "depth"};
-  for (const auto& kv : root) {
-    const std::string key = kv.first.as<std::string>();
-    Check(kKnown.count(key) > 0,
-          "unknown key (expected labels, unlisted, arm_borders, motion or depth)",
-          {.file = file, .key = key});
-  }
-}
-
 }  // namespace
 
 SegConfig ParseSegConfig(const std::string& yaml_text, const std::string& file) {
@@ -143,7 +129,8 @@ SegConfig ParseSegConfig(const std::string& yaml_text, const std::string& file) 
   SegConfig config;
   if (root.IsNull()) return config;
   Check(root.IsMap(), "expected a mapping at the top level", {.file = file});
-  CheckTopLevelKeys(root, file);
+  CheckKnownYamlKeys(root, {"labels", "unlisted", "arm_borders", "motion", "depth"}, file, "",
+                     "expected labels, unlisted, arm_borders, motion or depth");
   config.labels = ReadLabels(root, file);
   if (const YAML::Node borders = root["arm_borders"]) {
     try {
