@@ -5,7 +5,6 @@
 #include <unistd.h>
 
 #include <algorithm>
-#include <csignal>
 #include <cstdio>
 #include <cstring>
 #include <utility>
@@ -20,16 +19,16 @@ std::mutex& Mutex() {
   return mutex;
 }
 
-// What the signal handler may touch: fixed buffers and a flag (async-signal-safe).
-volatile std::sig_atomic_t inside_hdf5 = 0;
-volatile pid_t lock_holder = 0;  // thread id: a crash on another thread is not libhdf5's
+// What the signal handler may touch: fixed buffers and the lock holder (async-signal-safe).
+volatile pid_t lock_holder = 0;  // thread id while a Lock is alive, else 0
 char crash_message[1400];
 size_t crash_message_length = 0;
 char tool_name[64] = "wmkit";
 struct sigaction previous_segv, previous_bus;
 
 void OnCrash(int sig, siginfo_t* info, void* context) {
-  if (inside_hdf5 && lock_holder == static_cast<pid_t>(syscall(SYS_gettid))) {
+  // Only the thread inside libhdf5 (a crash on another thread is not libhdf5's).
+  if (lock_holder != 0 && lock_holder == static_cast<pid_t>(syscall(SYS_gettid))) {
     ssize_t ignored = write(STDERR_FILENO, crash_message, crash_message_length);
     (void)ignored;
     _exit(1);
@@ -69,10 +68,9 @@ Lock::Lock(const std::string& reading) : lock_(Mutex()) {
       tool_name, reading.c_str());
   crash_message_length = std::min(static_cast<size_t>(std::max(n, 0)), sizeof(crash_message) - 1);
   lock_holder = static_cast<pid_t>(syscall(SYS_gettid));
-  inside_hdf5 = 1;
 }
 
-Lock::~Lock() { inside_hdf5 = 0; }
+Lock::~Lock() { lock_holder = 0; }
 
 Handle::Handle(Handle&& other) noexcept : id_(std::exchange(other.id_, -1)), close_(other.close_) {}
 
