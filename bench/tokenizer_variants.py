@@ -54,14 +54,6 @@ def load_frames(directory):
     return torch.from_numpy(np.stack(frames))
 
 
-def lr_at(step, steps):
-    t = TRAIN
-    if step < t["warmup_steps"]:
-        return t["max_lr"] * (step + 1) / t["warmup_steps"]
-    p = min(1.0, (step - t["warmup_steps"]) / max(1, steps - t["warmup_steps"]))
-    return t["min_lr"] + 0.5 * (t["max_lr"] - t["min_lr"]) * (1 + math.cos(math.pi * p))
-
-
 def train(overrides, steps, quantise, train_frames, seed=0):
     config = {**twin.MODEL_DEFAULTS, "dead_code_steps": TRAIN["dead"], **overrides}
     torch.manual_seed(seed)
@@ -71,7 +63,7 @@ def train(overrides, steps, quantise, train_frames, seed=0):
     draws, codes_rng = np.random.default_rng(seed), twin.Mt19937_64(seed)
     for step in range(steps):
         for g in opt.param_groups:
-            g["lr"] = lr_at(step, steps)
+            g["lr"] = twin.learning_rate_at({**TRAIN, "steps": steps}, step)
         x = train_frames[draws.integers(0, len(train_frames), TRAIN["batch_size"])]
         z = model.encoder(x)
         loss = 0.0
