@@ -219,10 +219,11 @@ std::string ContextsCsv(const std::string& name, const std::vector<RolloutMode>&
 }
 
 // The report of one checkpoint from the records of every evaluated episode, in episode order.
-void WriteReport(const EvalOptions& o, const std::string& name, const std::string& dir,
-                 const std::vector<EpisodeRecord>& records, const train::DynamicsModel& model,
-                 const tokenize::Tokenizer& tok, const tokens::TokenDataset& data,
-                 const shard::DatasetReader& shards) {
+// `checkpoint` is the path given for it (the manifest records its basename).
+void WriteReport(const EvalOptions& o, const std::string& name, const std::string& checkpoint,
+                 const std::string& dir, const std::vector<EpisodeRecord>& records,
+                 const train::DynamicsModel& model, const tokenize::Tokenizer& tok,
+                 const tokens::TokenDataset& data, const shard::DatasetReader& shards) {
   ScoreTable t;
   std::map<std::string, metrics::FeatureSet> clips;
   std::map<RolloutMode, std::vector<metrics::EpisodeReturn>> returns;
@@ -266,7 +267,7 @@ void WriteReport(const EvalOptions& o, const std::string& name, const std::strin
   WriteScoreCsvs(dir, name, t, o.resamples, o.rollout.seed);
   WriteFileAtomically((fs::path(dir) / "values.csv").string(), values);
   WriteFileAtomically((fs::path(dir) / "contexts.csv").string(), ContextsCsv(name, o.modes, records));
-  WriteEvalManifest(dir, name, o, model, tok, data, shards);
+  WriteEvalManifest(dir, name, checkpoint, o, model, tok, data, shards);
 }
 
 // What every part of one report must share: settings, checkpoint, tokenizer, data, split.
@@ -355,7 +356,7 @@ std::vector<std::string> EvaluateCheckpoints(const EvalOptions& o) {
                            lpips ? &*lpips : nullptr);
     };
     if (o.num_shards == 1) {
-      WriteReport(o, name, dir, score(), *model, tok, data, shards);
+      WriteReport(o, name, o.checkpoints[c], dir, score(), *model, tok, data, shards);
       written.push_back(dir);
       continue;
     }
@@ -370,7 +371,7 @@ std::vector<std::string> EvaluateCheckpoints(const EvalOptions& o) {
     }
     // The job that completes the set writes the report (several at once write the same bytes).
     if (auto records = GatherParts(dir, identity, episodes, o.num_shards)) {
-      WriteReport(o, name, dir, *records, *model, tok, data, shards);
+      WriteReport(o, name, o.checkpoints[c], dir, *records, *model, tok, data, shards);
       written.push_back(dir);
     } else {
       spdlog::info("{}: waiting for the other parts in {}", name,

@@ -31,18 +31,14 @@ nlohmann::json EvalConfigJson(const EvalOptions& o) {
           {"lpips_weights_sha256", o.lpips_weights.empty() ? "" : Sha256File(o.lpips_weights)}};
 }
 
-void WriteEvalManifest(const std::string& dir, const std::string& name, const EvalOptions& o,
+void WriteEvalManifest(const std::string& dir, const std::string& name,
+                       const std::string& checkpoint, const EvalOptions& o,
                        const train::DynamicsModel& model, const tokenize::Tokenizer& tok,
                        const tokens::TokenDataset& data, const shard::DatasetReader& shards) {
   nlohmann::json m =
       MakeProvenance("wm-eval", EvalConfigJson(o), {{"libtorch", tokenize::TorchVersion()}});
-  std::string ckpt = o.checkpoints.empty() ? "" : o.checkpoints.front();
-  for (size_t i = 0; i < o.checkpoints.size(); ++i) {
-    const std::string n = i < o.names.size() ? o.names[i] : "";
-    if (n == name || fs::path(o.checkpoints[i]).filename() == name) ckpt = o.checkpoints[i];
-  }
   m["checkpoint"] = {{"name", name},
-                     {"path_basename", fs::path(ckpt).filename().string()},
+                     {"path_basename", fs::path(checkpoint).filename().string()},
                      {"sha256", Sha256File(model.checkpoint_file())},
                      {"step", model.step()},
                      {"policy_conditioning", model.config().model.policy_conditioning}};

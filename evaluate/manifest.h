@@ -23,7 +23,9 @@ namespace wm::evaluate {
 // The eval settings that shape the numbers (hashed into config_hash).
 nlohmann::json EvalConfigJson(const EvalOptions& options);
 
-void WriteEvalManifest(const std::string& dir, const std::string& name, const EvalOptions& o,
+// `checkpoint`: the path given for this report's checkpoint (a run directory or a file).
+void WriteEvalManifest(const std::string& dir, const std::string& name,
+                       const std::string& checkpoint, const EvalOptions& o,
                        const train::DynamicsModel& model, const tokenize::Tokenizer& tok,
                        const tokens::TokenDataset& data, const shard::DatasetReader& shards);
 
