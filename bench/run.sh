@@ -1,6 +1,7 @@
 #!/usr/bin/env bash
 # `make bench`: each benchmark prints wmkit's speed beside a reference measured in the same run.
-#   1. ingest throughput vs the OpenCV decode bound (generated 128x128 tabletop set)
+#   1. ingest throughput vs the OpenCV decode bound (generated 128x128 tabletop set), and HDF5
+#      demo loading in a child process vs in-process (a generated LIBERO-sized file)
 #   2. SSIM + PSNR vs scikit-image on 256x256 RGB pairs
 #   3. LPIPS vs the PyTorch reference on the same (random) weights
 #   4. tokenizer training and encoding vs its PyTorch twin (needs tokenizer_ref_tool: tests on)
@@ -13,6 +14,20 @@ if [ ! -f "$WORK/raw/wm_tabletop/1.0.0/dataset_info.json" ]; then
 fi
 echo "== ingest"
 "$BIN/ingest_bench" --input "$WORK/raw/wm_tabletop/1.0.0" --threads "$(nproc)" --repeats 3
+if [ ! -f "$WORK/libero_like.hdf5" ]; then
+  /usr/bin/python3 - "$WORK/libero_like.hdf5" <<'PY'
+import sys, h5py, numpy as np
+rng = np.random.default_rng(0)
+with h5py.File(sys.argv[1], "w") as f:  # 20 demos x 120 frames of 128x128 RGB, gzip as LIBERO
+    for n in range(20):
+        g = f.create_group(f"data/demo_{n}")
+        g["actions"] = rng.uniform(-1, 1, (120, 7))
+        ramp = np.linspace(0, 255, 128 * 128 * 3).reshape(128, 128, 3)
+        frames = (ramp[None] + rng.integers(0, 40, (120, 1, 1, 3))).astype(np.uint8)
+        g.create_dataset("obs/agentview_rgb", data=frames, compression="gzip")
+PY
+fi
+"$BIN/hdf5_isolation_bench" --input "$WORK/libero_like.hdf5" --repeats 3
 echo "== metrics: SSIM + PSNR"
 /usr/bin/python3 bench/metrics_bench.py --bin "$BIN"
 echo "== metrics: LPIPS"

@@ -13,7 +13,11 @@ std::unique_ptr<EpisodeSource> OpenSource(const IngestOptions& o) {
     return std::make_unique<RldsSource>(o.input, o.split, o.mapping,
                                         o.configs_dir.empty() ? DefaultConfigsDir() : o.configs_dir);
   }
-  if (o.format == "hdf5") return std::make_unique<Hdf5Source>(o.input, o.camera, o.hdf5_depth);
+  if (o.format == "hdf5") {
+    const Hdf5Isolation isolation{
+        .limits = {.memory_mb = o.hdf5_memory_limit_mb, .cpu_seconds = o.hdf5_cpu_limit_s}};
+    return std::make_unique<Hdf5Source>(o.input, o.camera, o.hdf5_depth, isolation);
+  }
   if (o.format == "folder") return std::make_unique<FolderSource>(o.input);
   throw Error("unknown --format '" + o.format + "' (expected rlds, hdf5 or folder)");
 }

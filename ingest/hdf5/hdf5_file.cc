@@ -1,9 +1,5 @@
 #include "ingest/hdf5/hdf5_file.h"
 
-#include <signal.h>
-#include <sys/syscall.h>
-#include <unistd.h>
-
 #include <algorithm>
 #include <cstdio>
 #include <cstring>
@@ -19,58 +15,12 @@ std::mutex& Mutex() {
   return mutex;
 }
 
-// What the signal handler may touch: fixed buffers and the lock holder (async-signal-safe).
-volatile pid_t lock_holder = 0;  // thread id while a Lock is alive, else 0
-char crash_message[1400];
-size_t crash_message_length = 0;
-char tool_name[64] = "wmkit";
-struct sigaction previous_segv, previous_bus;
-
-void OnCrash(int sig, siginfo_t* info, void* context) {
-  // Only the thread inside libhdf5 (a crash on another thread is not libhdf5's).
-  if (lock_holder != 0 && lock_holder == static_cast<pid_t>(syscall(SYS_gettid))) {
-    ssize_t ignored = write(STDERR_FILENO, crash_message, crash_message_length);
-    (void)ignored;
-    _exit(1);
-  }
-  // Not ours: hand the signal to whoever handled it before (or the default action).
-  const struct sigaction& prev = sig == SIGBUS ? previous_bus : previous_segv;
-  if (prev.sa_flags & SA_SIGINFO) {
-    prev.sa_sigaction(sig, info, context);
-  } else if (prev.sa_handler != SIG_IGN && prev.sa_handler != SIG_DFL) {
-    prev.sa_handler(sig);
-  } else {
-    signal(sig, SIG_DFL);
-    raise(sig);
-  }
-}
-
 }  // namespace
 
-void ReportCrashesInsideHdf5(const char* tool) {
-  std::snprintf(tool_name, sizeof(tool_name), "%s", tool);
-  struct sigaction action {};
-  action.sa_sigaction = OnCrash;
-  action.sa_flags = SA_SIGINFO;
-  sigemptyset(&action.sa_mask);
-  sigaction(SIGSEGV, &action, &previous_segv);
-  sigaction(SIGBUS, &action, &previous_bus);
-}
-
-Lock::Lock(const std::string& reading) : lock_(Mutex()) {
+Lock::Lock() : lock_(Mutex()) {
   // Failures become wm::Error; HDF5's own error-stack dump on stderr would only add noise.
   H5Eset_auto2(H5E_DEFAULT, nullptr, nullptr);
-  const int n = std::snprintf(
-      crash_message, sizeof(crash_message),
-      "%s: error: libhdf5 crashed (SIGSEGV/SIGBUS) reading %.1100s: the file is damaged (libhdf5 "
-      "keeps no checksums on most metadata, so it cannot report this as an error); remove or "
-      "repair it\n",
-      tool_name, reading.c_str());
-  crash_message_length = std::min(static_cast<size_t>(std::max(n, 0)), sizeof(crash_message) - 1);
-  lock_holder = static_cast<pid_t>(syscall(SYS_gettid));
 }
-
-Lock::~Lock() { lock_holder = 0; }
 
 Handle::Handle(Handle&& other) noexcept : id_(std::exchange(other.id_, -1)), close_(other.close_) {}
 
@@ -99,9 +49,11 @@ std::vector<std::string> ChildNames(hid_t group) {
   for (hsize_t i = 0; i < info.nlinks; ++i) {
     ssize_t n =
         H5Lget_name_by_idx(group, ".", H5_INDEX_NAME, H5_ITER_INC, i, nullptr, 0, H5P_DEFAULT);
-    if (n < 0) continue;
-    std::string name(static_cast<size_t>(n), '\0');
-    H5Lget_name_by_idx(group, ".", H5_INDEX_NAME, H5_ITER_INC, i, name.data(), n + 1, H5P_DEFAULT);
+    std::string name(static_cast<size_t>(std::max<ssize_t>(n, 0)), '\0');
+    // A member whose name cannot be read is damage, not a member to leave out silently.
+    Check(n >= 0 && H5Lget_name_by_idx(group, ".", H5_INDEX_NAME, H5_ITER_INC, i, name.data(),
+                                       n + 1, H5P_DEFAULT) == n,
+          "cannot read the name of member " + std::to_string(i) + " of a group (damaged file?)");
     names.push_back(std::move(name));
   }
   std::sort(names.begin(), names.end());

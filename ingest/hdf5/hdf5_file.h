@@ -12,23 +12,13 @@ namespace wm::ingest::h5 {
 
 // Debian builds libhdf5 without --enable-threadsafe, so every HDF5 call, handle closes included,
 // happens while a Lock is alive. Declare handles after the lock so they close before it unlocks.
-// `reading` (a file, a demo) is what a crash inside libhdf5 is reported against, see below.
 class Lock {
  public:
-  explicit Lock(const std::string& reading);
-  ~Lock();
+  Lock();
 
  private:
   std::lock_guard<std::mutex> lock_;
 };
-
-// libhdf5 1.10 can crash (SIGSEGV) on a damaged file: most of its metadata has no checksum, and
-// some damaged B-trees make it copy through a null pointer (found by tests/fuzz). After this
-// call, such a crash while a Lock is held prints "<tool>: error: libhdf5 crashed ... reading
-// <what the Lock names>" and exits 1 instead of a bare "Segmentation fault"; crashes anywhere
-// else keep their default behaviour. For executables (wm-ingest), not for the fuzz targets, whose
-// sanitizers must see the crash.
-void ReportCrashesInsideHdf5(const char* tool);
 
 // Owns one hid_t and closes it with the matching H5?close.
 class Handle {
@@ -51,7 +41,7 @@ class Handle {
 
 // Whether `path` ("a/b/c", relative to `loc`) exists.
 bool Exists(hid_t loc, const std::string& path);
-// Names of a group's members, sorted.
+// Names of a group's members, sorted. Throws wm::Error (no context) when one is unreadable.
 std::vector<std::string> ChildNames(hid_t group);
 // Read-only; throws wm::Error naming `path` when it is not a readable HDF5 file.
 Handle OpenFile(const std::string& path);

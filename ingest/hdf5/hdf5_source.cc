@@ -8,8 +8,11 @@
 #include <optional>
 #include <utility>
 
+#include "core/byte_fields.h"
+#include "core/child_process.h"
 #include "core/error.h"
 #include "ingest/hdf5/hdf5_file.h"
+#include "ingest/hdf5/raw_demo.h"
 #include "ingest/image_codec.h"
 
 namespace wm::ingest {
@@ -74,7 +77,11 @@ class DemoReader {
   // Members of the group `key`; empty when it is missing or not a group.
   std::vector<std::string> Children(const std::string& key) const {
     Handle group = Has(key) ? h5::OpenGroup(group_.get(), key) : Handle();
-    return group.ok() ? h5::ChildNames(group.get()) : std::vector<std::string>{};
+    try {
+      return group.ok() ? h5::ChildNames(group.get()) : std::vector<std::string>{};
+    } catch (const Error& e) {
+      throw Fail(key, e.message());
+    }
   }
 
   Dataset Open(const std::string& key, const std::string& expected) const {
@@ -144,17 +151,6 @@ class DemoReader {
   Handle file_, data_, group_;
 };
 
-// Everything one demo holds, read under the HDF5 lock; PNG encoding happens after it is released.
-struct RawDemo {
-  int64_t num_steps = 0;
-  std::vector<float> actions, rewards, dones;  // rewards / dones empty when absent
-  std::string camera;
-  std::vector<uint8_t> rgb;     // [T, H, W, 3]
-  std::vector<uint16_t> depth;  // [T, H, W], empty when absent
-  int height = 0, width = 0, depth_height = 0, depth_width = 0;
-  std::string language_instruction;
-};
-
 // Image sides wmkit accepts from HDF5: an empty image has no pixels to encode, and larger sides
 // than this are damage, not cameras.
 constexpr hsize_t kMaxImageSide = 16384;
@@ -200,7 +196,7 @@ void ReadImages(const DemoReader& r, const std::string& camera, bool read_depth,
 }
 
 RawDemo ReadDemo(const EpisodeRef& ref, const std::string& camera, bool read_depth) {
-  h5::Lock lock(ref.path + ", demo " + std::to_string(ref.record));
+  h5::Lock lock;
   DemoReader r(ref);
   RawDemo raw;
   Dataset actions = r.Open("actions", "float32/float64 [T, 7]");
@@ -227,10 +223,40 @@ std::string EncodePngDepth(const uint16_t* pixels, int height, int width) {
 }
 
 std::vector<std::string> ListDemos(const std::string& path) {
-  h5::Lock lock(path);
+  h5::Lock lock;
   Handle file = h5::OpenFile(path);
   Handle data = OpenDataGroup(file.get(), path);
-  return h5::ChildNames(data.get());
+  try {
+    return h5::ChildNames(data.get());
+  } catch (const Error& e) {
+    throw e.WithFile(path).WithKey("data");
+  }
+}
+
+// The demo numbers of data/'s members named demo_N, packed for the trip from the child process.
+// Other members (e.g. a "mask" group) are not episodes.
+std::string PackDemoNumbers(const std::vector<std::string>& names) {
+  std::vector<int64_t> numbers;
+  for (const auto& name : names) {
+    if (auto n = DemoNumber(name)) numbers.push_back(*n);
+  }
+  std::string packed;
+  bytes::Put(packed, numbers);
+  return packed;
+}
+
+// `read()` in a child process under the isolation's limits (in this process when it is off);
+// a child that dies means libhdf5 failed on the file `where` names.
+std::string ReadIsolated(const Hdf5Isolation& isolation, const std::function<std::string()>& read,
+                         const ErrorContext& where) {
+  if (!isolation.enabled) return read();
+  ChildOutcome outcome = RunInChildProcess(read, isolation.limits);
+  if (outcome.output) return std::move(*outcome.output);
+  throw Error("libhdf5 " + outcome.failure +
+                  " while reading it: the file is damaged (libhdf5 keeps no checksums on most "
+                  "metadata, so damage can crash it or make it allocate or loop without end), or "
+                  "it needs more than --hdf5-memory-limit-mb / --hdf5-cpu-limit-s allow",
+              where);
 }
 
 // (path, path relative to the input) of every input file, sorted by relative path.
@@ -253,8 +279,8 @@ std::vector<std::pair<std::string, std::string>> FindInputFiles(const std::strin
 
 }  // namespace
 
-Hdf5Source::Hdf5Source(std::string input, std::string camera, bool depth)
-    : input_(std::move(input)), camera_(std::move(camera)), depth_(depth) {}
+Hdf5Source::Hdf5Source(std::string input, std::string camera, bool depth, Hdf5Isolation isolation)
+    : input_(std::move(input)), camera_(std::move(camera)), depth_(depth), isolation_(isolation) {}
 
 std::string Hdf5Source::dataset_name() const {
   fs::path p = fs::absolute(input_).lexically_normal();
@@ -267,10 +293,9 @@ std::vector<EpisodeRef> Hdf5Source::ListEpisodes(std::vector<shard::SkippedEpiso
   for (const auto& [path, rel_path] : FindInputFiles(input_)) {
     std::vector<int64_t> demos;
     try {
-      // Other children of data/ (e.g. a "mask" group) are not episodes.
-      for (const auto& name : ListDemos(path)) {
-        if (auto n = DemoNumber(name)) demos.push_back(*n);
-      }
+      const std::string listed = ReadIsolated(
+          isolation_, [&file = path] { return PackDemoNumbers(ListDemos(file)); }, {.file = path});
+      bytes::Reader(listed).Take(demos);
     } catch (const Error& e) {
       if (damaged == nullptr) throw;
       damaged->push_back({rel_path, 0, e.message()});
@@ -283,7 +308,9 @@ std::vector<EpisodeRef> Hdf5Source::ListEpisodes(std::vector<shard::SkippedEpiso
 }
 
 Episode Hdf5Source::Load(const EpisodeRef& ref) const {
-  RawDemo raw = ReadDemo(ref, camera_, depth_);
+  RawDemo raw = UnpackRawDemo(ReadIsolated(
+      isolation_, [&] { return PackRawDemo(ReadDemo(ref, camera_, depth_)); },
+      {.file = ref.path, .record = ref.record, .record_label = "demo"}));
   const size_t T = static_cast<size_t>(raw.num_steps);
   Episode ep;
   StartEpisode(ep, ref);
@@ -325,7 +352,5 @@ Episode Hdf5Source::Load(const EpisodeRef& ref) const {
 json Hdf5Source::Describe() const {
   return {{"camera", camera_.empty() ? "auto" : camera_}, {"depth", depth_}};
 }
-
-void ReportHdf5CrashesAs(const char* tool) { h5::ReportCrashesInsideHdf5(tool); }
 
 }  // namespace wm::ingest

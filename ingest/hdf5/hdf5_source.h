@@ -5,9 +5,20 @@
 #include <string>
 #include <vector>
 
+#include "core/child_process.h"
 #include "ingest/episode_source.h"
 
 namespace wm::ingest {
+
+// libhdf5 1.10 can crash, allocate without bound or loop forever on a damaged file (most of its
+// metadata has no checksum; tests/fuzz found all three). So each file listing and demo read runs
+// in a child process under these limits, and a child that dies becomes a wm::Error naming the
+// file and demo, which --on-error skip can skip (docs/failure-modes.md).
+struct Hdf5Isolation {
+  bool enabled = true;  // false: read in this process (the fuzz target, whose sanitizers must
+                        // see libhdf5's crashes)
+  ChildLimits limits{.memory_mb = 8192, .cpu_seconds = 600};
+};
 
 class Hdf5Source : public EpisodeSource {
  public:
@@ -17,7 +28,8 @@ class Hdf5Source : public EpisodeSource {
   // ending in _rgb or _image.
   // `depth`: read obs/<camera>_depth (uint16 [T, H, W] or [T, H, W, 1]) as the "depth" stream
   // when it exists; false never reads it (e.g. for files whose depth is stored as float).
-  explicit Hdf5Source(std::string input, std::string camera = "", bool depth = true);
+  explicit Hdf5Source(std::string input, std::string camera = "", bool depth = true,
+                      Hdf5Isolation isolation = {});
 
   std::string format() const override { return "hdf5"; }
   // The file stem, or the directory name.
@@ -25,8 +37,9 @@ class Hdf5Source : public EpisodeSource {
   // Files in path order, within a file demo_N by N. A file that cannot be opened or has no
   // data group is damaged: listed in `damaged` when given, thrown otherwise.
   std::vector<EpisodeRef> ListEpisodes(std::vector<shard::SkippedEpisode>* damaged) override;
-  // ref.record is the demo number N. HDF5 calls are serialised on one process-wide mutex
-  // (Debian's libhdf5 is not thread-safe); PNG encoding runs outside it.
+  // ref.record is the demo number N. Isolated reads run in parallel child processes; in-process
+  // ones are serialised on one process-wide mutex (Debian's libhdf5 is not thread-safe). PNG
+  // encoding runs in this process, outside it.
   Episode Load(const EpisodeRef& ref) const override;
   nlohmann::json Describe() const override;
 
@@ -34,11 +47,7 @@ class Hdf5Source : public EpisodeSource {
   std::string input_;
   std::string camera_;
   bool depth_;
+  Hdf5Isolation isolation_;
 };
-
-// A crash inside libhdf5 on a damaged file exits 1 with "<tool>: error: libhdf5 crashed ...
-// reading FILE, demo K" instead of a bare segfault (h5::ReportCrashesInsideHdf5). Call once at
-// the start of an executable; fuzz targets must not.
-void ReportHdf5CrashesAs(const char* tool);
 
 }  // namespace wm::ingest

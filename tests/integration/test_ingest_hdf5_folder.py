@@ -1,13 +1,17 @@
 #!/usr/bin/python3
 """wm-ingest on robomimic/LIBERO HDF5 written by h5py and on an image-folder dataset written by
 OpenCV: the shards hold exactly the actions, rewards and pixels written, read back by the
-independent Python reader; bad input exits 1 with a message naming the file."""
+independent Python reader; bad input exits 1 with a message naming the file, also when the
+input crashes libhdf5, makes it allocate without bound or loop (fuzz-found files), and
+--on-error skip then skips just that file."""
 import json
 import os
 import shutil
+import signal
 import subprocess
 import sys
 import tempfile
+import time
 import unittest
 
 import cv2
@@ -20,12 +24,68 @@ sys.path.insert(0, os.path.join(SRC, "scripts"))
 import wmshard  # noqa: E402
 
 
-def ingest(fmt, src, out, check=True):
+DAMAGED = os.path.join(SRC, "tests", "data", "hdf5")  # fuzz-found files; tests/data/README.md
+
+
+def ingest(fmt, src, out, check=True, extra=(), timeout=None):
     p = subprocess.run([f"{BIN}/wm-ingest", "--format", fmt, "--input", src, "--output", out,
-                        "--log-level", "warn"], capture_output=True, text=True)
+                        "--log-level", "warn", *extra], capture_output=True, text=True,
+                       timeout=timeout)
     if check and p.returncode != 0:
         raise AssertionError(p.stderr)
     return p
+
+
+def write_robomimic(path, rng, demos=((10, 4), (2, 3))):
+    """A robomimic-layout file of (demo number, steps) demos; returns {n: (actions, pixels)}."""
+    written = {}
+    with h5py.File(path, "w") as f:
+        for n, steps in demos:
+            g = f.create_group(f"data/demo_{n}")
+            actions = rng.uniform(-1, 1, (steps, 7)).astype(np.float64)
+            pixels = rng.integers(0, 256, (steps, 8, 8, 3), dtype=np.uint8)
+            g["actions"] = actions
+            g["rewards"] = np.arange(steps, dtype=np.float32)
+            g["dones"] = (np.arange(steps) == steps - 1).astype(np.int64)
+            g["obs/agentview_rgb"] = pixels
+            written[n] = (actions, pixels)
+    return written
+
+
+def rss_of_group_mib(pgid):
+    """Resident memory of every process in process group `pgid`, summed (pages shared after a
+    fork count once per process: an overestimate, which is what a guard wants)."""
+    total = 0
+    for pid in filter(str.isdigit, os.listdir("/proc")):
+        try:
+            with open(f"/proc/{pid}/stat") as f:
+                fields = f.read().rsplit(")", 1)[1].split()
+            if int(fields[2]) != pgid:  # fields[2]: pgrp
+                continue
+            with open(f"/proc/{pid}/statm") as f:
+                total += int(f.read().split()[1]) * os.sysconf("SC_PAGE_SIZE")
+        except (OSError, IndexError, ValueError):  # the process ended meanwhile
+            continue
+    return total / 2**20
+
+
+def run_with_memory_guard(args, kill_above_mib, timeout=60):
+    """Runs `args` in a process group of its own, killing the group when its resident memory
+    passes `kill_above_mib` or when `timeout` s pass. Returns (exit code, stderr, peak MiB): the
+    peak is wait4's ru_maxrss, the largest of the process and of every child it waited for."""
+    with tempfile.TemporaryFile() as err:  # a file: a full pipe would block the process
+        p = subprocess.Popen(args, stdout=subprocess.DEVNULL, stderr=err, start_new_session=True)
+        deadline = time.monotonic() + timeout
+        while True:
+            pid, status, usage = os.wait4(p.pid, os.WNOHANG)
+            if pid:
+                break
+            if rss_of_group_mib(p.pid) > kill_above_mib or time.monotonic() > deadline:
+                os.killpg(p.pid, signal.SIGKILL)
+            time.sleep(0.02)
+        p.returncode = os.waitstatus_to_exitcode(status)
+        err.seek(0)
+        return p.returncode, err.read().decode(errors="replace"), usage.ru_maxrss / 1024
 
 
 def episodes(out):
@@ -56,17 +116,7 @@ class HdfAndFolderIngest(unittest.TestCase):
 
     def test_hdf5_demos_round_trip_in_numeric_order(self):
         path = os.path.join(self.tmp, "demo.hdf5")
-        written = {}
-        with h5py.File(path, "w") as f:
-            for n, steps in ((10, 4), (2, 3)):  # demo_2 must come before demo_10
-                g = f.create_group(f"data/demo_{n}")
-                actions = self.rng.uniform(-1, 1, (steps, 7)).astype(np.float64)
-                pixels = self.rng.integers(0, 256, (steps, 8, 8, 3), dtype=np.uint8)
-                g["actions"] = actions
-                g["rewards"] = np.arange(steps, dtype=np.float32)
-                g["dones"] = (np.arange(steps) == steps - 1).astype(np.int64)
-                g["obs/agentview_rgb"] = pixels
-                written[n] = (actions, pixels)
+        written = write_robomimic(path, self.rng, ((10, 4), (2, 3)))  # demo_2 before demo_10
         out = os.path.join(self.tmp, "out")
         ingest("hdf5", path, out)
         eps = episodes(out)
@@ -89,14 +139,67 @@ class HdfAndFolderIngest(unittest.TestCase):
 
     def test_hdf5_file_that_crashes_libhdf5_is_an_error_naming_file_and_demo(self):
         """A fuzz-found file on which libhdf5 1.10 itself segfaults (damaged B-tree, no checksum
-        to catch it): wm-ingest reports it instead of dying with a bare signal."""
-        path = os.path.join(SRC, "tests", "data", "hdf5", "crashes_libhdf5.hdf5")
+        to catch it): the demo's read dies in its child process, and wm-ingest reports that
+        instead of dying with a bare signal."""
+        path = os.path.join(DAMAGED, "crashes_libhdf5.hdf5")
         out = os.path.join(self.tmp, "out")
         p = ingest("hdf5", path, out, check=False)
         self.assertEqual(p.returncode, 1, p.stderr)
-        self.assertIn("wm-ingest: error: libhdf5 crashed", p.stderr)
-        self.assertIn("crashes_libhdf5.hdf5, demo 0", p.stderr)
+        self.assertIn("wm-ingest: error: ", p.stderr)
+        self.assertIn("crashes_libhdf5.hdf5: demo 0: libhdf5 crashed (SIG", p.stderr)
+        self.assertIn("the file is damaged", p.stderr)
         self.assertFalse(os.path.exists(os.path.join(out, "index.json")))
+
+    def test_hdf5_file_on_which_libhdf5_allocates_without_bound_stops_at_the_limit(self):
+        """A fuzz-found file on which libhdf5 1.10 allocates without bound (24 GB before the OOM
+        killer when unisolated): the file listing stops at the child's 512 MB limit."""
+        # The peak is wait4's (wm-ingest's own or that of any child it waited for). An RLIMIT_AS
+        # on wm-ingest itself would not do: libhdf5 would fail at it with the same message, so
+        # the test would pass without isolation. The guard kills a run past 3 GiB, so that a
+        # regression fails here (exit -9) instead of exhausting the machine.
+        path = os.path.join(DAMAGED, "allocates_without_bound.hdf5")
+        out = os.path.join(self.tmp, "out")
+        code, stderr, peak_mib = run_with_memory_guard(
+            [f"{BIN}/wm-ingest", "--format", "hdf5", "--input", path, "--output", out,
+             "--log-level", "warn", "--hdf5-memory-limit-mb", "512"], kill_above_mib=3072)
+        self.assertEqual(code, 1, stderr)  # -9: the guard killed it
+        self.assertIn("wm-ingest: error: ", stderr)
+        self.assertIn("allocates_without_bound.hdf5", stderr)
+        self.assertIn("damaged", stderr)
+        self.assertFalse(os.path.exists(os.path.join(out, "index.json")))
+        # 512 MB for the child on top of what it shares with wm-ingest (~50 MB).
+        self.assertLess(peak_mib, 1536, stderr)
+
+    def test_hdf5_file_on_which_libhdf5_loops_stops_at_the_cpu_limit(self):
+        """A fuzz-found file on which libhdf5 1.10 loops forever in its global heap code: the
+        demo's read is ended after 2 s of CPU time (the timeout only catches a hang)."""
+        path = os.path.join(DAMAGED, "loops_in_libhdf5.hdf5")
+        out = os.path.join(self.tmp, "out")
+        p = ingest("hdf5", path, out, check=False, extra=["--hdf5-cpu-limit-s", "2"], timeout=60)
+        self.assertEqual(p.returncode, 1, p.stderr)
+        self.assertIn("loops_in_libhdf5.hdf5: demo 0: ", p.stderr)
+        self.assertIn("within its limit of 2 s of CPU time", p.stderr)
+        self.assertFalse(os.path.exists(os.path.join(out, "index.json")))
+
+    def test_on_error_skip_keeps_good_files_and_lists_the_damaged_one(self):
+        """A directory with a good file and one that crashes libhdf5: under --on-error skip the
+        good demos are ingested and the damaged one is recorded in index.json's skipped list."""
+        root = os.path.join(self.tmp, "mixed")
+        os.makedirs(root)
+        written = write_robomimic(os.path.join(root, "good.hdf5"), self.rng, ((0, 3), (1, 2)))
+        shutil.copy(os.path.join(DAMAGED, "crashes_libhdf5.hdf5"), os.path.join(root, "bad.hdf5"))
+        out = os.path.join(self.tmp, "out")
+        ingest("hdf5", root, out, extra=["--on-error", "skip"])
+        eps = episodes(out)
+        self.assertEqual([e["episode_key"] for e in eps], ["good.hdf5#0", "good.hdf5#1"])
+        for e, n in zip(eps, (0, 1)):
+            np.testing.assert_array_equal(np.float32(written[n][0]), np.float32(e["actions"]))
+        with open(os.path.join(out, "index.json")) as f:
+            skipped = json.load(f)["skipped"]
+        self.assertEqual(skipped["count"], 1, skipped)
+        (entry,) = skipped["episodes"]
+        self.assertEqual((entry["file"], entry["record"]), ("bad.hdf5", 0), entry)
+        self.assertIn("libhdf5 crashed", entry["reason"])
 
     def test_folder_episodes_keep_their_bytes(self):
         root = os.path.join(self.tmp, "folders")
