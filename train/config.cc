@@ -29,6 +29,7 @@ void VisitFields(Config& c, F&& f) {
   f("model", "norm", m.norm);
   f("model", "policy_conditioning", m.policy_conditioning);
   f("model", "action_conditioning", m.action_conditioning);
+  f("model", "tied_token_head", m.tied_token_head);
   f("model", "mask_frame_prob", m.mask_frame_prob);
   f("model", "decode_steps", m.decode_steps);
   f("model", "decode_temperature", m.decode_temperature);

@@ -20,6 +20,9 @@ struct ModelConfig {
   std::string norm = "layernorm";   // pre-norm type: "layernorm" or "rmsnorm"
   bool policy_conditioning = true;  // WHALE eq. 4-5; false = the ablation without z
   bool action_conditioning = true;  // false = the action-blind control (actions zeroed)
+  // true: token logits use the input embedding's rows (weight tying), so copying a code from the
+  // previous frame needs no learned output map; false: a separate Linear head.
+  bool tied_token_head = false;
   double mask_frame_prob = 0.5;     // chance that a frame j >= 1 is a masked target in training;
                                     // the others stay clean context (1 = every frame, as Genie)
   int decode_steps = 8;             // MaskGIT iterations per predicted frame at inference

@@ -36,7 +36,11 @@ DynamicsNetImpl::DynamicsNetImpl(const ModelConfig& m, int64_t z_dim) : config(m
                                                                   .rms_norm = m.norm == "rmsnorm",
                                                                   .causal_time = true},
                                                    m.num_layers));
-  token_head = register_module("token_head", torch::nn::Linear(d, m.num_codes));
+  if (m.tied_token_head) {
+    token_bias = register_parameter("token_bias", torch::zeros({m.num_codes}));
+  } else {
+    token_head = register_module("token_head", torch::nn::Linear(d, m.num_codes));
+  }
   reward_head = register_module("reward_head", torch::nn::Linear(d, 2));
   InitWeights(*this);
 }
@@ -58,7 +62,9 @@ DynamicsOutput DynamicsNetImpl::forward(const torch::Tensor& tokens, const torch
                     (temporal_pos.slice(0, 0, T) + cond).unsqueeze(2);
   torch::Tensor h = transformer->forward(x);  // [B, T, N, D]
   DynamicsOutput out;
-  out.logits = token_head->forward(h);                   // [B, T, N, K]
+  out.logits = token_head ? token_head->forward(h)  // [B, T, N, K]
+                          : F::linear(h, token_embed->weight.slice(0, 0, config.num_codes),
+                                      token_bias);
   auto rt = reward_head->forward(h.mean(2)).unbind(-1);  // 2x [B, T]
   out.reward = rt[0];
   out.terminal_logit = rt[1];

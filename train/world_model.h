@@ -51,7 +51,8 @@ struct DynamicsNetImpl : torch::nn::Module {
   torch::Tensor spatial_pos, temporal_pos, action_start;  // [N, D], [T, D], [D]
   torch::nn::Linear action_in{nullptr}, z_in{nullptr};
   StTransformer transformer{nullptr};
-  torch::nn::Linear token_head{nullptr}, reward_head{nullptr};
+  torch::nn::Linear token_head{nullptr}, reward_head{nullptr};  // token_head null when tied
+  torch::Tensor token_bias;  // [K], the tied head's bias
 };
 TORCH_MODULE(DynamicsNet);
 

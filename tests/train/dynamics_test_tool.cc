@@ -1,6 +1,6 @@
 // dynamics_test_tool: fixtures for the Python checks of the dynamics model.
 //   make-tokens --out DIR ...        a moving-block token dataset (tests/train/moving_block.h)
-//   reference --out FILE [--rmsnorm] [--no-policy]
+//   reference --out FILE [--rmsnorm] [--no-policy] [--tied]
 //                                    a tensor archive with random weights ("model/..."), inputs
 //                                    ("input/...") and the C++ outputs ("output/...") of one
 //                                    forward + losses, for the PyTorch twin (dynamics_twin.py)
@@ -22,9 +22,11 @@
 namespace {
 using namespace wm::train;
 
-void WriteReference(const std::string& path, bool rmsnorm, bool policy, uint64_t seed) {
+void WriteReference(const std::string& path, bool rmsnorm, bool policy, bool tied,
+                    uint64_t seed) {
   DynamicsConfig c = test::TinyConfig(policy);
   c.model.norm = rmsnorm ? "rmsnorm" : "layernorm";
+  c.model.tied_token_head = tied;
   c.train.reward_weight = 0.7;
   c.train.terminal_weight = 0.3;
   c.train.policy_weight = 0.9;
@@ -33,7 +35,7 @@ void WriteReference(const std::string& path, bool rmsnorm, bool policy, uint64_t
   {
     torch::NoGradGuard no_grad;  // non-trivial norm weights and biases, so the twin checks them
     for (auto& p : m->named_parameters()) {
-      if (p.key().find("norm") != std::string::npos)
+      if (p.key().find("norm") != std::string::npos || p.key().ends_with("token_bias"))
         p.value().add_(torch::randn_like(p.value()) * 0.1);
     }
   }
@@ -129,13 +131,15 @@ int main(int argc, char** argv) {
   make->add_option("--grid", mb.grid_h);
   make->add_option("--codes", mb.num_codes);
   make->add_option("--seed", mb.seed);
+  make->add_flag("--uniform-moves", mb.uniform_moves);
   std::string ref_out;
-  bool rmsnorm = false, no_policy = false;
+  bool rmsnorm = false, no_policy = false, tied = false;
   uint64_t seed = 0;
   auto* ref = app.add_subcommand("reference", "Write weights, inputs and C++ outputs");
   ref->add_option("--out", ref_out)->required();
   ref->add_flag("--rmsnorm", rmsnorm);
   ref->add_flag("--no-policy", no_policy);
+  ref->add_flag("--tied", tied);
   ref->add_option("--seed", seed);
   std::string eval_run, eval_tokens;
   int eval_frames = 5, eval_windows = 200;
@@ -151,7 +155,7 @@ int main(int argc, char** argv) {
       mb.grid_w = mb.grid_h;
       test::WriteMovingBlockTokens(tokens_out, mb);
     } else if (ref->parsed()) {
-      WriteReference(ref_out, rmsnorm, !no_policy, seed);
+      WriteReference(ref_out, rmsnorm, !no_policy, tied, seed);
     } else {
       EvalNextFrame(eval_run, eval_tokens, eval_frames, eval_windows);
     }

@@ -154,7 +154,11 @@ class DynamicsNet(nn.Module):
             self.z_in = nn.Linear(z_dim, d)
         self.transformer = StTransformer(d, m["num_heads"], m["mlp_ratio"],
                                          m["norm"] == "rmsnorm", m["num_layers"])
-        self.token_head = nn.Linear(d, m["num_codes"])
+        self.num_codes = m["num_codes"]
+        if m.get("tied_token_head", False):
+            self.token_bias = nn.Parameter(torch.zeros(m["num_codes"]))
+        else:
+            self.token_head = nn.Linear(d, m["num_codes"])
         self.reward_head = nn.Linear(d, 2)
 
     def forward(self, tokens, actions, z):
@@ -165,7 +169,11 @@ class DynamicsNet(nn.Module):
         h = self.transformer(self.token_embed(tokens) + self.spatial_pos +
                              (self.temporal_pos[:t] + cond).unsqueeze(2))
         reward, terminal = self.reward_head(h.mean(2)).unbind(-1)
-        return self.token_head(h), reward, terminal
+        if hasattr(self, "token_head"):
+            logits = self.token_head(h)
+        else:  # tied: the input embedding's code rows (not the mask row) score the codes
+            logits = F.linear(h, self.token_embed.weight[:self.num_codes], self.token_bias)
+        return logits, reward, terminal
 
 
 class WorldModel(nn.Module):

@@ -37,8 +37,12 @@ void WriteMovingBlockTokens(const std::string& dir, const MovingBlockOptions& o)
         frames.push_back(i == y * o.grid_w + x ? 1 + static_cast<uint32_t>(k % 7) : background[i]);
       }
       const double u = uniform();
-      const int dx = u < (eager ? 0.6 : 0.3) ? 1 : (u < 0.8 ? 0 : -1);
-      const int dy = uniform() < 0.2 ? (uniform() < 0.5 ? -1 : 1) : 0;
+      int dx = u < (eager ? 0.6 : 0.3) ? 1 : (u < 0.8 ? 0 : -1);
+      int dy = uniform() < 0.2 ? (uniform() < 0.5 ? -1 : 1) : 0;
+      if (o.uniform_moves) {
+        dx = static_cast<int>(rng() % 3) - 1;
+        dy = static_cast<int>(rng() % 3) - 1;
+      }
       float action[7] = {0.04f * dx, 0.04f * dy, 0, 0, 0, 0, eager ? 1.f : 0.f};
       e.actions.insert(e.actions.end(), action, action + 7);
       x = std::clamp(x + dx, 0, o.grid_w - 1);

@@ -16,6 +16,9 @@ struct MovingBlockOptions {
   int grid_h = 4, grid_w = 4;
   int64_t num_codes = 32;
   uint64_t seed = 0;
+  // true: dx and dy each uniform over {-1, 0, 1} whatever the policy, so where the block goes
+  // next is only knowable from the action (the action-sensitivity check).
+  bool uniform_moves = false;
   std::string tokenizer_sha256 = "moving-block-tokenizer";
 };
 

@@ -58,7 +58,7 @@ def main():
     torch.set_num_threads(1)
     failures = []
     with tempfile.TemporaryDirectory() as tmp:
-        for flags in ([], ["--rmsnorm"], ["--no-policy"]):
+        for flags in ([], ["--rmsnorm"], ["--no-policy"], ["--tied"]):
             failures += check_case(tool, flags, tmp)
     if failures:
         print("FAILED:\n  " + "\n  ".join(failures))
