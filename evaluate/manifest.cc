@@ -22,6 +22,8 @@ nlohmann::json EvalConfigJson(const EvalOptions& o) {
           {"context", o.rollout.context},
           {"samples", o.rollout.samples},
           {"seed", o.rollout.seed},
+          {"temperature", o.rollout.temperature},
+          {"decode_steps", o.rollout.decode_steps},
           {"policy_prefix", o.rollout.policy_prefix},
           {"max_episodes", o.max_episodes},
           {"resamples", o.resamples},

@@ -93,7 +93,8 @@ std::vector<EpisodeRollout> Rollout(const train::DynamicsModel& model,
         }
         c.policy_z = policy_z;
         c.row_seeds = {RowSeed(o.seed, r.episode, s, t)};
-        const std::vector<int64_t> next = model.PredictNextFrame(c);  // [N]
+        const std::vector<int64_t> next =
+            model.PredictNextFrame(c, 0, o.decode_steps, o.temperature);  // [N]
         // The reward of step t -> t+1 from the context extended by the new frame.
         c.frames += 1;
         c.tokens.insert(c.tokens.end(), next.begin(), next.end());

@@ -25,6 +25,8 @@ struct RolloutOptions {
   int64_t context = 0;        // context frames; 0 = the model's maximum
   int samples = 1;            // independent imaginations per episode (uncertainty)
   uint64_t seed = 0;          // MaskGIT sampling; deterministic on CPU
+  double temperature = -1;    // MaskGIT sampling temperature; < 0: the checkpoint's, 0: argmax
+  int decode_steps = 0;       // MaskGIT rounds per frame; 0: the checkpoint's
   int64_t policy_prefix = 4;  // real frames the prior sees to infer the episode's policy z
 };
 

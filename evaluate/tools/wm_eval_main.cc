@@ -57,6 +57,11 @@ int main(int argc, char** argv) {
   app.add_option("--samples", o.rollout.samples, "Imaginations per episode (>= 2: uncertainty)")
       ->capture_default_str();
   app.add_option("--seed", o.rollout.seed, "Sampling and bootstrap seed")->capture_default_str();
+  app.add_option("--temperature", o.rollout.temperature,
+                 "MaskGIT sampling temperature (0: argmax; default: the checkpoint's)");
+  app.add_option("--decode-steps", o.rollout.decode_steps,
+                 "MaskGIT rounds per frame (default: the checkpoint's)")
+      ->check(CLI::NonNegativeNumber);
   app.add_option("--policy-prefix", o.rollout.policy_prefix,
                  "Real frames the prior sees to infer the policy embedding")
       ->capture_default_str();

@@ -257,6 +257,24 @@ class WmEval(unittest.TestCase):
         compact = json.dumps(m["config"], separators=(",", ":"), sort_keys=True)
         self.assertEqual(m["config_hash"], hashlib.sha256(compact.encode()).hexdigest())
 
+    def test_argmax_decoding_ignores_the_seed_and_sampling_does_not(self):
+        """--temperature 0 decodes every frame by argmax, so another --seed imagines the same
+        frames; the checkpoint's own temperature (1.0) samples, so another seed changes them."""
+        def plain_means(report):
+            rows = read_rows(os.path.join(report, "per_step.csv"))
+            return [r["mean"] for r in rows if r["rollout"] == "plain"]
+
+        runs = {}
+        for name, extra in (("argmax0", ["--temperature", 0, "--seed", 0]),
+                            ("argmax1", ["--temperature", 0, "--seed", 1]),
+                            ("sampled1", ["--seed", 1])):
+            ok("wm-eval", *self.eval_args(self.path(name)), "--rollout", "plain", *extra)
+            runs[name] = self.path(name, "dyn")
+        self.assertEqual(plain_means(runs["argmax0"]), plain_means(runs["argmax1"]))
+        self.assertNotEqual(plain_means(self.reports[0]), plain_means(runs["sampled1"]))
+        with open(os.path.join(runs["argmax0"], "manifest.json"), encoding="utf-8") as f:
+            self.assertEqual(json.load(f)["config"]["temperature"], 0)
+
     def test_sharded_jobs_write_the_single_job_report(self):
         args = self.eval_args(self.path("sharded"))
         report = self.path("sharded", "dyn")
