@@ -94,6 +94,19 @@ TEST(ChildProcess, OtherExceptionIsRethrownAsWmErrorWithItsText) {
   }
 }
 
+// A throw of something that is not a std::exception must still end the child: were it to escape,
+// the forked copy would go on running the caller's code beside the parent.
+TEST(ChildProcess, NonStandardExceptionEndsTheChildToo) {
+  const pid_t parent = getpid();
+  try {
+    RunInChildProcess([]() -> std::string { throw 42; }, {});
+    FAIL() << "no error";
+  } catch (const Error& e) {
+    EXPECT_NE(std::string(e.what()).find("not a std::exception"), std::string::npos) << e.what();
+  }
+  ASSERT_EQ(getpid(), parent) << "the child returned into the caller";
+}
+
 TEST(ChildProcess, CrashIsAFailureAndTheParentGoesOn) {
   const ChildOutcome outcome = RunInChildProcess(
       []() -> std::string {
