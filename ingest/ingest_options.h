@@ -4,6 +4,8 @@
 #include <nlohmann/json.hpp>
 #include <string>
 
+#include "ingest/hdf5/hdf5_source.h"
+
 namespace wm::ingest {
 
 struct IngestOptions {
@@ -18,8 +20,7 @@ struct IngestOptions {
   bool hdf5_depth = true;        // HDF5: also read obs/<camera>_depth (uint16) when present
   // HDF5: limits of the child process that reads each file listing / demo (hdf5_source.h); they
   // do not shape the output, so they stay out of ToConfig().
-  uint64_t hdf5_memory_limit_mb = 8192;
-  uint32_t hdf5_cpu_limit_s = 600;
+  ChildLimits hdf5_limits = kDefaultHdf5ReadLimits;
   int resize_width = 0, resize_height = 0;  // 0: keep encoded bytes as they are
   double shard_size_mb = 256;    // a shard closes once it reaches this size
   int shard_index = 0, num_shards = 1;  // this job's contiguous block of the input episodes

@@ -14,9 +14,8 @@ std::unique_ptr<EpisodeSource> OpenSource(const IngestOptions& o) {
                                         o.configs_dir.empty() ? DefaultConfigsDir() : o.configs_dir);
   }
   if (o.format == "hdf5") {
-    const Hdf5Isolation isolation{
-        .limits = {.memory_mb = o.hdf5_memory_limit_mb, .cpu_seconds = o.hdf5_cpu_limit_s}};
-    return std::make_unique<Hdf5Source>(o.input, o.camera, o.hdf5_depth, isolation);
+    return std::make_unique<Hdf5Source>(o.input, o.camera, o.hdf5_depth,
+                                        Hdf5Isolation{.limits = o.hdf5_limits});
   }
   if (o.format == "folder") return std::make_unique<FolderSource>(o.input);
   throw Error("unknown --format '" + o.format + "' (expected rlds, hdf5 or folder)");

@@ -1,7 +1,6 @@
 #include "ingest/hdf5/hdf5_file.h"
 
 #include <algorithm>
-#include <cstdio>
 #include <cstring>
 #include <utility>
 

@@ -14,10 +14,11 @@ namespace wm::ingest {
 // metadata has no checksum; tests/fuzz found all three). So each file listing and demo read runs
 // in a child process under these limits, and a child that dies becomes a wm::Error naming the
 // file and demo, which --on-error skip can skip (docs/failure-modes.md).
+inline constexpr ChildLimits kDefaultHdf5ReadLimits{.memory_mb = 8192, .cpu_seconds = 600};
 struct Hdf5Isolation {
   bool enabled = true;  // false: read in this process (the fuzz target, whose sanitizers must
                         // see libhdf5's crashes)
-  ChildLimits limits{.memory_mb = 8192, .cpu_seconds = 600};
+  ChildLimits limits = kDefaultHdf5ReadLimits;
 };
 
 class Hdf5Source : public EpisodeSource {

@@ -7,7 +7,6 @@
 #include "core/error.h"
 #include "core/log.h"
 #include "core/provenance.h"
-#include "ingest/hdf5/hdf5_source.h"
 #include "ingest/ingest_options.h"
 
 namespace {
@@ -46,8 +45,8 @@ int main(int argc, char** argv) {
   app.add_option("--camera", o.camera, "HDF5 camera key under obs/ (default: first RGB camera)");
   bool no_depth = false;
   app.add_flag("--hdf5-no-depth", no_depth, "HDF5: ignore obs/<camera>_depth (e.g. float depth)");
-  app.add_option("--hdf5-memory-limit-mb", o.hdf5_memory_limit_mb, "HDF5: memory a file listing or demo read may use (0: no limit)")->capture_default_str();
-  app.add_option("--hdf5-cpu-limit-s", o.hdf5_cpu_limit_s, "HDF5: CPU seconds a file listing or demo read may use (0: no limit)")->capture_default_str();
+  app.add_option("--hdf5-memory-limit-mb", o.hdf5_limits.memory_mb, "HDF5: memory a file listing or demo read may use (0: no limit)")->capture_default_str();
+  app.add_option("--hdf5-cpu-limit-s", o.hdf5_limits.cpu_seconds, "HDF5: CPU seconds a file listing or demo read may use (0: no limit)")->capture_default_str();
   app.add_option("--resize", resize, "Re-encode every frame at WxH (default: keep encoded bytes)");
   app.add_option("--shard-size-mb", o.shard_size_mb, "Close a shard at this size")->capture_default_str();
   app.add_option("--shard-index", o.shard_index, "This job's index (Slurm: $SLURM_ARRAY_TASK_ID)")->capture_default_str();
