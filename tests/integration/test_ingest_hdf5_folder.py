@@ -27,9 +27,13 @@ import wmshard  # noqa: E402
 DAMAGED = os.path.join(SRC, "tests", "data", "hdf5")  # fuzz-found files; tests/data/README.md
 
 
+def ingest_command(fmt, src, out, extra=()):
+    return [f"{BIN}/wm-ingest", "--format", fmt, "--input", src, "--output", out, "--log-level",
+            "warn", *extra]
+
+
 def ingest(fmt, src, out, check=True, extra=(), timeout=None):
-    p = subprocess.run([f"{BIN}/wm-ingest", "--format", fmt, "--input", src, "--output", out,
-                        "--log-level", "warn", *extra], capture_output=True, text=True,
+    p = subprocess.run(ingest_command(fmt, src, out, extra), capture_output=True, text=True,
                        timeout=timeout)
     if check and p.returncode != 0:
         raise AssertionError(p.stderr)
@@ -160,8 +164,8 @@ class HdfAndFolderIngest(unittest.TestCase):
         path = os.path.join(DAMAGED, "allocates_without_bound.hdf5")
         out = os.path.join(self.tmp, "out")
         code, stderr, peak_mib = run_with_memory_guard(
-            [f"{BIN}/wm-ingest", "--format", "hdf5", "--input", path, "--output", out,
-             "--log-level", "warn", "--hdf5-memory-limit-mb", "512"], kill_above_mib=3072)
+            ingest_command("hdf5", path, out, ["--hdf5-memory-limit-mb", "512"]),
+            kill_above_mib=3072)
         self.assertEqual(code, 1, stderr)  # -9: the guard killed it
         self.assertIn("wm-ingest: error: ", stderr)
         self.assertIn("allocates_without_bound.hdf5", stderr)
