@@ -90,17 +90,19 @@ def with_file_size_limit(limit_bytes):
     return limit
 
 
-def read_only_runner():
+def read_only_runner(executable):
     """(kwargs for subprocess.run that make a 0555 directory unwritable to the child, None) or
-    (None, why not). Root ignores permission bits, so as root the child runs as `nobody`."""
+    (None, why not). Root ignores permission bits, so as root the child runs as `nobody`, which
+    must be able to run `executable` itself: a checkout below a directory closed to other users
+    (mktemp -d makes 0700 ones) is out of nobody's reach."""
     if os.geteuid() != 0:
         return {}, None
     try:
-        probe = run(["/usr/bin/true"], user=65534, group=65534, extra_groups=[])
+        probe = run([executable, "--version"], user=65534, group=65534, extra_groups=[])
     except (PermissionError, OSError) as e:
-        return None, f"running as root and cannot switch to nobody ({e})"
+        return None, f"running as root and nobody cannot run {executable} ({e})"
     if probe.returncode != 0:
-        return None, "running as root and cannot run a command as nobody"
+        return None, f"running as root and nobody cannot run {executable} --version"
     return {"user": 65534, "group": 65534, "extra_groups": []}, None
 
 

@@ -160,7 +160,7 @@ class DiskFullAndReadOnly(unittest.TestCase):
     # Read-only output directories.
 
     def assert_read_only_run_fails(self, out, command, name):
-        runner, why = fh.read_only_runner()
+        runner, why = fh.read_only_runner(command[0])
         if runner is None:
             self.skipTest(why)
         before = fh.tree(out)
