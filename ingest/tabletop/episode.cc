@@ -45,10 +45,11 @@ uint64_t EpisodeSeed(uint64_t global_seed, const std::string& split, int64_t ind
   return MixBits(h ^ static_cast<uint64_t>(index)) >> 1;
 }
 
-Rollout RollOut(uint64_t episode_seed, PolicyKind policy_kind, int max_steps) {
+Rollout RollOut(uint64_t episode_seed, PolicyKind policy_kind, int max_steps,
+                LookVariation look) {
   Check(max_steps >= 1, "max_steps must be at least 1", {.key = "--max-steps"});
   Rng rng(episode_seed);
-  Scene scene = SampleScene(rng);
+  Scene scene = SampleScene(rng, look);
   const std::unique_ptr<Policy> policy = MakePolicy(policy_kind, scene.state);
   Rollout out{episode_seed, policy_kind, scene.look, {}, false};
   for (int t = 0; t < max_steps; ++t) {

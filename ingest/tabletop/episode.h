@@ -49,7 +49,8 @@ struct Rollout {
 // Simulates one episode (no rendering): at most `max_steps` steps; the episode ends at the
 // first step whose state has the block in the goal (reward 1, is_last = is_terminal = 1), or
 // after `max_steps` steps (is_last = 1, is_terminal = 0).
-Rollout RollOut(uint64_t episode_seed, PolicyKind policy, int max_steps);
+Rollout RollOut(uint64_t episode_seed, PolicyKind policy, int max_steps,
+                LookVariation look = LookVariation::kVaried);
 
 // Renders every step at size x size and serializes the tf.train.Example (deterministic bytes).
 std::string EncodeEpisode(const Rollout& rollout, int size);

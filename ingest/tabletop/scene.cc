@@ -23,6 +23,7 @@ constexpr Vec3 kTableColours[] = {{0.55, 0.38, 0.22},
                                   {0.80, 0.72, 0.58},
                                   {0.30, 0.32, 0.38},
                                   {0.50, 0.55, 0.65}};
+constexpr int kPlainTable = 3;  // Appearance::table_pattern without a pattern
 constexpr const char* kInstructionTemplates[] = {
     "push the {} block to the green goal", "move the {} block onto the green goal",
     "put the {} block in the green goal region", "bring the {} block to the green circle"};
@@ -82,11 +83,21 @@ bool CanGrasp(const SceneState& s) {
          s.ee.z < s.block.z + kBlockHalfSize - 0.01;  // fingertips reach 1 cm below the top
 }
 
+// The fixed parts of LookVariation::kPlain, applied after sampling so the draws stay the same.
+void MakePlain(Appearance& look) {
+  look.table_rgb = kTableColours[1];
+  look.table_pattern = kPlainTable;
+  look.light_dir = Normalized(Vec3{0.3, -0.4, 0.87});
+  look.light_intensity = 0.75;
+  look.ambient = 0.3;
+}
+
 }  // namespace
 
-Scene SampleScene(Rng& rng) {
+Scene SampleScene(Rng& rng, LookVariation variation) {
   Scene scene;
   scene.look = SampleAppearance(rng);
+  if (variation == LookVariation::kPlain) MakePlain(scene.look);
   SceneState& s = scene.state;
   s.block = {rng.Uniform(-0.16, 0.16), rng.Uniform(0.0, 0.3), kBlockHalfSize};
   s.block_yaw = rng.Uniform(-kPi / 4, kPi / 4);

@@ -53,7 +53,7 @@ struct SceneState {
 // Per-episode look: what varies between episodes besides the layout.
 struct Appearance {
   Vec3 table_rgb;         // linear 0..1
-  int table_pattern = 0;  // 0 wood grain, 1 checker, 2 speckle
+  int table_pattern = 0;  // 0 wood grain, 1 checker, 2 speckle, 3 none (plain)
   double pattern_scale = 1, pattern_phase = 0;
   Vec3 block_rgb;
   std::string block_colour;  // the colour's name, used in the instruction
@@ -68,8 +68,15 @@ struct Scene {
   Appearance look;
 };
 
-// Samples layout and look. The block starts 15-30 cm from the goal, never inside it.
-Scene SampleScene(Rng& rng);
+// How much the look varies between episodes. kPlain keeps one untextured table colour and one
+// light for every episode (block colours still vary): a scene an 8x8-token tokenizer
+// reconstructs well, so a small world model's predictions can be judged on the arm's motion
+// rather than on texture it cannot encode (docs/tabletop.md).
+enum class LookVariation { kVaried, kPlain };
+
+// Samples layout and look. The block starts 15-30 cm from the goal, never inside it. The
+// layout does not depend on `variation`: the same seed gives the same episode in either look.
+Scene SampleScene(Rng& rng, LookVariation variation = LookVariation::kVaried);
 
 Action ClampAction(Action a);
 // One control step: moves the end effector, applies the gripper command, grasps (closing

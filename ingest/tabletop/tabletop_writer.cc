@@ -40,6 +40,7 @@ std::string Describe(const TabletopOptions& o) {
   return "Synthetic tabletop pick-and-place episodes written by wm-gen-tabletop (wmkit " +
          std::string(kWmkitVersion) + ", seed " + std::to_string(o.seed) + ", max_steps " +
          std::to_string(o.max_steps) + ", policies " + policies +
+         (o.look == LookVariation::kPlain ? ", plain look" : "") +
          "). Per step: " + std::to_string(o.size) + "x" + std::to_string(o.size) +
          " RGB JPEG, depth PNG (uint16 millimetres along the optical axis), segmentation PNG "
          "(0 table, 1 arm and gripper, 2 block, 3 goal region), action [dx, dy, dz, droll, "
@@ -53,7 +54,8 @@ std::vector<Rollout> RollOutAll(const TabletopOptions& o, const std::string& spl
   rollouts.reserve(count);
   for (int i = 0; i < count; ++i) {
     rollouts.push_back(
-        RollOut(EpisodeSeed(o.seed, split, first + i), o.PolicyForEpisode(first + i), o.max_steps));
+        RollOut(EpisodeSeed(o.seed, split, first + i), o.PolicyForEpisode(first + i), o.max_steps,
+                o.look));
   }
   return rollouts;
 }

@@ -10,6 +10,7 @@
 #include <vector>
 
 #include "ingest/tabletop/policies.h"
+#include "ingest/tabletop/scene.h"
 
 namespace wm::tabletop {
 
@@ -25,6 +26,7 @@ struct TabletopOptions {
   uint64_t seed = 0;                 // dataset seed; every episode derives its own from it
   // Policies assigned round-robin by episode index within each split.
   std::vector<std::string> policies = {"expert", "noisy", "random", "wrong_goal"};
+  LookVariation look = LookVariation::kVaried;  // per-episode table texture and light, or plain
 
   // Throws wm::Error naming the offending option (as its command-line flag).
   void Check() const;

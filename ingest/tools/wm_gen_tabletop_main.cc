@@ -44,12 +44,19 @@ int main(int argc, char** argv) {
                  "Comma-separated mix, assigned round-robin: expert,noisy,random,wrong_goal")
       ->delimiter(',')
       ->capture_default_str();
+  std::string look = "varied";
+  app.add_option("--look", look,
+                 "varied: per-episode table texture and light; plain: one untextured table and "
+                 "light (same layouts and actions)")
+      ->check(CLI::IsMember({"varied", "plain"}))
+      ->capture_default_str();
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {
     return app.exit(e) == 0 ? 0 : 2;  // --help is a ParseError too
   }
   wm::InitLogging("info");
+  if (look == "plain") opts.look = wm::tabletop::LookVariation::kPlain;
   try {
     opts.Check();
     spdlog::info("generating {} train + {} val episodes ({}x{} px, up to {} steps) into {}",
