@@ -23,11 +23,13 @@ def argv(name, *args):
     return [os.path.join(BIN, name), *map(str, args)]
 
 
-def derived_config(kind, out, train):
-    """configs/<kind>/tiny.yaml with `train` keys replaced, written to `out` (YAML)."""
+def derived_config(kind, out, sections):
+    """configs/<kind>/tiny.yaml with the keys of `sections` ({section: {key: value}}) replaced,
+    written to `out` (YAML)."""
     with open(os.path.join(CONFIGS, kind, "tiny.yaml"), encoding="utf-8") as f:
         config = yaml.safe_load(f)
-    config["train"].update(train)
+    for section, keys in sections.items():
+        config[section].update(keys)
     with open(out, "w", encoding="utf-8") as f:
         yaml.safe_dump(config, f)
     return out
@@ -37,21 +39,24 @@ class TinyPipeline:
     """Stages are made on first use of their output and reused after."""
 
     def __init__(self, root, *, train_episodes, val_episodes, tokenizer_steps, dynamics_steps,
-                 size=64, max_steps=40, tokenizer_train=None, dynamics_train=None,
-                 validate=False):
-        """validate: the trainers also score the val split (--val-data, --val-tokens)."""
+                 size=64, max_steps=40, look="varied", tokenizer_train=None, dynamics_train=None,
+                 dynamics_model=None, dynamics_threads=1, validate=False):
+        """look: wm-gen-tabletop --look; dynamics_model: model-section overrides;
+        validate: the trainers also score the val split (--val-data, --val-tokens)."""
         self.root, self.validate = root, validate
         self.gen_args = ["--size", size, "--train-episodes", train_episodes, "--val-episodes",
-                         val_episodes, "--max-steps", max_steps, "--seed", 0]
+                         val_episodes, "--max-steps", max_steps, "--seed", 0, "--look", look]
         self.tokenizer_steps, self.dynamics_steps = tokenizer_steps, dynamics_steps
+        self.dynamics_threads = dynamics_threads
         self.tokenizer_config = os.path.join(CONFIGS, "tokenizer", "tiny.yaml")
         if tokenizer_train:
             self.tokenizer_config = derived_config("tokenizer", self.path("tokenizer.yaml"),
-                                                   tokenizer_train)
+                                                   {"train": tokenizer_train})
         self.dynamics_config = os.path.join(CONFIGS, "dynamics", "tiny.yaml")
-        if dynamics_train:
+        overrides = {k: v for k, v in (("train", dynamics_train), ("model", dynamics_model)) if v}
+        if overrides:
             self.dynamics_config = derived_config("dynamics", self.path("dynamics.yaml"),
-                                                  dynamics_train)
+                                                  overrides)
 
     def path(self, *parts):
         return os.path.join(self.root, *parts)
@@ -75,11 +80,13 @@ class TinyPipeline:
         val = ["--val-tokens", self.tokens("val")] if self.validate else []
         return argv("wm-train", "--config", self.dynamics_config, "--tokens",
                     self.tokens("train"), *val, "--out", out, "--steps", self.dynamics_steps,
-                    "--threads", 1, *extra)
+                    "--threads", self.dynamics_threads, *extra)
 
-    def eval_argv(self, out, *extra):
-        """wm-eval of the dynamics run on the val split (options in `extra`)."""
-        return argv("wm-eval", "--checkpoint", self.dynamics(), "--tokenizer", self.tokenizer(),
+    def eval_argv(self, out, *extra, checkpoints=None):
+        """wm-eval of the dynamics run (or of the runs `checkpoints`) on the val split (options
+        in `extra`)."""
+        return argv("wm-eval", "--checkpoint", *(checkpoints or [self.dynamics()]),
+                    "--tokenizer", self.tokenizer(),
                     "--data", self.shards("val"), "--tokens", self.tokens("val"), "--out", out,
                     "--threads", 1, *extra)
 

@@ -1,0 +1,99 @@
+#!/usr/bin/python3
+"""End to end on tiny tabletop data: a world model trained here by the built tools (wm-gen-tabletop
+--look plain -> wm-ingest -> wm-tokenize -> wm-train) beats the copy-last-frame baseline in PSNR
+at horizon 1 on the val split, scored by wm-eval in the same run as the baseline; the same model
+stopped early does not, so the comparison can fail.
+
+The plain look (one untextured table and light) is what makes this affordable: on the demo's
+varied textures the 8x8-token tokenizer's own error (23.9 dB ceiling) is as large as the arm's
+motion between frames and a CPU-sized model does not beat copy-last (README, "Known limits").
+Sized for CI: about 2.5 min on 2 cores (PROCESSORS 2 in CMakeLists.txt)."""
+import csv
+import os
+import shutil
+import subprocess
+import sys
+import tempfile
+import unittest
+
+sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), ".."))
+from tiny_pipeline import TinyPipeline  # noqa: E402
+
+DYNAMICS_STEPS, EARLY_STEPS = 300, 30
+VAL_EPISODES = 16
+
+
+def run_ok(command):
+    p = subprocess.run(command, capture_output=True, text=True)
+    if p.returncode != 0:
+        raise AssertionError(f"{' '.join(command)}: exit {p.returncode}\n{p.stderr}")
+
+
+def step1_psnr(report):
+    """rollout -> {episode: PSNR at horizon step 1} from per_episode.csv (--horizon 1, so the
+    per-episode mean is the step-1 value)."""
+    out = {}
+    with open(os.path.join(report, "per_episode.csv"), newline="", encoding="utf-8") as f:
+        for row in csv.DictReader(f):
+            if row["metric"] == "psnr":
+                out.setdefault(row["rollout"], {})[int(row["episode"])] = float(row["value"])
+    return out
+
+
+def mean(values):
+    return sum(values) / len(values)
+
+
+class BeatsCopyLast(unittest.TestCase):
+    @classmethod
+    def setUpClass(cls):
+        cls.tmp = tempfile.TemporaryDirectory(prefix="wm-beats-copy-last-")
+        # Context 2: horizon 1 starts from one real frame, so longer training windows would
+        # only cost time (2.8x the steps/s of the preset's 6 frames).
+        p = TinyPipeline(cls.tmp.name, train_episodes=80, val_episodes=VAL_EPISODES,
+                         look="plain", tokenizer_steps=1200, dynamics_steps=DYNAMICS_STEPS,
+                         dynamics_model={"context_frames": 2}, dynamics_threads=2)
+        early, final = p.path("early"), p.path("final")
+        run_ok(p.dynamics_argv(early, "--stop-after", EARLY_STEPS))
+        shutil.copytree(early, final)
+        run_ok(p.dynamics_argv(final, "--resume"))  # on to DYNAMICS_STEPS
+        reports = p.path("reports")
+        run_ok(p.eval_argv(reports, "--horizon", 1, "--rollout", "plain", "--temperature", 0,
+                           "--videos", 0, "--resamples", 100, checkpoints=[early, final]))
+        cls.early = step1_psnr(os.path.join(reports, "early"))
+        cls.final = step1_psnr(os.path.join(reports, "final"))
+
+    @classmethod
+    def tearDownClass(cls):
+        cls.tmp.cleanup()
+
+    def test_every_val_episode_is_scored(self):
+        for rollout in ("plain", "copy_last", "tokenizer_recon"):
+            self.assertEqual(sorted(self.final[rollout]), list(range(VAL_EPISODES)), rollout)
+
+    def test_trained_model_beats_copy_last_at_horizon_1(self):
+        model, copy = self.final["plain"], self.final["copy_last"]
+        gain = mean([model[e] - copy[e] for e in copy])
+        better = sum(model[e] > copy[e] for e in copy)
+        print(f"horizon 1 PSNR: model {mean(model.values()):.2f} dB, copy_last "
+              f"{mean(copy.values()):.2f} dB, ceiling "
+              f"{mean(self.final['tokenizer_recon'].values()):.2f} dB; model better on "
+              f"{better} of {len(copy)} episodes")
+        self.assertGreater(gain, 0.2)
+        self.assertGreater(better, len(copy) // 2)
+
+    def test_the_model_stopped_early_does_not(self):
+        # The control: the comparison above is not won by construction (e.g. by scoring the
+        # model against its own input); with 30 of 300 steps the model still loses to copy_last.
+        self.assertEqual(self.early["copy_last"], self.final["copy_last"])
+        self.assertLess(mean(self.early["plain"].values()), mean(self.early["copy_last"].values()))
+        self.assertGreater(mean(self.final["plain"].values()) - mean(self.early["plain"].values()),
+                           0.5)
+
+    def test_the_tokenizer_ceiling_is_above_the_model(self):
+        self.assertGreater(mean(self.final["tokenizer_recon"].values()),
+                           mean(self.final["plain"].values()))
+
+
+if __name__ == "__main__":
+    unittest.main()
