@@ -33,6 +33,7 @@ std::map<std::string, std::vector<double>> ScoreFrames(const Clip& real, const C
     out["mse"].push_back(metrics::Mse(a, b));
     out["psnr"].push_back(metrics::Psnr(a, b));
     out["ssim"].push_back(metrics::Ssim(a, b));
+    if (s >= metrics::kMsSsimMinSide) out["ms_ssim"].push_back(metrics::MsSsim(a, b));
   }
   out["lpips_style"] =
       tokenizer.PerceptualDistance(real.pixels.data(), pred.pixels.data(), real.frames);

@@ -1,7 +1,7 @@
 #pragma once
 // Per-step frame metrics of an imagined (or baseline) clip against the real one, on the uint8
-// frames a user would see: MSE, PSNR and SSIM from the metrics library and lpips_style from the
-// tokenizer's encoder (tokenize/tokenizer.h).
+// frames a user would see: MSE, PSNR, SSIM and MS-SSIM from the metrics library and lpips_style
+// from the tokenizer's encoder (tokenize/tokenizer.h).
 #include <cstdint>
 #include <map>
 #include <string>
@@ -28,8 +28,9 @@ struct Clip {
 Clip SubClip(const Clip& clip, int64_t first, int64_t count);
 
 // metric -> one value per frame pair ("mse" on [0, 255], "psnr" in dB (+inf for identical
-// frames), "ssim", "lpips_style", and "lpips" when `lpips` is given). `real` and `pred` have the
-// same frame count and size.
+// frames), "ssim", "ms_ssim" when frames are at least metrics::kMsSsimMinSide (176) pixels wide,
+// "lpips_style", and "lpips" when `lpips` is given). `real` and `pred` have the same frame count
+// and size.
 std::map<std::string, std::vector<double>> ScoreFrames(const Clip& real, const Clip& pred,
                                                        const tokenize::Tokenizer& tokenizer,
                                                        metrics::Lpips* lpips = nullptr);
