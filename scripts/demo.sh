@@ -9,6 +9,7 @@ OUT=${2:-data/demo}
 SEED=${SEED:-0}
 DYN_STEPS=${DYN_STEPS:-300}
 EARLY_STEPS=${EARLY_STEPS:-60}
+LOOK=${LOOK:-plain}  # varied: textured tables, harder (README, "Known limits")
 RAW=$OUT/raw
 SHARDS=$OUT/shards
 start=$(date +%s)
@@ -17,7 +18,7 @@ echo "== 1/6 generate the synthetic tabletop dataset (RLDS/TFDS layout) -> $RAW"
 if [ ! -f "$RAW/wm_tabletop/1.0.0/dataset_info.json" ]; then
   # 64x64 like the tiny tokenizer; 200 training episodes (fewer and the dynamics model overfits)
   "$BIN/wm-gen-tabletop" --out "$RAW" --seed "$SEED" --size 64 --train-episodes 200 \
-    --val-episodes 16
+    --val-episodes 16 --look "$LOOK"
 else
   echo "already generated"
 fi
