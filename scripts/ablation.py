@@ -76,7 +76,8 @@ class Ablation:
             if not os.path.exists(os.path.join(raw, "wm_tabletop", "1.0.0", "dataset_info.json")):
                 self.tool("wm-gen-tabletop", "--out", raw, "--size", d["size"], "--policies",
                           policies, "--train-episodes", train, "--val-episodes",
-                          d["eval_episodes"], "--seed", gen_seed)
+                          d["eval_episodes"], "--seed", gen_seed, "--look",
+                          d.get("look", "varied"))
         splits = {"train": ("seen", "train"), "seen": ("seen", "val"), "unseen": ("unseen", "val")}
         for split, (raw, tfds_split) in splits.items():
             if not os.path.exists(self.path("shards", split, "index.json")):
