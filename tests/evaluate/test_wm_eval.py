@@ -274,6 +274,13 @@ class WmEval(unittest.TestCase):
         self.assertNotEqual(plain_means(self.reports[0]), plain_means(runs["sampled1"]))
         with open(os.path.join(runs["argmax0"], "manifest.json"), encoding="utf-8") as f:
             self.assertEqual(json.load(f)["config"]["temperature"], 0)
+        # Samples of argmax decoding are identical: zero uncertainty, and wm-eval says why.
+        p = ok("wm-eval", *self.eval_args(self.path("argmax_samples")), "--rollout", "plain",
+               "--temperature", 0, "--samples", 2)
+        self.assertIn("--samples 2 with argmax decoding", p.stderr)
+        rows = read_rows(os.path.join(self.path("argmax_samples", "dyn"), "per_episode.csv"))
+        spread = [float(r["value"]) for r in rows if r["metric"] == "uncertainty"]
+        self.assertEqual(spread, [0.0] * EPISODES)
 
     def test_sharded_jobs_write_the_single_job_report(self):
         args = self.eval_args(self.path("sharded"))

@@ -24,11 +24,12 @@ policy: {d_model: 16, num_heads: 2, posterior_layers: 1, prior_layers: 1, decode
 train: {batch_size: 4, steps: 30, warmup_steps: 3, max_lr: 3.0e-3, threads: 1, log_every: 1,
         checkpoint_every: 30}
 """
-failures = []
+failures, checks = [], []
 
 
 def check(ok, what):
     print(("ok   " if ok else "FAIL ") + what)
+    checks.append(what)
     if not ok:
         failures.append(what)
 
@@ -79,13 +80,16 @@ def main():
             werr = max(float(np.max(np.abs(ta[k] - tb[k]))) for k in ta if k.startswith("model/"))
             check(werr < 1e-4, "2-process weights equal 1-process weights (max diff %.2e)" % werr)
             check(not os.path.exists(os.path.join(two, ".checkpoint.wmt.tmp")), "no temp files")
-            schema = json.load(open(os.path.join(SRC, "schemas", "dynamics-checkpoint.schema.json")))
-            try:
-                jsonschema.validate(json.load(open(os.path.join(one, "checkpoint.json"))), schema)
-                check(True, "checkpoint.json validates against its schema")
-            except jsonschema.ValidationError as e:
-                check(False, "checkpoint.json schema: %s" % e.message)
-    print("%d passed, %d failed" % (9 - len(failures), len(failures)))
+            manifest = json.load(open(os.path.join(one, "checkpoint.json")))
+            for part, name in ((manifest, "dynamics-checkpoint"),
+                               (manifest["config"], "dynamics-config")):
+                schema = json.load(open(os.path.join(SRC, "schemas", name + ".schema.json")))
+                try:
+                    jsonschema.validate(part, schema)
+                    check(True, "checkpoint.json validates against %s.schema.json" % name)
+                except jsonschema.ValidationError as e:
+                    check(False, "checkpoint.json, %s.schema.json: %s" % (name, e.message))
+    print("%d passed, %d failed" % (len(checks) - len(failures), len(failures)))
     return 1 if failures else 0
 
 
