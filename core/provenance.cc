@@ -4,11 +4,34 @@
 #include <spdlog/version.h>
 #include <zstd.h>
 
+#include <algorithm>
+
+#include "core/error.h"
 #include "core/sha256.h"
 
 namespace wm {
 
 std::string ConfigHash(const nlohmann::json& config) { return Sha256Hex(config.dump()); }
+
+void CheckResumeConfig(const std::string& stored_hash, const nlohmann::json& stored,
+                       const nlohmann::json& current) {
+  const std::string hash = ConfigHash(current);
+  if (stored_hash == hash || ConfigHash(stored) == hash) return;
+  constexpr size_t kShown = 5;
+  const nlohmann::json patch = nlohmann::json::diff(stored, current);
+  std::string changes;
+  for (size_t i = 0; i < patch.size() && i < kShown; ++i) {
+    const nlohmann::json::json_pointer path(patch[i].at("path").get<std::string>());
+    std::string key = path.empty() ? "config" : path.to_string().substr(1);
+    std::replace(key.begin(), key.end(), '/', '.');
+    const std::string before = stored.contains(path) ? stored.at(path).dump() : "(none)";
+    const std::string after = current.contains(path) ? current.at(path).dump() : "(none)";
+    changes += (i ? ", " : "") + key + ": " + before + " -> " + after;
+  }
+  if (patch.size() > kShown) changes += " and " + std::to_string(patch.size() - kShown) + " more";
+  throw Error("checkpoint was trained with a different config (" + changes +
+              "); --resume needs the same config: train with another config into a new --out");
+}
 
 nlohmann::json CoreLibraryVersions() {
   auto v = [](int a, int b, int c) {

@@ -12,6 +12,14 @@ inline constexpr const char* kWmkitVersion = "0.1.0";
 // SHA-256 of the config as compact JSON with sorted keys (nlohmann sorts object keys).
 std::string ConfigHash(const nlohmann::json& config);
 
+// For --resume: throws wm::Error unless a checkpoint's config equals the current one, naming
+// up to five keys that differ ("checkpoint was trained with a different config (train.steps:
+// 300 -> 600); ..."). `stored_hash` is the hash the checkpoint recorded and `stored` its config
+// re-read with today's defaults, so a key added to wmkit after the run (at its default) is no
+// difference.
+void CheckResumeConfig(const std::string& stored_hash, const nlohmann::json& stored,
+                       const nlohmann::json& current);
+
 // Versions of the libraries core links (zstd, OpenSSL, nlohmann_json, spdlog).
 nlohmann::json CoreLibraryVersions();
 

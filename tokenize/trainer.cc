@@ -81,17 +81,14 @@ void SaveCheckpoint(const TrainOptions& o, TrainState& s, const std::string& con
   WriteFileAtomically((fs::path(o.out_dir) / kManifest).string(), manifest.dump(2) + "\n");
 }
 
-void LoadCheckpoint(const std::string& path, const std::string& config_hash, TrainState& s) {
+void LoadCheckpoint(const std::string& path, const nlohmann::json& config, TrainState& s) {
   TensorArchiveReader r(path);
   try {
     const nlohmann::json& meta = r.meta();
-    // The stored config re-read with today's defaults, so a key added to wmkit later (at its
-    // default) does not make the same config look different.
-    const bool same =
-        meta.value("config_hash", "") == config_hash ||
-        (meta.contains("config") &&
-         ConfigHash(ConfigToJson(ConfigFromJson(meta.at("config")))) == config_hash);
-    Check(same, "checkpoint was trained with a different config; --resume needs the same config");
+    CheckResumeConfig(meta.value("config_hash", ""),
+                      meta.contains("config") ? ConfigToJson(ConfigFromJson(meta.at("config")))
+                                              : nlohmann::json(),
+                      config);
     LoadModule(r, "model/", *s.model);
     const auto& params = s.optimizer->parameters();
     for (size_t i = 0; i < params.size(); ++i) {
@@ -186,7 +183,8 @@ TrainSummary TrainTokenizer(const TrainOptions& o) {
   Check(o.resume || !fs::exists(ckpt),
         "run directory already has a checkpoint; pass --resume or choose another --out",
         {.file = ckpt});
-  const std::string config_hash = ConfigHash(ConfigToJson(cfg));
+  const nlohmann::json config_json = ConfigToJson(cfg);
+  const std::string config_hash = ConfigHash(config_json);
 
   SetUpTorch(cfg.train, device);
   TrainState s;
@@ -203,7 +201,7 @@ TrainSummary TrainTokenizer(const TrainOptions& o) {
   s.sampler = MakeSampler(o, o.data_dirs, cfg.train.seed, /*use_mixture=*/true);
   s.reseed_rng.seed(cfg.train.seed ^ 0x9E3779B97F4A7C15ull);
   if (o.resume && fs::exists(ckpt)) {
-    LoadCheckpoint(ckpt, config_hash, s);
+    LoadCheckpoint(ckpt, config_json, s);
     spdlog::info("resuming {} at step {}", ckpt, s.step);
   }
   TruncateStepLog(metrics_path, kMetricsHeader, s.step);

@@ -73,16 +73,14 @@ CheckpointMeta ReadCheckpointMeta(const std::string& path) {
 }
 
 CheckpointMeta LoadCheckpoint(const std::string& path, WorldModel& model, tokenize::AdamW* adamw,
-                              const std::string& expected_config_hash) {
+                              const nlohmann::json* expected_config) {
   TensorArchiveReader r(path);
   CheckpointMeta meta = MetaFromJson(r.meta(), path);
   try {
-    // The stored config re-read with today's defaults: a key added to wmkit after the run was
-    // trained (at its default) does not make the same config look different.
-    const std::string stored_hash = ConfigHash(ConfigToJson(ConfigFromJson(meta.config)));
-    Check(expected_config_hash.empty() || meta.config_hash == expected_config_hash ||
-              stored_hash == expected_config_hash,
-          "checkpoint was trained with a different config; --resume needs the same config");
+    if (expected_config != nullptr) {
+      CheckResumeConfig(meta.config_hash, ConfigToJson(ConfigFromJson(meta.config)),
+                        *expected_config);
+    }
     tokenize::LoadModule(r, "model/", *model);
     if (adamw) {
       const auto& params = adamw->parameters();

@@ -33,10 +33,11 @@ CheckpointMeta MetaFromJson(const nlohmann::json& j, const std::string& file);
 void SaveCheckpoint(const std::string& run_dir, WorldModel& model, tokenize::AdamW& adamw,
                     const CheckpointMeta& meta, const nlohmann::json& data);
 
-// Restores model, AdamW moments (when `adamw` is given) and returns the meta. Refuses a
-// checkpoint whose config hash differs from `expected_config_hash` (when not empty).
+// Restores model, AdamW moments (when `adamw` is given) and returns the meta. With
+// `expected_config` (resuming) refuses a checkpoint trained with another config, naming the keys
+// that differ.
 CheckpointMeta LoadCheckpoint(const std::string& path, WorldModel& model, tokenize::AdamW* adamw,
-                              const std::string& expected_config_hash);
+                              const nlohmann::json* expected_config = nullptr);
 
 // Reads only the meta (to build the model before loading it).
 CheckpointMeta ReadCheckpointMeta(const std::string& path);

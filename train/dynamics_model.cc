@@ -85,7 +85,7 @@ std::unique_ptr<DynamicsModel> DynamicsModel::Load(const std::string& path,
         "model was not trained on dataset '" + name + "' (no action statistics)", {.file = file});
   s.norm = ActionNorm::FromJson(meta.action_norms[name]);
   s.model = WorldModel(s.config);
-  LoadCheckpoint(file, s.model, nullptr, "");
+  LoadCheckpoint(file, s.model, nullptr);
   s.model->to(s.device);
   s.model->eval();
   return m;

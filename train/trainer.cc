@@ -165,7 +165,7 @@ TrainSummary TrainDynamics(const TrainOptions& o) {
               {"seed", tc.seed}};
   int64_t step = 0;
   if (o.resume && fs::exists(ckpt)) {
-    step = LoadCheckpoint(ckpt, model, &adamw, config_hash).step;
+    step = LoadCheckpoint(ckpt, model, &adamw, &config_json).step;
     if (writer) spdlog::info("resuming {} at step {}", ckpt, step);
   }
   GradientReducer reducer({o.rank, o.world_size, o.master_addr, o.master_port}, device);

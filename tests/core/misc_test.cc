@@ -88,6 +88,28 @@ TEST(Provenance, ConfigHashIgnoresKeyOrderButNotValues) {
   EXPECT_TRUE(p["libraries"].contains("zstd"));
 }
 
+TEST(Provenance, ResumeConfigCheckNamesWhatChanged) {
+  const nlohmann::json stored = {{"model", {{"d", 8}, {"norm", "layer"}}}, {"train", {{"steps", 2}}}};
+  EXPECT_NO_THROW(CheckResumeConfig("", stored, stored));
+  nlohmann::json current = stored;
+  current["train"]["steps"] = 6;
+  // The recorded hash wins: a config written before a key existed still resumes.
+  EXPECT_NO_THROW(CheckResumeConfig(ConfigHash(current), stored, current));
+  const std::string one = test::ErrorText([&] { CheckResumeConfig("", stored, current); });
+  EXPECT_NE(one.find("different config (train.steps: 2 -> 6); --resume"), std::string::npos) << one;
+  current["model"]["norm"] = "rms";
+  current["model"].erase("d");
+  current["model"]["extra"] = true;
+  const std::string three = test::ErrorText([&] { CheckResumeConfig("", stored, current); });
+  for (const char* change : {"model.d: 8 -> (none)", "model.extra: (none) -> true",
+                             "model.norm: \"layer\" -> \"rms\"", "train.steps: 2 -> 6"}) {
+    EXPECT_NE(three.find(change), std::string::npos) << change << " in " << three;
+  }
+  for (int i = 0; i < 4; ++i) current["train"]["k" + std::to_string(i)] = i;
+  const std::string many = test::ErrorText([&] { CheckResumeConfig("", stored, current); });
+  EXPECT_NE(many.find(" and 3 more);"), std::string::npos) << many;
+}
+
 TEST(Progress, LineShowsRateAndEta) {
   std::string line = Progress::FormatLine("ingest", 25, 100, "episodes", 5.0, 10);
   EXPECT_NE(line.find(" 25%"), std::string::npos) << line;

@@ -124,7 +124,8 @@ TEST_F(TrainTest, RefusesToOverwriteOrResumeWithAnotherConfig) {
             std::string::npos);
   TrainOptions changed = Options("run", 6);
   changed.resume = true;
-  EXPECT_NE(test::ErrorText([&] { TrainTokenizer(changed); }).find("different config"),
+  EXPECT_NE(test::ErrorText([&] { TrainTokenizer(changed); })
+                .find("different config (train.steps: 5 -> 6)"),
             std::string::npos);
 }
 

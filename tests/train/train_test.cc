@@ -108,7 +108,8 @@ TEST_F(DynamicsTrainTest, RefusesOverwriteOtherConfigAndMismatchedData) {
             std::string::npos);
   TrainOptions changed = Options("run", 3);
   changed.resume = true;
-  EXPECT_NE(wm::test::ErrorText([&] { TrainDynamics(changed); }).find("different config"),
+  EXPECT_NE(wm::test::ErrorText([&] { TrainDynamics(changed); })
+                .find("different config (train.steps: 2 -> 3)"),
             std::string::npos);
   TrainOptions grid = Options("grid", 2);
   grid.config.model.grid_w = 5;
