@@ -351,9 +351,7 @@ std::vector<std::string> EvaluateCheckpoints(const EvalOptions& o) {
     // wm-report refuses the folder instead of mixing old and new files.
     fs::remove(fs::path(dir) / "manifest.json");
     auto model = train::DynamicsModel::Load(o.checkpoints[c], o.device, "", o.threads);
-    const double temperature = o.rollout.temperature >= 0 ? o.rollout.temperature
-                                                          : model->config().model.decode_temperature;
-    if (o.rollout.samples >= 2 && temperature == 0) {
+    if (o.rollout.samples >= 2 && model->DecodeTemperature(o.rollout.temperature) == 0) {
       spdlog::warn("{}: --samples {} with argmax decoding (temperature 0) imagines {} identical "
                    "rollouts: uncertainty is 0 and uncertainty_error_corr undefined; pass "
                    "--temperature > 0 to sample", name, o.rollout.samples, o.rollout.samples);

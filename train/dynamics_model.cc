@@ -99,6 +99,10 @@ int64_t DynamicsModel::max_context_frames() const {
   return state_->config.model.context_frames - 1;
 }
 
+double DynamicsModel::DecodeTemperature(double requested) const {
+  return requested >= 0 ? requested : state_->config.model.decode_temperature;
+}
+
 std::vector<int64_t> DynamicsModel::PredictNextFrame(const FrameContext& context, uint64_t seed,
                                                      int steps, double temperature) const {
   torch::NoGradGuard no_grad;
@@ -106,7 +110,7 @@ std::vector<int64_t> DynamicsModel::PredictNextFrame(const FrameContext& context
   torch::Tensor tokens, actions, z;
   s.Tensors(context, max_context_frames(), tokens, actions, z);
   const int n_steps = steps > 0 ? steps : s.config.model.decode_steps;
-  const double temp = temperature >= 0 ? temperature : s.config.model.decode_temperature;
+  const double temp = DecodeTemperature(temperature);
   std::vector<uint64_t> row_seeds = context.row_seeds;
   if (row_seeds.empty()) {
     for (int64_t b = 0; b < context.batch; ++b) row_seeds.push_back(MixSeed(seed, b));

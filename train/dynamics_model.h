@@ -48,6 +48,9 @@ class DynamicsModel {
   // Longest context PredictNextFrame takes (context_frames - 1); longer contexts keep their
   // last frames (a sliding window).
   int64_t max_context_frames() const;
+  // The temperature PredictNextFrame decodes with when asked for `requested`: the config's
+  // model.decode_temperature when `requested` < 0 (0 = argmax).
+  double DecodeTemperature(double requested) const;
 
   // Tokens of frame `frames` [batch, N]. `steps` / `temperature` <= 0 / < 0 take the config's
   // model.decode_steps / model.decode_temperature. Deterministic for a given seed on CPU; a row's
