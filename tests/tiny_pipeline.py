@@ -23,6 +23,15 @@ def argv(name, *args):
     return [os.path.join(BIN, name), *map(str, args)]
 
 
+def run_ok(command, **kwargs):
+    """subprocess.run capturing text output; AssertionError with the command and stderr unless it
+    exits 0."""
+    p = subprocess.run(command, capture_output=True, text=True, **kwargs)
+    if p.returncode != 0:
+        raise AssertionError(f"{' '.join(map(str, command))}: exit {p.returncode}\n{p.stderr}")
+    return p
+
+
 def derived_config(kind, out, sections):
     """configs/<kind>/tiny.yaml with the keys of `sections` ({section: {key: value}}) replaced,
     written to `out` (YAML)."""
@@ -93,9 +102,7 @@ class TinyPipeline:
     # The reference outputs.
     def _make(self, out, command):
         if not os.path.exists(out):
-            p = subprocess.run(command, capture_output=True, text=True)
-            if p.returncode != 0:
-                raise AssertionError(f"{' '.join(command)}: exit {p.returncode}\n{p.stderr}")
+            run_ok(command)
         return out
 
     def raw(self):

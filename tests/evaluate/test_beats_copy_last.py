@@ -11,22 +11,15 @@ Sized for CI: about 2.5 min on 2 cores (PROCESSORS 2 in CMakeLists.txt)."""
 import csv
 import os
 import shutil
-import subprocess
 import sys
 import tempfile
 import unittest
 
 sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), ".."))
-from tiny_pipeline import TinyPipeline  # noqa: E402
+from tiny_pipeline import TinyPipeline, run_ok  # noqa: E402
 
 DYNAMICS_STEPS, EARLY_STEPS = 300, 30
 VAL_EPISODES = 16
-
-
-def run_ok(command):
-    p = subprocess.run(command, capture_output=True, text=True)
-    if p.returncode != 0:
-        raise AssertionError(f"{' '.join(command)}: exit {p.returncode}\n{p.stderr}")
 
 
 def step1_psnr(report):

@@ -13,7 +13,7 @@ import tempfile
 import time
 
 sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), ".."))
-from tiny_pipeline import SRC, TinyPipeline  # noqa: E402
+from tiny_pipeline import SRC, TinyPipeline, run_ok  # noqa: E402,F401 (run_ok: for the tests)
 
 SEED = 20240610  # fixes which kill points are tried (as fractions of the measured writing phase)
 WMSHARD = ["/usr/bin/python3", os.path.join(SRC, "scripts", "wmshard.py")]
@@ -38,13 +38,6 @@ def tiny_pipeline(root, validate=False):
 
 def run(command, **kwargs):
     return subprocess.run(command, capture_output=True, text=True, **kwargs)
-
-
-def run_ok(command, **kwargs):
-    p = run(command, **kwargs)
-    if p.returncode != 0:
-        raise AssertionError(f"{' '.join(command)}: exit {p.returncode}\n{p.stderr}")
-    return p
 
 
 def kill_fractions(name, count):
