@@ -169,7 +169,7 @@ Vec3 TableAlbedo(const Vec3& p, const Scene& scene, Label* label) {
       shade = (parity & 1) ? 0.86 : 1.06;
       break;
     }
-    case 3:  // plain
+    case kPlainTablePattern:
       break;
     default:  // speckle, 4 mm grains
       shade = 0.88 + 0.24 * HashNoise(static_cast<int64_t>(std::floor(p.x / (0.004 * s))),

@@ -23,7 +23,6 @@ constexpr Vec3 kTableColours[] = {{0.55, 0.38, 0.22},
                                   {0.80, 0.72, 0.58},
                                   {0.30, 0.32, 0.38},
                                   {0.50, 0.55, 0.65}};
-constexpr int kPlainTable = 3;  // Appearance::table_pattern without a pattern
 constexpr const char* kInstructionTemplates[] = {
     "push the {} block to the green goal", "move the {} block onto the green goal",
     "put the {} block in the green goal region", "bring the {} block to the green circle"};
@@ -86,7 +85,7 @@ bool CanGrasp(const SceneState& s) {
 // The fixed parts of LookVariation::kPlain, applied after sampling so the draws stay the same.
 void MakePlain(Appearance& look) {
   look.table_rgb = kTableColours[1];
-  look.table_pattern = kPlainTable;
+  look.table_pattern = kPlainTablePattern;
   look.light_dir = Normalized(Vec3{0.3, -0.4, 0.87});
   look.light_intensity = 0.75;
   look.ambient = 0.3;

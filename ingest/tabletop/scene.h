@@ -50,10 +50,13 @@ struct SceneState {
   Vec3 goal;             // goal centre (z = 0)
 };
 
+// Appearance::table_pattern of LookVariation::kPlain: no pattern.
+inline constexpr int kPlainTablePattern = 3;
+
 // Per-episode look: what varies between episodes besides the layout.
 struct Appearance {
   Vec3 table_rgb;         // linear 0..1
-  int table_pattern = 0;  // 0 wood grain, 1 checker, 2 speckle, 3 none (plain)
+  int table_pattern = 0;  // 0 wood grain, 1 checker, 2 speckle, kPlainTablePattern none
   double pattern_scale = 1, pattern_phase = 0;
   Vec3 block_rgb;
   std::string block_colour;  // the colour's name, used in the instruction

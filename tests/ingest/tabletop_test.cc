@@ -396,6 +396,8 @@ double ModalTableShare(const Frame& f) {
 }  // namespace
 
 TEST(TabletopEpisode, PlainLookKeepsTheEpisodeAndDropsTheTexture) {
+  const Rollout first =
+      RollOut(EpisodeSeed(4, "train", 0), PolicyKind::kNoisy, 1, LookVariation::kPlain);
   for (int e = 0; e < 6; ++e) {
     const uint64_t seed = EpisodeSeed(4, "train", e);
     const Rollout varied = RollOut(seed, PolicyKind::kNoisy, 30);
@@ -408,8 +410,6 @@ TEST(TabletopEpisode, PlainLookKeepsTheEpisodeAndDropsTheTexture) {
     }
     EXPECT_EQ(plain.look.instruction, varied.look.instruction);
     // Every plain episode has the same table and light; the varied ones differ.
-    const Rollout first = RollOut(EpisodeSeed(4, "train", 0), PolicyKind::kNoisy, 1,
-                                  LookVariation::kPlain);
     EXPECT_EQ(plain.look.table_rgb.x, first.look.table_rgb.x);
     EXPECT_EQ(plain.look.light_dir.z, first.look.light_dir.z);
     // Untextured: one colour covers the table but for shadows (measured 0.93-0.98); a texture
