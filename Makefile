@@ -37,8 +37,14 @@ FUZZ_BUILD ?= build-fuzz
 FUZZ_SECONDS ?= 600
 FUZZ_TARGETS ?= tfrecord example shard tokens hdf5 yaml_config
 HARDENING_CONFIG := -DCMAKE_BUILD_TYPE=RelWithDebInfo -DWM_DATA_ONLY=ON -DWM_BUILD_BENCH=OFF
+# make test-model-only: the GPU machines' configuration (WM_MODEL_ONLY: no OpenCV/PCL/Ceres/HDF5/
+# protobuf, docs/gpu.md) built on the CPU in MODEL_BUILD, and the tests of the code it swaps in.
+MODEL_BUILD ?= build-model
+MODEL_ONLY_TESTS ?= ImageCodec|TrainTest|EncodeTest|Overfit|FrameScores
+# ccache keys on relative paths below the checkout, so other clones and worktrees share hits.
+export CCACHE_BASEDIR ?= $(CURDIR)
 
-.PHONY: all deps configure build test test-sanitize fuzz demo ingest tokenize train eval report ablation bench format lint clean
+.PHONY: all deps configure build test test-sanitize test-model-only fuzz demo ingest tokenize train eval report ablation bench format lint clean
 
 all: build
 
@@ -58,6 +64,11 @@ test-sanitize: deps
 	@cmake -S . -B $(SANITIZE_BUILD) $(HARDENING_CONFIG) -DWM_SANITIZE=ON > /dev/null
 	@cmake --build $(SANITIZE_BUILD) -j $(JOBS)
 	@cd $(SANITIZE_BUILD) && ctest --output-on-failure -j $(JOBS)
+
+test-model-only: deps
+	@cmake -S . -B $(MODEL_BUILD) -DCMAKE_BUILD_TYPE=Release -DWM_MODEL_ONLY=ON -DWM_BUILD_BENCH=OFF > /dev/null
+	@cmake --build $(MODEL_BUILD) -j $(JOBS)
+	@cd $(MODEL_BUILD) && ctest --output-on-failure -j $(JOBS) -R '$(MODEL_ONLY_TESTS)'
 
 fuzz:
 	@bash scripts/install-deps.sh clang libclang-rt-dev

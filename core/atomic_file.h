@@ -3,6 +3,7 @@
 // renamed over the target only on Commit(). A killed process leaves at most a `.NAME.tmp`
 // file that readers never open; the target is either absent or complete.
 #include <cstdio>
+#include <cstdint>
 #include <string>
 #include <string_view>
 

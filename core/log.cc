@@ -1,6 +1,7 @@
 #include "core/log.h"
 
 #include <spdlog/sinks/stdout_color_sinks.h>
+#include <spdlog/spdlog.h>
 
 namespace wm {
 
@@ -10,5 +11,8 @@ void InitLogging(const std::string& level) {
   logger->set_level(spdlog::level::from_str(level));
   spdlog::set_default_logger(logger);
 }
+
+void LogInfo(const std::string& message) { spdlog::info("{}", message); }
+void LogWarn(const std::string& message) { spdlog::warn("{}", message); }
 
 }  // namespace wm

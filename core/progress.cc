@@ -1,5 +1,6 @@
 #include "core/progress.h"
 
+#include <spdlog/spdlog.h>
 #include <unistd.h>
 
 #include <cmath>
@@ -73,8 +74,8 @@ void Progress::Render(bool final) {
   double elapsed = std::chrono::duration<double>(now - start_).count();
   if (tty_) {
     last_render_ = now;
-    std::fprintf(stderr, "\r%s\033[K%s", FormatLine(label_, done_, total_, unit_, elapsed, 30).c_str(),
-                 final ? "\n" : "");
+    std::fprintf(stderr, "\r%s\033[K%s",
+                 FormatLine(label_, done_, total_, unit_, elapsed, 30).c_str(), final ? "\n" : "");
     std::fflush(stderr);
     return;
   }

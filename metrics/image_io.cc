@@ -3,13 +3,10 @@
 #include <algorithm>
 #include <array>
 #include <filesystem>
-#include <opencv2/core.hpp>
-#include <opencv2/imgcodecs.hpp>
-#include <opencv2/imgproc.hpp>
-#include <opencv2/videoio.hpp>
 #include <optional>
 
 #include "core/error.h"
+#include "metrics/image_decoder.h"
 
 namespace wm::metrics {
 namespace {
@@ -29,45 +26,6 @@ bool IsImageFile(const fs::path& path) {
   return std::find(kExtensions.begin(), kExtensions.end(), ext) != kExtensions.end();
 }
 
-// An OpenCV matrix (1, 3 or 4 channels, BGR order) as an RGB or grey Image.
-Image FromMat(const cv::Mat& decoded, const std::string& source) {
-  cv::Mat mat;
-  switch (decoded.channels()) {
-    case 1:
-      mat = decoded;
-      break;
-    case 3:
-      cv::cvtColor(decoded, mat, cv::COLOR_BGR2RGB);
-      break;
-    case 4:
-      cv::cvtColor(decoded, mat, cv::COLOR_BGRA2RGB);
-      break;
-    default:
-      throw Error("unsupported channel count " + std::to_string(decoded.channels()) +
-                      " (expected grey, RGB or RGBA)",
-                  {.file = source});
-  }
-  double range = 0;
-  switch (mat.depth()) {
-    case CV_8U:
-      range = 255.0;
-      break;
-    case CV_16U:
-      range = 65535.0;
-      break;
-    case CV_32F:
-      range = 1.0;
-      break;
-    default:
-      throw Error("unsupported pixel depth (expected 8-bit, 16-bit or float)", {.file = source});
-  }
-  cv::Mat values;
-  mat.convertTo(values, CV_64F);
-  values = values.isContinuous() ? values : values.clone();
-  return Image::FromDouble(values.ptr<double>(), values.rows, values.cols, values.channels(),
-                           range);
-}
-
 void CheckSameShapeAs(const Image& first, const std::string& first_source, const Image& image,
                       const std::string& source) {
   try {
@@ -81,17 +39,11 @@ void CheckSameShapeAs(const Image& first, const std::string& first_source, const
 
 Image LoadImage(const std::string& path) {
   Check(fs::is_regular_file(path), "image file not found", {.file = path});
-  cv::Mat decoded = cv::imread(path, cv::IMREAD_UNCHANGED);
-  Check(!decoded.empty(), "cannot decode image (corrupt or unsupported format)", {.file = path});
-  return FromMat(decoded, path);
+  return internal::ReadImageFile(path);
 }
 
 Image DecodeImage(const std::string& bytes, const std::string& source) {
-  const cv::Mat raw(1, static_cast<int>(bytes.size()), CV_8U,
-                    const_cast<char*>(bytes.data()));  // imdecode only reads it
-  cv::Mat decoded = cv::imdecode(raw, cv::IMREAD_UNCHANGED);
-  Check(!decoded.empty(), "cannot decode image (corrupt or unsupported format)", {.file = source});
-  return FromMat(decoded, source);
+  return internal::DecodeImageBytes(bytes, source);
 }
 
 std::vector<std::string> ListImageFiles(const std::string& folder) {
@@ -119,9 +71,8 @@ struct FrameStream::State {
   std::string path;
   std::vector<std::string> files;  // folder or single image; empty for a video
   size_t next = 0;
-  cv::VideoCapture video;
-  bool is_video = false;
-  std::optional<Image> first;  // shape every later frame must have
+  std::unique_ptr<internal::VideoDecoder> video;  // null unless a video
+  std::optional<Image> first;                     // shape every later frame must have
   std::string first_source;
 };
 
@@ -130,12 +81,7 @@ FrameStream::FrameStream(const std::string& path) : s_(std::make_unique<State>()
   if (fs::is_directory(path)) {
     s_->files = ListImageFiles(path);
   } else if (IsVideoFile(path)) {
-    s_->is_video = true;
-    s_->video.open(path);
-    if (!s_->video.isOpened()) {
-      throw Error("cannot open video (missing, not a video, or no decoder for its codec)",
-                  {.file = path});
-    }
+    s_->video = std::make_unique<internal::VideoDecoder>(path);
   } else {
     s_->files = {path};
   }
@@ -150,11 +96,10 @@ size_t FrameStream::Read(size_t max_frames, Frames* out) {
   for (; read < max_frames; ++read) {
     Image image;
     std::string source;
-    if (s_->is_video) {
-      cv::Mat frame;
-      if (!s_->video.read(frame) || frame.empty()) break;
-      source = s_->path + "#frame " + std::to_string(s_->next++);
-      image = FromMat(frame, source);
+    if (s_->video) {
+      source = s_->path + "#frame " + std::to_string(s_->next);
+      if (!s_->video->Next(source, &image)) break;
+      ++s_->next;
     } else {
       if (s_->next == s_->files.size()) break;
       source = s_->files[s_->next++];
@@ -168,7 +113,7 @@ size_t FrameStream::Read(size_t max_frames, Frames* out) {
     out->images.push_back(std::move(image));
     out->sources.push_back(std::move(source));
   }
-  Check(!(s_->is_video && s_->next == 0 && read == 0 && max_frames > 0),
+  Check(!(s_->video && s_->next == 0 && read == 0 && max_frames > 0),
         "video has no decodable frame", {.file = s_->path});
   return read;
 }

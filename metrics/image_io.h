@@ -1,6 +1,7 @@
 #pragma once
-// Loading frames for the metrics: one image file, a folder of frames, or a video file (OpenCV
-// decoders; OpenCV stays inside image_io.cc). Colour images come out as RGB.
+// Loading frames for the metrics: one image file, a folder of frames, or a video file (OpenCV's
+// decoders; in WM_MODEL_ONLY builds PNG and JPEG only, through libpng/libjpeg, and no video:
+// metrics/image_decoder.h). Colour images come out as RGB.
 #include <memory>
 #include <string>
 #include <vector>

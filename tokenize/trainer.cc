@@ -13,12 +13,12 @@
 
 #include "core/atomic_file.h"
 #include "core/error.h"
-#include "core/step_log.h"
 #include "core/log.h"
 #include "core/paths.h"
 #include "core/progress.h"
 #include "core/provenance.h"
 #include "core/sha256.h"
+#include "core/step_log.h"
 #include "core/tensor_archive.h"
 #include "tokenize/adamw.h"
 #include "tokenize/frame_sampler.h"
@@ -202,7 +202,7 @@ TrainSummary TrainTokenizer(const TrainOptions& o) {
   s.reseed_rng.seed(cfg.train.seed ^ 0x9E3779B97F4A7C15ull);
   if (o.resume && fs::exists(ckpt)) {
     LoadCheckpoint(ckpt, config_json, s);
-    spdlog::info("resuming {} at step {}", ckpt, s.step);
+    LogInfo("resuming " + ckpt + " at step " + std::to_string(s.step));
   }
   TruncateStepLog(metrics_path, kMetricsHeader, s.step);
   std::ofstream metrics(metrics_path, std::ios::app);

@@ -1,6 +1,8 @@
 #include "train/st_transformer.h"
 
 #include <cmath>
+#include <cstdlib>
+#include <cstring>
 
 namespace wm::train {
 
@@ -14,6 +16,22 @@ torch::Tensor NormImpl::forward(const torch::Tensor& x) {
   return x * torch::rsqrt(x.pow(2).mean(-1, true) + 1e-6) * weight;
 }
 
+namespace {
+
+// On GPUs with LibTorch >= 2, attention runs as one fused kernel (FlashAttention or the
+// memory-efficient one): the same function, other rounding, and no [L, L] score tensor in
+// memory. CPUs keep the written-out form, which the PyTorch twin checks bit for bit.
+// WM_ATTENTION=explicit forces the written-out form on GPUs too (docs/gpu.md measures both).
+bool UseFusedAttention() {
+  static const bool fused = [] {
+    const char* v = std::getenv("WM_ATTENTION");
+    return v == nullptr || std::strcmp(v, "explicit") != 0;
+  }();
+  return fused;
+}
+
+}  // namespace
+
 AttentionImpl::AttentionImpl(int64_t dim, int64_t heads) : heads(heads) {
   qkv = register_module("qkv", torch::nn::Linear(dim, 3 * dim));
   proj = register_module("proj", torch::nn::Linear(dim, dim));
@@ -23,6 +41,12 @@ torch::Tensor AttentionImpl::forward(const torch::Tensor& x, bool causal) {
   const int64_t M = x.size(0), L = x.size(1), D = x.size(2), hd = D / heads;
   auto parts = qkv->forward(x).view({M, L, 3, heads, hd}).permute({2, 0, 3, 1, 4});  // [3,M,H,L,hd]
   torch::Tensor q = parts[0], k = parts[1], v = parts[2];  // [M, H, L, hd]
+#if TORCH_VERSION_MAJOR >= 2
+  if (x.is_cuda() && UseFusedAttention()) {
+    torch::Tensor out = at::scaled_dot_product_attention(q, k, v, {}, 0.0, causal);  // [M,H,L,hd]
+    return proj->forward(out.transpose(1, 2).reshape({M, L, D}));
+  }
+#endif
   torch::Tensor scores =
       torch::matmul(q, k.transpose(-2, -1)) / std::sqrt(double(hd));  // [M,H,L,L]
   if (causal) {

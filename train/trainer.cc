@@ -10,10 +10,10 @@
 
 #include "core/atomic_file.h"
 #include "core/error.h"
-#include "core/step_log.h"
 #include "core/log.h"
 #include "core/progress.h"
 #include "core/provenance.h"
+#include "core/step_log.h"
 #include "tokenize/adamw.h"
 #include "tokenize/trainer.h"
 #include "train/batch.h"
@@ -166,11 +166,12 @@ TrainSummary TrainDynamics(const TrainOptions& o) {
   int64_t step = 0;
   if (o.resume && fs::exists(ckpt)) {
     step = LoadCheckpoint(ckpt, model, &adamw, &config_json).step;
-    if (writer) spdlog::info("resuming {} at step {}", ckpt, step);
+    if (writer) LogInfo("resuming " + ckpt + " at step " + std::to_string(step));
   }
   GradientReducer reducer({o.rank, o.world_size, o.master_addr, o.master_port}, device);
   if (o.world_size > 1 && writer) {
-    spdlog::info("data parallel: {} ranks, {} backend", o.world_size, reducer.backend());
+    LogInfo("data parallel: " + std::to_string(o.world_size) + " ranks, " + reducer.backend() +
+            " backend");
   }
   std::ofstream metrics;
   if (writer) {

@@ -1,5 +1,7 @@
 #include "evaluate/report/compare.h"
 
+#include <spdlog/spdlog.h>
+
 #include <algorithm>
 #include <cmath>
 #include <limits>

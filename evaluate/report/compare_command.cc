@@ -1,5 +1,7 @@
 #include "evaluate/report/compare_command.h"
 
+#include <spdlog/spdlog.h>
+
 #include <CLI/CLI.hpp>
 #include <memory>
 

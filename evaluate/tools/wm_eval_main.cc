@@ -1,5 +1,7 @@
 // wm-eval: roll out trained world models against held-out episodes and score them
 // (docs/reports.md). Exit codes: 0 success, 1 a wmkit error (named file), 2 bad command line.
+#include <spdlog/spdlog.h>
+
 #include <CLI/CLI.hpp>
 #include <iostream>
 

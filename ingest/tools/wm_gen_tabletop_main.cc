@@ -1,4 +1,6 @@
 // wm-gen-tabletop: writes a synthetic tabletop RLDS dataset in TFDS's on-disk form.
+#include <spdlog/spdlog.h>
+
 #include <CLI/CLI.hpp>
 #include <iostream>
 

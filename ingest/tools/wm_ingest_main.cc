@@ -1,4 +1,6 @@
 // wm-ingest: raw robot episodes (RLDS / HDF5 / image folders) -> a checksummed shard dataset.
+#include <spdlog/spdlog.h>
+
 #include <CLI/CLI.hpp>
 #include <cstdio>
 #include <iostream>
@@ -35,27 +37,46 @@ int main(int argc, char** argv) {
   CLI::App app{"wm-ingest: convert robot episodes into wmkit shard datasets"};
   app.footer(kFooter);
   app.set_version_flag("--version", wm::VersionString("wm-ingest"));
-  app.add_option("--format", o.format, "Input format")->required()->check(CLI::IsMember({"rlds", "hdf5", "folder"}));
-  app.add_option("--input", o.input, "RLDS dataset dir (<name>/<version>), HDF5 file/dir, or episode folder root")->required();
+  app.add_option("--format", o.format, "Input format")
+      ->required()
+      ->check(CLI::IsMember({"rlds", "hdf5", "folder"}));
+  app.add_option("--input", o.input,
+                 "RLDS dataset dir (<name>/<version>), HDF5 file/dir, or episode folder root")
+      ->required();
   app.add_option("--output", o.output, "Dataset directory to write")->required();
-  app.add_option("--dataset", o.dataset, "Dataset name recorded in index.json (default: the source's)");
+  app.add_option("--dataset", o.dataset,
+                 "Dataset name recorded in index.json (default: the source's)");
   app.add_option("--split", o.split, "Split to read (RLDS) and record")->capture_default_str();
-  app.add_option("--mapping", o.mapping, "RLDS feature mapping YAML (default: configs/datasets/<name>.yaml)");
-  app.add_option("--configs", o.configs_dir, "Configs directory (default: $WMKIT_CONFIGS or the repo's configs/)");
+  app.add_option("--mapping", o.mapping,
+                 "RLDS feature mapping YAML (default: configs/datasets/<name>.yaml)");
+  app.add_option("--configs", o.configs_dir,
+                 "Configs directory (default: $WMKIT_CONFIGS or the repo's configs/)");
   app.add_option("--camera", o.camera, "HDF5 camera key under obs/ (default: first RGB camera)");
   bool no_depth = false;
   app.add_flag("--hdf5-no-depth", no_depth, "HDF5: ignore obs/<camera>_depth (e.g. float depth)");
-  app.add_option("--hdf5-memory-limit-mb", o.hdf5_limits.memory_mb, "HDF5: memory a file listing or demo read may use (0: no limit)")->capture_default_str();
-  app.add_option("--hdf5-cpu-limit-s", o.hdf5_limits.cpu_seconds, "HDF5: CPU seconds a file listing or demo read may use (0: no limit)")->capture_default_str();
+  app.add_option("--hdf5-memory-limit-mb", o.hdf5_limits.memory_mb,
+                 "HDF5: memory a file listing or demo read may use (0: no limit)")
+      ->capture_default_str();
+  app.add_option("--hdf5-cpu-limit-s", o.hdf5_limits.cpu_seconds,
+                 "HDF5: CPU seconds a file listing or demo read may use (0: no limit)")
+      ->capture_default_str();
   app.add_option("--resize", resize, "Re-encode every frame at WxH (default: keep encoded bytes)");
-  app.add_option("--shard-size-mb", o.shard_size_mb, "Close a shard at this size")->capture_default_str();
-  app.add_option("--shard-index", o.shard_index, "This job's index (Slurm: $SLURM_ARRAY_TASK_ID)")->capture_default_str();
-  app.add_option("--num-shards", o.num_shards, "Number of jobs splitting the input")->capture_default_str();
-  app.add_option("--max-episodes", o.max_episodes, "Only the first N input episodes (-1: all)")->capture_default_str();
-  app.add_option("--on-error", o.on_error, "fail: stop at a bad episode; skip: skip and count it")->capture_default_str()->check(CLI::IsMember({"fail", "skip"}));
+  app.add_option("--shard-size-mb", o.shard_size_mb, "Close a shard at this size")
+      ->capture_default_str();
+  app.add_option("--shard-index", o.shard_index, "This job's index (Slurm: $SLURM_ARRAY_TASK_ID)")
+      ->capture_default_str();
+  app.add_option("--num-shards", o.num_shards, "Number of jobs splitting the input")
+      ->capture_default_str();
+  app.add_option("--max-episodes", o.max_episodes, "Only the first N input episodes (-1: all)")
+      ->capture_default_str();
+  app.add_option("--on-error", o.on_error, "fail: stop at a bad episode; skip: skip and count it")
+      ->capture_default_str()
+      ->check(CLI::IsMember({"fail", "skip"}));
   app.add_option("--threads", o.threads, "Decode/check threads")->capture_default_str();
-  app.add_flag("--header-check-only", header_only, "Decode only each stream's first frame (faster, pass-through)");
-  app.add_option("--log-level", log_level, "trace, debug, info, warn, error")->capture_default_str();
+  app.add_flag("--header-check-only", header_only,
+               "Decode only each stream's first frame (faster, pass-through)");
+  app.add_option("--log-level", log_level, "trace, debug, info, warn, error")
+      ->capture_default_str();
   if (const int rc = wm::ParseCommandLine(app, argc, argv); rc >= 0) return rc;
   wm::InitLogging(log_level);
   try {

@@ -1,4 +1,6 @@
 // wm-shard: inspect, verify, dump and merge wmkit shard datasets.
+#include <spdlog/spdlog.h>
+
 #include <CLI/CLI.hpp>
 #include <iostream>
 

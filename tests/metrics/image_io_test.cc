@@ -5,12 +5,15 @@
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
+#include <cstring>
 #include <fstream>
 #include <opencv2/core.hpp>
 #include <opencv2/imgcodecs.hpp>
+#include <opencv2/imgproc.hpp>
 #include <opencv2/videoio.hpp>
 
 #include "core/error.h"
+#include "core/image_codec.h"
 #include "tests/core/test_util.h"
 
 namespace wm::metrics {
@@ -103,6 +106,36 @@ TEST(ImageIo, PairsMustMatchInCountAndShape) {
   }
   EXPECT_THAT(ErrorOf([&] { CheckPaired(pred, real); }),
               AllOf(HasSubstr("pred/2.png"), HasSubstr("real/2.png")));
+}
+
+// core/image_codec.h (what model-only builds decode with) against OpenCV's decoders on the same
+// bytes: PNG of every colour type and depth OpenCV writes, and JPEG (both use libjpeg-turbo with
+// its default integer IDCT, so the pixels are equal, not just close).
+TEST(ImageCodec, DecodesExactlyAsOpenCv) {
+  cv::Mat colour(21, 17, CV_8UC3), grey(9, 11, CV_8UC1), wide(6, 5, CV_16UC1), alpha(4, 3, CV_8UC4);
+  cv::randu(colour, 0, 256);
+  cv::randu(grey, 0, 256);
+  cv::randu(wide, 0, 65536);
+  cv::randu(alpha, 0, 256);
+  for (const auto& [ext, mat] : std::vector<std::pair<std::string, cv::Mat>>{
+           {".png", colour}, {".png", grey}, {".png", wide}, {".png", alpha}, {".jpg", colour},
+           {".jpg", grey}}) {
+    std::vector<uchar> buf;
+    ASSERT_TRUE(cv::imencode(ext, mat, buf));
+    const std::string bytes(buf.begin(), buf.end());
+    const DecodedImage ours = DecodePngOrJpeg(bytes, "case");
+    cv::Mat ref = cv::imdecode(buf, cv::IMREAD_UNCHANGED);
+    if (ref.channels() == 3) cv::cvtColor(ref, ref, cv::COLOR_BGR2RGB);
+    if (ref.channels() == 4) cv::cvtColor(ref, ref, cv::COLOR_BGRA2RGB);
+    SCOPED_TRACE(ext + " " + std::to_string(mat.channels()) + " channels, depth " +
+                 std::to_string(mat.depth()));
+    EXPECT_EQ(ours.height, ref.rows);
+    EXPECT_EQ(ours.width, ref.cols);
+    EXPECT_EQ(ours.channels, ref.channels());
+    EXPECT_EQ(ours.bit_depth, ref.depth() == CV_16U ? 16 : 8);
+    ASSERT_EQ(ours.data.size(), ref.total() * ref.elemSize());
+    EXPECT_EQ(std::memcmp(ours.data.data(), ref.data, ours.data.size()), 0);
+  }
 }
 
 TEST(ImageIo, VideosYieldEveryFrame) {

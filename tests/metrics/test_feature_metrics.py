@@ -68,7 +68,7 @@ def clip_descriptors(features, clip):
 
 def frechet(x, y):
     s1, s2 = np.cov(x, rowvar=False), np.cov(y, rowvar=False)  # ddof = 1
-    covmean = scipy.linalg.sqrtm(s1 @ s2, disp=False)[0].real
+    covmean = scipy.linalg.sqrtm(s1 @ s2).real
     return ((x.mean(0) - y.mean(0)) ** 2).sum() + np.trace(s1 + s2 - 2 * covmean)
 
 

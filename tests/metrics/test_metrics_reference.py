@@ -59,7 +59,7 @@ def reference_frechet(f1, f2):
     """The FID reference implementation's formula (Heusel et al. 2017, pytorch-fid)."""
     mu1, mu2 = f1.mean(axis=0), f2.mean(axis=0)
     s1, s2 = np.cov(f1, rowvar=False), np.cov(f2, rowvar=False)
-    covmean, _ = scipy.linalg.sqrtm(s1 @ s2, disp=False)
+    covmean = scipy.linalg.sqrtm(s1 @ s2)
     trace = np.trace(s1) + np.trace(s2) - 2 * np.trace(covmean.real)
     return float(((mu1 - mu2) ** 2).sum() + trace)
 

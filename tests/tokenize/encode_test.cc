@@ -4,8 +4,9 @@
 #include <gtest/gtest.h>
 
 #include <filesystem>
-#include <opencv2/imgcodecs.hpp>
 
+#include "core/atomic_file.h"
+#include "core/image_codec.h"
 #include "core/shard/dataset_reader.h"
 #include "core/tokens/token_dataset.h"
 #include "tests/core/test_util.h"
@@ -89,6 +90,16 @@ TEST_F(EncodeTest, ThreeShardJobsEqualOneJob) {
   EXPECT_EQ(a.index().provenance, b.index().provenance);
 }
 
+#ifndef WM_HAVE_OPENCV
+TEST_F(EncodeTest, DecodeSaysItNeedsOpenCv) {
+  const std::string out = *dir_ / "tokens-decode";
+  Encode(out);
+  EXPECT_NE(test::ErrorText([&] {
+              DecodeEpisode({.checkpoint = run(), .tokens_dir = out, .out = *dir_ / "x.png"});
+            }).find("needs OpenCV"),
+            std::string::npos);
+}
+#else
 TEST_F(EncodeTest, DecodeWritesContactSheetAndRefusesOtherTokenizers) {
   const std::string out = *dir_ / "tokens-decode";
   Encode(out);
@@ -96,9 +107,9 @@ TEST_F(EncodeTest, DecodeWritesContactSheetAndRefusesOtherTokenizers) {
   EXPECT_EQ(DecodeEpisode({.checkpoint = run(), .tokens_dir = out, .episode = 1, .out = png,
                            .originals_dir = data(), .columns = 4}),
             6);
-  cv::Mat sheet = cv::imread(png);
-  EXPECT_EQ(sheet.cols, 4 * 32);
-  EXPECT_EQ(sheet.rows, 2 * 2 * 32);  // 2 rows of frames, each original above decoded
+  const DecodedImage sheet = DecodePngOrJpeg(ReadFile(png), png);
+  EXPECT_EQ(sheet.width, 4 * 32);
+  EXPECT_EQ(sheet.height, 2 * 2 * 32);  // 2 rows of frames, each original above decoded
   DecodeEpisode({.checkpoint = run(), .tokens_dir = out, .out = *dir_ / "frames"});
   EXPECT_TRUE(fs::exists(fs::path(*dir_ / "frames") / "frame_0005.png"));
   TrainOptions other{.config = TestConfig(), .data_dirs = {data()}, .out_dir = *dir_ / "other"};
@@ -110,6 +121,8 @@ TEST_F(EncodeTest, DecodeWritesContactSheetAndRefusesOtherTokenizers) {
             }).find("written by another tokenizer"),
             std::string::npos);
 }
+
+#endif
 
 TEST(Overfit, TinyTokenizerReconstructsAHandfulOfFrames) {
   test::TempDir dir;

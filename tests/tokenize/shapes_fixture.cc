@@ -1,21 +1,31 @@
 #include "tests/tokenize/shapes_fixture.h"
 
-#include <opencv2/imgcodecs.hpp>
-#include <opencv2/imgproc.hpp>
+#include <array>
 
+#include "core/image_codec.h"
 #include "core/shard/dataset_writer.h"
 #include "tests/core/test_util.h"
 
 namespace wm::tokenize {
 
-// A 48x48 PNG: a coloured background with a rectangle and a circle that move with `t`.
+// A 48x48 PNG: a coloured background with a rectangle and a disc that move with `t`. Drawn by
+// hand and encoded with core/image_codec.h, so builds without OpenCV (WM_MODEL_ONLY) have it.
 std::string ShapeFrame(int episode, int t) {
-  cv::Mat img(48, 48, CV_8UC3, cv::Scalar(40 + 30 * episode, 90, 160 - 20 * episode));
-  cv::rectangle(img, cv::Rect(4 + 3 * t, 6, 14, 10), cv::Scalar(20, 220, 240), cv::FILLED);
-  cv::circle(img, cv::Point(30, 14 + 3 * t), 7, cv::Scalar(230, 40, 60 * episode), cv::FILLED);
-  std::vector<uchar> png;
-  cv::imencode(".png", img, png);
-  return std::string(png.begin(), png.end());
+  constexpr int kSize = 48;
+  std::vector<uint8_t> rgb(kSize * kSize * 3);
+  auto paint = [&](int x, int y, std::array<int, 3> colour) {
+    for (int c = 0; c < 3; ++c) rgb[(y * kSize + x) * 3 + c] = static_cast<uint8_t>(colour[c]);
+  };
+  const int rect_x = 4 + 3 * t, disc_y = 14 + 3 * t;
+  for (int y = 0; y < kSize; ++y) {
+    for (int x = 0; x < kSize; ++x) {
+      paint(x, y, {160 - 20 * episode, 90, 40 + 30 * episode});
+      if (x >= rect_x && x < rect_x + 14 && y >= 6 && y < 16) paint(x, y, {240, 220, 20});
+      if ((x - 30) * (x - 30) + (y - disc_y) * (y - disc_y) <= 49)
+        paint(x, y, {60 * episode, 40, 230});
+    }
+  }
+  return EncodePng(rgb.data(), kSize, kSize, 3);
 }
 
 void WriteShapesDataset(const std::string& dir, const std::string& name) {

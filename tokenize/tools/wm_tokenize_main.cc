@@ -1,6 +1,8 @@
 // wm-tokenize: train the VQ-VAE video tokenizer on shard datasets, pre-tokenize datasets into
 // token datasets and decode them for inspection (docs/tokenizer.md, docs/token-format.md).
 // Exit codes: 0 success, 1 a wmkit error (bad config, data, checkpoint), 2 a bad command line.
+#include <spdlog/spdlog.h>
+
 #include <CLI/CLI.hpp>
 #include <exception>
 #include <iostream>

@@ -1,6 +1,8 @@
 // wm-train: train the action- and policy-conditioned dynamics model on token datasets
 // (docs/dynamics.md). Exit codes: 0 success, 1 a wmkit error (bad config, data, checkpoint) or a
 // failed rank, 2 for a bad command line.
+#include <spdlog/spdlog.h>
+
 #include <CLI/CLI.hpp>
 #include <cstdlib>
 #include <exception>

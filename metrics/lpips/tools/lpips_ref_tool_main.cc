@@ -1,5 +1,7 @@
 // lpips_ref_tool: LPIPS (v0.1, AlexNet) of image pairs, printed as JSON. The reference checks
 // (tests/metrics/lpips/) and bench/lpips_bench.py drive wm::metrics::Lpips through it.
+#include <spdlog/spdlog.h>
+
 #include <CLI/CLI.hpp>
 #include <algorithm>
 #include <chrono>
