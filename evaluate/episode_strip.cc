@@ -62,6 +62,13 @@ std::vector<std::string> RowLabel(const std::string& row) {
   return {row};
 }
 
+void WritePng(const std::string& path, const cv::Mat& image) {
+  std::vector<uchar> png;
+  Check(cv::imencode(".png", image, png), "cannot encode the picture as PNG", {.file = path});
+  std::filesystem::create_directories(std::filesystem::path(path).parent_path());
+  WriteFileAtomically(path, std::string_view(reinterpret_cast<const char*>(png.data()), png.size()));
+}
+
 }  // namespace
 
 int StripScale(int size) { return std::max(1, (192 + size - 1) / size); }
@@ -105,12 +112,36 @@ void WriteEpisodeStrip(const std::string& dir, int64_t episode, const Clip& real
       cv::resize(cells[c], canvas(box), box.size(), 0, 0, cv::INTER_NEAREST);
     }
   }
-  std::vector<uchar> png;
-  const std::string path =
-      (std::filesystem::path(dir) / ("episode_" + std::to_string(episode) + ".png")).string();
-  Check(cv::imencode(".png", canvas, png), "cannot encode the strip as PNG", {.file = path});
-  std::filesystem::create_directories(dir);
-  WriteFileAtomically(path, std::string_view(reinterpret_cast<const char*>(png.data()), png.size()));
+  WritePng((std::filesystem::path(dir) / ("episode_" + std::to_string(episode) + ".png")).string(),
+           canvas);
+}
+
+void WriteStripOverview(const std::string& dir, const std::vector<int64_t>& episodes, int count,
+                        int size) {
+  const int cell = size * StripScale(size);
+  std::vector<cv::Mat> parts;
+  for (size_t i = 0; i < episodes.size() && static_cast<int>(i) < count; ++i) {
+    const int64_t k = episodes[i];
+    const std::string path =
+        (std::filesystem::path(dir) / ("episode_" + std::to_string(k) + ".png")).string();
+    if (!std::filesystem::exists(path)) continue;
+    const cv::Mat strip = cv::imread(path, cv::IMREAD_COLOR);
+    Check(!strip.empty(), "cannot read the strip back", {.file = path});
+    const int rows = (strip.rows - kStripHeaderHeight + kStripGap) / (cell + kStripGap);
+    if (parts.empty()) parts.push_back(strip.rowRange(0, kStripHeaderHeight).clone());
+    for (int r : {0, 1, rows - 1}) {  // real, the first model rollout, its error
+      const int y = kStripHeaderHeight + r * (cell + kStripGap);
+      cv::Mat row = strip.rowRange(y, std::min(strip.rows, y + cell + kStripGap)).clone();
+      cv::putText(row, "episode " + std::to_string(k), {4, 16}, cv::FONT_HERSHEY_SIMPLEX, 0.45,
+                  kText, 1, cv::LINE_AA);
+      parts.push_back(row);
+    }
+    parts.back().push_back(cv::Mat(3 * kStripGap, strip.cols, CV_8UC3, kBackground));
+  }
+  if (parts.empty()) return;
+  cv::Mat overview;
+  cv::vconcat(parts, overview);
+  WritePng((std::filesystem::path(dir) / "overview.png").string(), overview);
 }
 
 }  // namespace wm::evaluate

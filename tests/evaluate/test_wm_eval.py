@@ -447,6 +447,19 @@ class WmEval(unittest.TestCase):
             self.assertGreater(np.abs(cells["plain"][1:].astype(int) - self.real[k][1:]).max(),
                                0, "a 10-step model does not imagine the real frames")
 
+    def test_strip_overview_stacks_each_episodes_real_plain_and_error_rows(self):
+        cell = SIZE * STRIP_SCALE
+        overview = cv2.imread(os.path.join(self.reports[0], "strips", "overview.png"))
+        self.assertEqual(overview.shape[0], STRIP_HEADER + EPISODES * (3 * cell + 5 * STRIP_GAP))
+        for k in range(EPISODES):
+            strip = cv2.imread(os.path.join(self.reports[0], "strips", f"episode_{k}.png"))
+            self.assertEqual(overview.shape[1], strip.shape[1])
+            y0 = STRIP_HEADER + k * (3 * cell + 5 * STRIP_GAP)
+            for i, r in enumerate((0, 1, len(STRIP_ROWS) - 1)):  # real, plain, error plain
+                y, ys = y0 + i * (cell + STRIP_GAP), STRIP_HEADER + r * (cell + STRIP_GAP)
+                np.testing.assert_array_equal(overview[y:y + cell, STRIP_LABEL:],
+                                              strip[ys:ys + cell, STRIP_LABEL:], (k, r))
+
     def test_saved_rollouts_read_back_through_wm_ingest(self):
         """Every exported kind, ingested with wm-ingest --format folder, decodes to the frames
         the report scored (PNG is lossless), with the episode's logged actions; meta.json says
