@@ -66,7 +66,8 @@ void WritePng(const std::string& path, const cv::Mat& image) {
   std::vector<uchar> png;
   Check(cv::imencode(".png", image, png), "cannot encode the picture as PNG", {.file = path});
   std::filesystem::create_directories(std::filesystem::path(path).parent_path());
-  WriteFileAtomically(path, std::string_view(reinterpret_cast<const char*>(png.data()), png.size()));
+  WriteFileAtomically(path,
+                      std::string_view(reinterpret_cast<const char*>(png.data()), png.size()));
 }
 
 }  // namespace

@@ -273,7 +273,8 @@ void WriteReport(const EvalOptions& o, const std::string& name, const std::strin
           static_cast<int64_t>(uncertainty[mode].first.size())};
     }
   }
-  WriteStripOverview((fs::path(dir) / "strips").string(), t.episodes, o.strips, tok.image_size());
+  WriteStripOverview((fs::path(dir) / "strips").string(), t.episodes, o.strips,
+                     tok.image_size());
   WriteScoreCsvs(dir, name, t, o.resamples, o.rollout.seed);
   WriteFileAtomically((fs::path(dir) / "values.csv").string(), values);
   WriteFileAtomically((fs::path(dir) / "contexts.csv").string(), ContextsCsv(name, o.modes, records));

@@ -48,8 +48,8 @@ std::string ActionsCsv(const Episode& ep, int64_t first, int64_t count) {
 }
 
 // One episode folder: frames `clip` 0.. as steps first.., its actions and meta, committed whole.
-void WriteEpisodeFolder(const fs::path& dataset, int64_t episode, const Clip& clip,
-                        int64_t first, const Episode& ep, const nlohmann::json& meta) {
+void WriteEpisodeFolder(const fs::path& dataset, int64_t episode, const Clip& clip, int64_t first,
+                        const Episode& ep, const nlohmann::json& meta) {
   const std::string name = "episode_" + std::to_string(episode);
   const fs::path final_dir = dataset / name, temp = dataset / ("." + name + ".tmp");
   fs::remove_all(temp);  // a killed run's leftovers
