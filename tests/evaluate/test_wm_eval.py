@@ -499,6 +499,15 @@ class WmEval(unittest.TestCase):
                 self.assertEqual(source_of["checkpoint"]["sha256"],
                                  sha256(self.path("dyn", "checkpoint.wmt")))
                 self.assertEqual(meta["policy_id"], self.policies[k])
+        # Paired with the real frames, wm-metrics scores an exported rollout as the report did.
+        for k in range(EPISODES):
+            got = json.loads(ok("wm-metrics", "--ref", os.path.join(export, "real", f"episode_{k}"),
+                                "--pred", os.path.join(export, "plain", f"episode_{k}"),
+                                "--metrics", "psnr,mse").stdout)
+            for metric in ("psnr", "mse"):
+                (row,) = [r for r in self.select("per_episode.csv", "plain", metric)
+                          if int(r["episode"]) == k]
+                self.assert_close(got[metric], float(row["value"]), f"plain {metric} {k}")
 
 
 if __name__ == "__main__":
