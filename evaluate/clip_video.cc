@@ -3,20 +3,10 @@
 #include <filesystem>
 #include <opencv2/imgproc.hpp>
 
+#include "evaluate/frame_image.h"
 #include "tokenize/mp4_writer.h"
-#include "tokenize/tokenizer.h"
 
 namespace wm::evaluate {
-namespace {
-
-cv::Mat Bgr(const Clip& clip, int64_t t) {
-  std::vector<uint8_t> rgb = tokenize::PlanarToRgb8(clip.frame(t), clip.size);
-  cv::Mat bgr;
-  cv::cvtColor(cv::Mat(clip.size, clip.size, CV_8UC3, rgb.data()), bgr, cv::COLOR_RGB2BGR);
-  return bgr;
-}
-
-}  // namespace
 
 void WriteClipVideo(const std::string& dir, int64_t episode, const Clip& real,
                     const std::map<std::string, Clip>& rollouts) {
@@ -27,15 +17,9 @@ void WriteClipVideo(const std::string& dir, int64_t episode, const Clip& real,
   const int scale = 2;  // 64 px frames are too small to look at
   tokenize::Mp4Writer video(path, 4.0, panels * real.size * scale, real.size * scale);
   for (int64_t t = 0; t < real.frames; ++t) {
-    std::vector<cv::Mat> row = {Bgr(real, t)};
-    for (const auto& [name, clip] : rollouts) row.push_back(Bgr(clip, t));
-    if (!rollouts.empty()) {
-      cv::Mat diff, grey, heat;
-      cv::absdiff(row[0], row[1], diff);
-      cv::cvtColor(diff, grey, cv::COLOR_BGR2GRAY);
-      cv::applyColorMap(grey * 3, heat, cv::COLORMAP_JET);
-      row.push_back(heat);
-    }
+    std::vector<cv::Mat> row = {ClipFrameBgr(real, t)};
+    for (const auto& [name, clip] : rollouts) row.push_back(ClipFrameBgr(clip, t));
+    if (!rollouts.empty()) row.push_back(ErrorHeatMap(row[0], row[1]));
     cv::Mat strip, big;
     cv::hconcat(row, strip);
     cv::resize(strip, big, cv::Size(), scale, scale, cv::INTER_NEAREST);

@@ -15,8 +15,10 @@
 #include "evaluate/aggregate.h"
 #include "evaluate/clip_video.h"
 #include "evaluate/episode_record.h"
+#include "evaluate/episode_strip.h"
 #include "evaluate/frame_scores.h"
 #include "evaluate/manifest.h"
+#include "evaluate/rollout_export.h"
 #include "metrics/frechet.h"
 #include "metrics/lpips/lpips.h"
 #include "metrics/value/correlation.h"
@@ -130,6 +132,7 @@ std::vector<EpisodeRecord> ScoreEpisodes(const EvalOptions& o, const std::string
   std::map<RolloutMode, std::vector<EpisodeRollout>> rollouts;
   for (RolloutMode mode : o.modes) rollouts[mode] = Rollout(model, data, episodes, mode, o.rollout);
   std::vector<EpisodeRecord> records;
+  const RolloutExporter exporter(o, name, model.checkpoint_file(), tok.checkpoint_sha256());
   std::optional<Progress> progress;
   if (o.show_progress) progress.emplace("score " + name, episodes.size(), "episodes");
   for (size_t i = 0; i < episodes.size(); ++i) {
@@ -146,7 +149,9 @@ std::vector<EpisodeRecord> ScoreEpisodes(const EvalOptions& o, const std::string
       maps = masks.Maps(ep, image_key, 1, h, tok.image_size(),
                         o.data_dir + "#episode " + std::to_string(e.source_episode));
     }
+    std::map<std::string, Clip> pictures;  // every clip scored, for the strip and the export
     auto add_clip = [&](const std::string& kind, const Clip& pred) {
+      pictures[kind] = pred;
       if (kind != "real") {  // the real clip's scores would all be perfect
         rec.scores[kind] = ScoreFrames(target, pred, tok, lpips);
         if (!maps.empty()) rec.scores[kind].merge(ScoreRegions(target, pred, maps));
@@ -192,6 +197,10 @@ std::vector<EpisodeRecord> ScoreEpisodes(const EvalOptions& o, const std::string
     if (static_cast<int>(positions[i]) < o.videos) {
       WriteClipVideo((fs::path(dir) / "videos").string(), episodes[i], target, first_samples);
     }
+    if (static_cast<int>(positions[i]) < o.strips) {
+      WriteEpisodeStrip((fs::path(dir) / "strips").string(), episodes[i], real, pictures);
+    }
+    exporter.Write(episodes[i], e.source_episode, ep, real, pictures);
     records.push_back(std::move(rec));
     if (progress) progress->Add(1);
   }
@@ -264,6 +273,8 @@ void WriteReport(const EvalOptions& o, const std::string& name, const std::strin
           static_cast<int64_t>(uncertainty[mode].first.size())};
     }
   }
+  WriteStripOverview((fs::path(dir) / "strips").string(), t.episodes, o.strips,
+                     tok.image_size());
   WriteScoreCsvs(dir, name, t, o.resamples, o.rollout.seed);
   WriteFileAtomically((fs::path(dir) / "values.csv").string(), values);
   WriteFileAtomically((fs::path(dir) / "contexts.csv").string(), ContextsCsv(name, o.modes, records));

@@ -25,6 +25,8 @@ struct EvalOptions {
   int64_t max_episodes = 0;   // 0 = every episode
   int resamples = 1000;       // bootstrap replicates for every interval
   int videos = 2;             // side-by-side MP4s of the first episodes
+  int strips = 4;             // PNG strips (evaluate/episode_strip.h) of the first episodes
+  std::string save_rollouts;  // export every scored episode's frames here (rollout_export.h)
   std::string device = "cpu";
   int threads = 1;
   bool show_progress = true;

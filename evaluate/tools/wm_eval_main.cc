@@ -18,7 +18,8 @@ Example:
     --data data/tabletop/val --tokens data/tabletop-tokens/val --out reports/
 
 Writes REPORT_DIR/<checkpoint name>/{summary,per_step,per_episode,values,contexts}.csv,
-manifest.json and videos/episode_K.mp4 (real | plain | retrace | error). Rollouts start from
+manifest.json, videos/episode_K.mp4 (real | plain | retrace | error) and strips/episode_K.png
+(rows real, plain, retrace, copy_last, tokenizer_recon, error; columns steps). Rollouts start from
 each episode's real first frame and follow its logged actions (open loop); baselines copy_last
 (the first real frame repeated) and tokenizer_recon (the tokenizer's reconstruction of the true
 frames: the ceiling) are scored in the same run. Compare checkpoints with `wm-report compare`.
@@ -72,6 +73,10 @@ int main(int argc, char** argv) {
   app.add_option("--resamples", o.resamples, "Bootstrap replicates")->capture_default_str();
   app.add_option("--videos", o.videos, "Side-by-side MP4s of the first N episodes")
       ->capture_default_str();
+  app.add_option("--strips", o.strips, "PNG strips (real above rollouts) of the first N episodes")
+      ->capture_default_str();
+  app.add_option("--save-rollouts", o.save_rollouts,
+                 "Also write every scored episode's frames as image folders under DIR/<name>/");
   app.add_option("--masks", o.masks.source,
                  "Segmented-region MSE: none, files (--seg-config labels), motion or depth")
       ->check(CLI::IsMember({"none", "files", "motion", "depth"}))

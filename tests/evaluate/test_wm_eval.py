@@ -5,7 +5,9 @@ gives the same bytes; the copy_last and tokenizer_recon baselines (PSNR, SSIM, M
 MSE) equal an independent NumPy / scikit-image re-computation from the shards and from
 `wm-tokenize decode`; summary means and intervals agree with per_episode.csv; inputs that do not
 belong together exit 1 naming the file; the MP4s hold real | plain | retrace | error panels;
-two sharded jobs write the single job's report byte for byte and refuse a corrupted part."""
+the PNG strips hold the real frames above every rollout, pixel for pixel; --save-rollouts writes
+image folders that wm-ingest --format folder reads back into the same frames; two sharded jobs
+write the single job's report byte for byte and refuse a corrupted part."""
 import csv
 import hashlib
 import json
@@ -32,6 +34,10 @@ CSVS = {"summary.csv": "report-summary", "per_step.csv": "report-per-step",
         "contexts.csv": "report-contexts"}
 INTEGER_COLUMNS = {"n", "step", "episode", "n_episodes", "slot", "frame"}
 TEXT_COLUMNS = {"checkpoint", "rollout", "metric", "policy_id"}
+STRIPS = [os.path.join("strips", f"episode_{k}.png") for k in range(EPISODES)]
+# evaluate/episode_strip.h: label column, header row, gap between cells; frames drawn 3x.
+STRIP_LABEL, STRIP_HEADER, STRIP_GAP, STRIP_SCALE = 144, 24, 2, 3
+STRIP_ROWS = ["real", "plain", "retrace", "copy_last", "tokenizer_recon", "error plain"]
 # configs/segmentation/tabletop.yaml: segmentation label values -> region.
 REGIONS = {"arm": [1], "object": [2], "background": [0, 3]}
 
@@ -155,8 +161,9 @@ class WmEval(unittest.TestCase):
         ok("wm-train", "--config", os.path.join(CONFIGS, "dynamics", "tiny.yaml"), "--tokens",
            path("tokens", "train"), "--out", path("dyn"), "--steps", 10, "--threads", 1)
         cls.reports = [path(out, "dyn") for out in ("reports", "rerun")]
-        for report in cls.reports:
-            ok("wm-eval", *cls.eval_args(os.path.dirname(report)))
+        # The rerun also exports its frames, which must not change a byte of the report.
+        for report, extra in zip(cls.reports, ([], ["--save-rollouts", path("exported")])):
+            ok("wm-eval", *cls.eval_args(os.path.dirname(report)), *extra)
 
     @classmethod
     def read_references(cls):
@@ -244,7 +251,7 @@ class WmEval(unittest.TestCase):
 
     def test_rerun_gives_the_same_bytes_and_the_manifest_names_the_inputs(self):
         # The manifest records no time or host, so it is byte-identical too.
-        for file in [*CSVS, "manifest.json"]:
+        for file in [*CSVS, "manifest.json", *STRIPS]:
             self.assertEqual(*(read_bytes(os.path.join(r, file)) for r in self.reports), file)
         with open(os.path.join(self.reports[0], "manifest.json"), encoding="utf-8") as f:
             m = json.load(f)
@@ -289,7 +296,7 @@ class WmEval(unittest.TestCase):
         self.assertFalse(os.path.exists(os.path.join(report, "manifest.json")), "1 part of 2")
         ok("wm-eval", *args, "--shard-index", 0, "--num-shards", 2)
         videos = [os.path.join("videos", f"episode_{k}.mp4") for k in range(EPISODES)]
-        for file in [*CSVS, "manifest.json", *videos]:
+        for file in [*CSVS, "manifest.json", *videos, *STRIPS]:
             self.assertEqual(read_bytes(os.path.join(report, file)),
                              read_bytes(os.path.join(self.reports[0], file)), file)
         paths = [os.path.join(report, "parts", f"part-{i}-of-2.json") for i in range(2)]
@@ -395,6 +402,112 @@ class WmEval(unittest.TestCase):
                 grey = cv2.cvtColor(cv2.absdiff(real, plain), cv2.COLOR_BGR2GRAY)
                 expect = cv2.applyColorMap(cv2.multiply(grey, 3), cv2.COLORMAP_JET)
                 self.assertLess(cv2.absdiff(heat, expect).mean(), 25, (k, t))
+
+    def strip_cells(self, k):
+        """strips/episode_k.png as {row: [H + 1 frames, RGB, at frame size]}, after checking its
+        pixel size and that every cell is a 3x nearest-neighbour upscale of its frame."""
+        strip = cv2.imread(os.path.join(self.reports[0], "strips", f"episode_{k}.png"))
+        cell = SIZE * STRIP_SCALE
+        columns, rows = HORIZON + 1, len(STRIP_ROWS)
+        self.assertEqual(strip.shape, (STRIP_HEADER + rows * cell + (rows - 1) * STRIP_GAP,
+                                       STRIP_LABEL + columns * cell + (columns - 1) * STRIP_GAP,
+                                       3))
+        out = {}
+        for r, row in enumerate(STRIP_ROWS):
+            y = STRIP_HEADER + r * (cell + STRIP_GAP)
+            out[row] = []
+            for c in range(columns):
+                x = STRIP_LABEL + c * (cell + STRIP_GAP)
+                big = strip[y:y + cell, x:x + cell]
+                small = big[::STRIP_SCALE, ::STRIP_SCALE]
+                up = np.repeat(np.repeat(small, STRIP_SCALE, 0), STRIP_SCALE, 1)
+                np.testing.assert_array_equal(big, up, f"episode {k} {row} column {c}")
+                out[row].append(cv2.cvtColor(small, cv2.COLOR_BGR2RGB))
+            out[row] = np.stack(out[row])
+        return out
+
+    def test_strips_show_the_real_frames_above_every_rollout(self):
+        """Rows against independent references: real (the shards), copy_last (real frame 0),
+        tokenizer_recon (wm-tokenize decode); the error row is the heat map of |real - plain|."""
+        for k in range(EPISODES):
+            cells = self.strip_cells(k)
+            np.testing.assert_array_equal(cells["real"], self.real[k])
+            np.testing.assert_array_equal(cells["copy_last"], self.baselines["copy_last"][k])
+            np.testing.assert_array_equal(cells["tokenizer_recon"][1:],
+                                          self.baselines["tokenizer_recon"][k][1:])
+            for row in ("plain", "retrace", "copy_last", "tokenizer_recon"):
+                # Column 0 is the given real frame in every row.
+                np.testing.assert_array_equal(cells[row][0], self.real[k][0], row)
+            diff = np.abs(self.real[k].astype(int) - cells["plain"]).astype(np.uint8)
+            grey = cv2.cvtColor(diff.reshape(-1, SIZE, 3), cv2.COLOR_RGB2GRAY)
+            heat = cv2.applyColorMap(cv2.multiply(grey, 3), cv2.COLORMAP_JET)
+            np.testing.assert_array_equal(cells["error plain"],
+                                          cv2.cvtColor(heat, cv2.COLOR_BGR2RGB).reshape(
+                                              HORIZON + 1, SIZE, SIZE, 3))
+            self.assertGreater(np.abs(cells["plain"][1:].astype(int) - self.real[k][1:]).max(),
+                               0, "a 10-step model does not imagine the real frames")
+
+    def test_strip_overview_stacks_each_episodes_real_plain_and_error_rows(self):
+        cell = SIZE * STRIP_SCALE
+        overview = cv2.imread(os.path.join(self.reports[0], "strips", "overview.png"))
+        self.assertEqual(overview.shape[0], STRIP_HEADER + EPISODES * (3 * cell + 5 * STRIP_GAP))
+        for k in range(EPISODES):
+            strip = cv2.imread(os.path.join(self.reports[0], "strips", f"episode_{k}.png"))
+            self.assertEqual(overview.shape[1], strip.shape[1])
+            y0 = STRIP_HEADER + k * (3 * cell + 5 * STRIP_GAP)
+            for i, r in enumerate((0, 1, len(STRIP_ROWS) - 1)):  # real, plain, error plain
+                y, ys = y0 + i * (cell + STRIP_GAP), STRIP_HEADER + r * (cell + STRIP_GAP)
+                np.testing.assert_array_equal(overview[y:y + cell, STRIP_LABEL:],
+                                              strip[ys:ys + cell, STRIP_LABEL:], (k, r))
+
+    def test_saved_rollouts_read_back_through_wm_ingest(self):
+        """Every exported kind, ingested with wm-ingest --format folder, decodes to the frames
+        the report scored (PNG is lossless), with the episode's logged actions; meta.json says
+        where each came from. A killed run's hidden temp folder is not read as an episode."""
+        export = self.path("exported", "dyn")
+        os.makedirs(os.path.join(export, "plain", ".episode_7.tmp"))  # a killed run's leftover
+        shards = wmshard.Dataset(self.path("shards", "val"))
+        tokens = wmshard.TokenDataset(self.path("tokens", "val"))
+        strips = [self.strip_cells(k) for k in range(EPISODES)]
+        want = {"real": [r[1:] for r in self.real], "context": [r[:1] for r in self.real],
+                **{kind: [s[kind][1:] for s in strips]
+                   for kind in ("plain", "retrace", "copy_last", "tokenizer_recon")}}
+        self.assertEqual(sorted(os.listdir(export)), sorted(want))
+        validator = jsonschema.Draft202012Validator(schema("folder-meta"))
+        for kind, clips in want.items():
+            out = self.path("reingested", kind)
+            ok("wm-ingest", "--format", "folder", "--input", os.path.join(export, kind),
+               "--output", out, "--threads", 1)
+            data = wmshard.Dataset(out)
+            self.assertEqual(data.num_episodes, EPISODES, kind)
+            for k in range(EPISODES):
+                got, _, blobs = data.episode(k)
+                first = 0 if kind == "context" else 1
+                np.testing.assert_array_equal(np.stack([decode(b) for b in blobs["image"]]),
+                                              clips[k], f"{kind} episode {k}")
+                source = tokens.index["episodes"][k]["source_episode"]
+                real = shards.episode(source)[0]
+                self.assertEqual(got["actions"], real["actions"][first:first + len(clips[k])])
+                with open(os.path.join(export, kind, f"episode_{k}", "meta.json"),
+                          encoding="utf-8") as f:
+                    meta = json.load(f)
+                validator.validate(meta)
+                source_of = meta["wmkit_export"]
+                self.assertEqual((source_of["kind"], source_of["episode"],
+                                  source_of["source_episode"], source_of["first_step"],
+                                  source_of["steps"]), (kind, k, source, first, len(clips[k])))
+                self.assertEqual(source_of["checkpoint"]["sha256"],
+                                 sha256(self.path("dyn", "checkpoint.wmt")))
+                self.assertEqual(meta["policy_id"], self.policies[k])
+        # Paired with the real frames, wm-metrics scores an exported rollout as the report did.
+        for k in range(EPISODES):
+            got = json.loads(ok("wm-metrics", "--ref", os.path.join(export, "real", f"episode_{k}"),
+                                "--pred", os.path.join(export, "plain", f"episode_{k}"),
+                                "--metrics", "psnr,mse").stdout)
+            for metric in ("psnr", "mse"):
+                (row,) = [r for r in self.select("per_episode.csv", "plain", metric)
+                          if int(r["episode"]) == k]
+                self.assert_close(got[metric], float(row["value"]), f"plain {metric} {k}")
 
 
 if __name__ == "__main__":

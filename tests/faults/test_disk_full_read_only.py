@@ -133,7 +133,8 @@ class DiskFullAndReadOnly(unittest.TestCase):
         small, large = (os.path.getsize(os.path.join(report, f))
                         for f in ("summary.csv", "per_step.csv"))
         self.assertLess(small + 64, large, "the limit must fall between the two files")
-        command = self.pipe.eval_argv(out, *EVAL_OPTIONS, "--seed", 1, "--videos", 0)
+        command = self.pipe.eval_argv(out, *EVAL_OPTIONS, "--seed", 1, "--videos", 0,
+                                      "--strips", 0)
         p = fh.run(command, preexec_fn=fh.with_file_size_limit((small + large) // 2))
         self.assert_fails_naming(p, "per_step.csv")
         if fh.tree(report) != before:

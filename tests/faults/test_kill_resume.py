@@ -40,7 +40,8 @@ class KillAndResume(unittest.TestCase):
             "wm-tokenize-encode": (lambda out: pipe.encode_argv("train", out),
                                    pipe.path("tokens", "train")),
             "wm-train": (pipe.dynamics_argv, pipe.path("dyn")),
-            "wm-eval": (lambda out: pipe.eval_argv(out, *EVAL_OPTIONS), pipe.path("report")),
+            "wm-eval": (lambda out: pipe.eval_argv(out, *EVAL_OPTIONS, "--save-rollouts",
+                                                   out + "-export"), pipe.path("report")),
         }
         pipe.shards("val")  # inputs made untimed: the shards; val tokens when wm-train needs them
         cls.phases = {}
@@ -150,13 +151,22 @@ class KillAndResume(unittest.TestCase):
     def test_wm_eval_rerun_gives_identical_report(self):
         """A report is REPORT_DIR/<name>; wm-report reads it (manifest.json, summary.csv,
         per_episode.csv). Killed, it must be absent, refused or whole; a rerun into the same
-        REPORT_DIR gives the same bytes, videos included."""
+        REPORT_DIR gives the same bytes, videos and strips included. Every visible episode
+        folder of --save-rollouts is whole (the uninterrupted run's files, all of them)."""
         def check(out, ref, command):
             report, ref_report = os.path.join(out, "dyn"), os.path.join(ref, "dyn")
             self.assert_visible_files_complete(report, ref_report)
+            export, ref_export = out + "-export", ref + "-export"
+            episodes = {os.path.dirname(f) for f in fh.tree(export)}
+            for episode in episodes:
+                self.assertEqual(fh.tree(os.path.join(export, episode)),
+                                 fh.tree(os.path.join(ref_export, episode)), episode)
+            print(f"  whole exported episodes after the kill: {len(episodes)} of "
+                  f"{len({os.path.dirname(f) for f in fh.tree(ref_export)})}")
             reader = argv("wm-report", "compare", report, "--out", out + "-compare.csv")
             self.assert_reader_refuses_or_accepts_complete(report, ref_report, reader, report)
             self.assert_rerun_gives_reference(out, ref, command(out))
+            self.assertEqual(fh.tree(export), fh.tree(ref_export))
         self.after_each_kill("wm-eval", check)
 
 
