@@ -102,6 +102,33 @@ TEST_F(DynamicsTrainTest, ResumeAfterStopEqualsUninterruptedRun) {
   EXPECT_EQ(Hash("full", "checkpoint.json"), Hash("split", "checkpoint.json"));
 }
 
+TEST_F(DynamicsTrainTest, NextFrameCopyPriorRunsAreReproducibleAndResume) {
+  auto options = [&](const std::string& run) {
+    TrainOptions o = Options(run, 20);
+    o.config.model.objective = "next_frame";
+    o.config.model.copy_prior = true;
+    o.config.model.tied_token_head = true;
+    o.val_dir = dir_ / "val";
+    return o;
+  };
+  TrainSummary full = TrainDynamics(options("full"));
+  EXPECT_LT(full.last_loss, full.first_loss);
+  TrainDynamics(options("again"));
+  EXPECT_EQ(Hash("full", "checkpoint.wmt"), Hash("again", "checkpoint.wmt"));
+  TrainOptions first = options("split");
+  first.max_steps_this_run = 10;
+  TrainDynamics(first);
+  TrainOptions rest = options("split");
+  rest.resume = true;
+  TrainDynamics(rest);
+  EXPECT_EQ(Hash("full", "checkpoint.wmt"), Hash("split", "checkpoint.wmt"));
+  EXPECT_EQ(Hash("full", "checkpoint.json"), Hash("split", "checkpoint.json"));
+  EXPECT_NE(Hash("full", "checkpoint.wmt"), [&] {
+    TrainDynamics(Options("masked", 20));
+    return Hash("masked", "checkpoint.wmt");
+  }());
+}
+
 TEST_F(DynamicsTrainTest, RefusesOverwriteOtherConfigAndMismatchedData) {
   TrainDynamics(Options("run", 2));
   EXPECT_NE(wm::test::ErrorText([&] { TrainDynamics(Options("run", 2)); }).find("--resume"),
