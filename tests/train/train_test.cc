@@ -270,6 +270,14 @@ TEST(DynamicsConfig, PresetsLoadAndErrorsNameFileAndKey) {
   EXPECT_NE(error("policy:\n  klbeta: 1\n").find("key 'policy.klbeta': unknown key"),
             std::string::npos);
   EXPECT_NE(error("model:\n  norm: batchnorm\n").find("key 'model.norm'"), std::string::npos);
+  EXPECT_NE(error("model:\n  objective: diffusion\n").find("key 'model.objective'"),
+            std::string::npos);
+  // A checkpoint written before model.objective / model.copy_prior existed keeps its behaviour.
+  nlohmann::json old = ConfigToJson(m);
+  old["model"].erase("objective");
+  old["model"].erase("copy_prior");
+  EXPECT_EQ(ConfigFromJson(old).model.objective, "masked");
+  EXPECT_FALSE(ConfigFromJson(old).model.copy_prior);
   EXPECT_NE(error("optim: {}\n").find("key 'optim'"), std::string::npos);
   EXPECT_NE(error("model: [1\n").find("dyn.yaml"), std::string::npos);
 }
