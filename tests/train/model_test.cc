@@ -188,13 +188,24 @@ TEST(TrainingMask, FirstFrameCleanCountsFollowTheRatio) {
   EXPECT_EQ(none.sum().item<int64_t>(), 1);
 }
 
+// A model from `model_seed` and a 2-row, 3-frame context (tokens, actions, prior z) to decode.
+struct DecodeCase {
+  WorldModel m{nullptr};
+  torch::Tensor ctx, act, z;
+};
+DecodeCase MakeDecodeCase(const DynamicsConfig& c, uint64_t model_seed) {
+  torch::manual_seed(model_seed);
+  DecodeCase d{WorldModel(c)};
+  Inputs in = RandomInputs(c, 2, model_seed + 1);
+  d.ctx = in.tokens.slice(1, 0, 3);
+  d.act = in.actions.slice(1, 0, 3);
+  d.z = d.m->DynamicsZ(d.ctx, d.act);
+  return d;
+}
+
 TEST(MaskGit, DecodingIsDeterministicGivenSeedAndFillsEveryToken) {
   DynamicsConfig c = test::TinyConfig(true);
-  torch::manual_seed(10);
-  WorldModel m(c);
-  Inputs in = RandomInputs(c, 2, 11);
-  torch::Tensor ctx = in.tokens.slice(1, 0, 3), act = in.actions.slice(1, 0, 3);
-  torch::Tensor z = m->DynamicsZ(ctx, act);
+  auto [m, ctx, act, z] = MakeDecodeCase(c, 10);
   torch::Tensor a = DecodeNextFrame(m, ctx, act, z, 4, 1.0, {123, 124});
   torch::Tensor b = DecodeNextFrame(m, ctx, act, z, 4, 1.0, {123, 124});
   EXPECT_TRUE(torch::equal(a, b));
@@ -253,11 +264,7 @@ TEST(CopyPrior, UntrainedModelPredictsTheLastFrame) {
 TEST(NextFrame, DecodingIsOnePassOverTheContext) {
   DynamicsConfig c = test::TinyConfig(true);
   c.model.objective = "next_frame";
-  torch::manual_seed(22);
-  WorldModel m(c);
-  Inputs in = RandomInputs(c, 2, 23);
-  torch::Tensor ctx = in.tokens.slice(1, 0, 3), act = in.actions.slice(1, 0, 3);
-  torch::Tensor z = m->DynamicsZ(ctx, act);
+  auto [m, ctx, act, z] = MakeDecodeCase(c, 22);
   torch::Tensor greedy = DecodeNextFrame(m, ctx, act, z, 4, 0.0, {1, 2});
   torch::NoGradGuard no_grad;
   // Position 2 (frame 2 + a_2) predicts frame 3; no appended masked frame.
