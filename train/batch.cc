@@ -34,8 +34,14 @@ SegmentBatch MakeSegmentBatch(const DynamicsConfig& c, const SegmentData& d, con
   b.actions = host(d.actions, {B, T, 7}, torch::kFloat);
   b.rewards = host(d.rewards, {B, T}, torch::kFloat);
   b.terminals = host(d.terminals, {B, T}, torch::kFloat);
-  torch::Tensor global_mask = TrainingMask(noise.u_ratio, noise.u_order, noise.u_frame,
-                                           c.model.mask_frame_prob);  // [Bg, T, N]
+  torch::Tensor global_mask;  // [Bg, T, N]
+  if (c.model.objective == "next_frame") {  // every token of frames 1..T-1 is a target
+    global_mask = torch::ones_like(noise.u_order, torch::kBool);
+    global_mask.select(1, 0).fill_(false);
+  } else {
+    global_mask =
+        TrainingMask(noise.u_ratio, noise.u_order, noise.u_frame, c.model.mask_frame_prob);
+  }
   b.mask = global_mask.slice(0, first, first + B).to(device);         // [B, T, N]
   b.z_noise = noise.z_noise.slice(0, first, first + B).to(device);    // [B, C, K]
   b.token_normalizer =
@@ -43,36 +49,48 @@ SegmentBatch MakeSegmentBatch(const DynamicsConfig& c, const SegmentData& d, con
   return b;
 }
 
+namespace {
+
+// One code per token from log-probabilities [B, N, K]: argmax at temperature 0, else a sample
+// of softmax(logp / temperature) from row b's own generator.
+torch::Tensor ChooseCodes(const torch::Tensor& logp, double temperature,
+                          std::vector<at::Generator>& gens) {
+  const int64_t B = logp.size(0), N = logp.size(1);
+  if (temperature <= 0) return logp.argmax(-1);  // [B, N]
+  torch::Tensor probs = torch::softmax(logp / temperature, -1);  // [B, N, K]
+  torch::Tensor choice = torch::empty({B, N}, torch::kInt64);
+  for (int64_t b = 0; b < B; ++b) {
+    choice[b].copy_(torch::multinomial(probs[b], 1, /*replacement=*/true, gens[b]).view({N}));
+  }
+  return choice;
+}
+
+}  // namespace
+
 torch::Tensor DecodeNextFrame(WorldModel& model, const torch::Tensor& tokens,
                               const torch::Tensor& actions, const torch::Tensor& z, int steps,
                               double temperature, const std::vector<uint64_t>& row_seeds) {
   torch::NoGradGuard no_grad;
-  const int64_t B = tokens.size(0), Tc = tokens.size(1), N = tokens.size(2);
+  const int64_t B = tokens.size(0), N = tokens.size(2);
   const int64_t K = model->config.model.num_codes;
   Check(static_cast<int64_t>(row_seeds.size()) == B,
         "DecodeNextFrame: " + std::to_string(row_seeds.size()) + " row seeds for " +
             std::to_string(B) + " rows");
   std::vector<at::Generator> gens;
   for (uint64_t seed : row_seeds) gens.push_back(at::detail::createCPUGenerator(seed));
-  auto pad_frame = [](const torch::Tensor& x) {  // [B, Tc, ...] -> [B, Tc + 1, ...]
-    return torch::cat({x, torch::zeros_like(x.slice(1, 0, 1))}, 1);
+  auto log_probs = [&](const torch::Tensor& partial) {  // [B, N, K] on the CPU
+    torch::Tensor logits = model->NextFrameLogits(tokens, actions, z, partial);
+    return torch::log_softmax(logits.to(torch::kCPU, torch::kFloat), -1);
   };
-  torch::Tensor seq = torch::cat({tokens, torch::full({B, 1, N}, K, tokens.options())}, 1);
-  torch::Tensor act = pad_frame(actions), zz = z.defined() ? pad_frame(z) : z;
-  torch::Tensor masked = torch::ones({B, N}, torch::kBool);  // CPU bookkeeping
+  // Next-frame models predict every token at once from the clean context: one pass.
+  if (model->config.model.objective == "next_frame") {
+    return ChooseCodes(log_probs({}), temperature, gens).contiguous();
+  }
+  torch::Tensor frame = torch::full({B, N}, K, torch::kInt64);  // CPU; K = still masked
+  torch::Tensor masked = torch::ones({B, N}, torch::kBool);     // CPU bookkeeping
   for (int s = 0; s < steps; ++s) {
-    torch::Tensor logits = model->Dynamics(seq, act, zz).logits.select(1, Tc);  // [B, N, K]
-    torch::Tensor logp = torch::log_softmax(logits.to(torch::kCPU, torch::kFloat), -1);
-    torch::Tensor choice;
-    if (temperature > 0) {
-      torch::Tensor probs = torch::softmax(logp / temperature, -1);  // [B, N, K]
-      choice = torch::empty({B, N}, torch::kInt64);
-      for (int64_t b = 0; b < B; ++b) {
-        choice[b].copy_(torch::multinomial(probs[b], 1, /*replacement=*/true, gens[b]).view({N}));
-      }
-    } else {
-      choice = logp.argmax(-1);  // [B, N]
-    }
+    torch::Tensor logp = log_probs(frame.to(tokens.device()));
+    torch::Tensor choice = ChooseCodes(logp, temperature, gens);
     torch::Tensor confidence = logp.gather(-1, choice.unsqueeze(-1)).squeeze(-1);  // [B, N]
     confidence.masked_fill_(masked.logical_not(), std::numeric_limits<float>::infinity());
     const auto keep_masked =
@@ -82,12 +100,10 @@ torch::Tensor DecodeNextFrame(WorldModel& model, const torch::Tensor& tokens,
     torch::Tensor newly = torch::zeros({B, N}, torch::kBool);
     newly.scatter_(1, order.slice(1, keep_masked, N), true);
     newly.logical_and_(masked);
-    torch::Tensor frame = seq.select(1, Tc).to(torch::kCPU);  // [B, N]
     frame = torch::where(newly, choice, frame);
-    seq.select(1, Tc).copy_(frame.to(seq.device()));
     masked.logical_and_(newly.logical_not());
   }
-  return seq.select(1, Tc).to(torch::kCPU).clone();  // [B, N]
+  return frame;  // [B, N]
 }
 
 }  // namespace wm::train

@@ -31,6 +31,8 @@ void VisitFields(Config& c, F&& f) {
   f("model", "action_conditioning", m.action_conditioning);
   f("model", "tied_token_head", m.tied_token_head);
   f("model", "mask_frame_prob", m.mask_frame_prob);
+  f("model", "objective", m.objective);
+  f("model", "copy_prior", m.copy_prior);
   f("model", "decode_steps", m.decode_steps);
   f("model", "decode_temperature", m.decode_temperature);
   auto& p = c.policy;
@@ -115,6 +117,8 @@ void ValidateConfig(const DynamicsConfig& c, const std::string& file) {
           "must be 'layernorm' or 'rmsnorm'");
   require(m.mask_frame_prob > 0 && m.mask_frame_prob <= 1, "model.mask_frame_prob",
           "must be in (0, 1]");
+  require(m.objective == "masked" || m.objective == "next_frame", "model.objective",
+          "must be 'masked' or 'next_frame'");
   require(m.decode_steps > 0, "model.decode_steps", "must be > 0");
   require(m.decode_temperature >= 0, "model.decode_temperature", "must be >= 0");
   const PolicyConfig& p = c.policy;

@@ -25,6 +25,13 @@ struct ModelConfig {
   bool tied_token_head = false;
   double mask_frame_prob = 0.5;     // chance that a frame j >= 1 is a masked target in training;
                                     // the others stay clean context (1 = every frame, as Genie)
+  // "masked": MaskGIT (position j holds frame j partly masked + a_{j-1}, predicts its masked
+  // tokens). "next_frame": teacher-forced and shifted (position j holds clean frame j + a_j and
+  // predicts every token of frame j+1, as IRIS/STORM), decoded in one pass per frame.
+  std::string objective = "masked";
+  // A learned logit bonus for the code the same cell held in the previous frame, initialised so
+  // that an untrained model predicts "copy the last frame"; training then only learns motion.
+  bool copy_prior = false;
   int decode_steps = 8;             // MaskGIT iterations per predicted frame at inference
   double decode_temperature = 1.0;  // sampling temperature at inference (0 = argmax)
 };

@@ -57,8 +57,8 @@ class AutocastScope {
   bool on_;
 };
 
-// Next-frame prediction on fixed validation segments: clean frames 0..T-2, frame T-1 fully
-// masked (the first MaskGIT round). Returns {token CE, token accuracy} over frame T-1.
+// Next-frame prediction on fixed validation segments: frame T-1 from clean frames 0..T-2 (one
+// pass, the first MaskGIT round for "masked"). Returns {token CE, token accuracy} over frame T-1.
 std::pair<double, double> Validate(WorldModel& model, const SegmentSampler& val,
                                    const DynamicsConfig& c, const torch::Device& device) {
   torch::NoGradGuard no_grad;
@@ -69,11 +69,12 @@ std::pair<double, double> Validate(WorldModel& model, const SegmentSampler& val,
     auto refs = val.Draw(c.train.seed ^ kValSeedSalt, i, c.train.batch_size);
     val.Fill(refs, 0, refs.size(), d);
     SegmentBatch b = MakeSegmentBatch(c, d, DrawStepNoise(c, 0, 0, d.batch), 0, 1, device);
-    torch::Tensor input = b.tokens.clone();
-    input.select(1, T - 1).fill_(K);  // [B, T, N]
-    torch::Tensor logits = model->Dynamics(input, b.actions, model->DynamicsZ(b.tokens, b.actions))
-                               .logits.select(1, T - 1)
-                               .to(torch::kFloat);     // [B, N, K]
+    torch::Tensor z = model->DynamicsZ(b.tokens, b.actions);
+    torch::Tensor logits = model
+                               ->NextFrameLogits(b.tokens.slice(1, 0, T - 1),
+                                                 b.actions.slice(1, 0, T - 1),
+                                                 z.defined() ? z.slice(1, 0, T - 1) : z)
+                               .to(torch::kFloat);  // [B, N, K]
     torch::Tensor target = b.tokens.select(1, T - 1);  // [B, N]
     ce += torch::nn::functional::cross_entropy(logits.reshape({-1, K}), target.reshape({-1}))
               .item<double>();

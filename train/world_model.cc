@@ -1,5 +1,6 @@
 #include "train/world_model.h"
 
+#include <cmath>
 #include <numbers>
 
 namespace wm::train {
@@ -42,29 +43,54 @@ DynamicsNetImpl::DynamicsNetImpl(const ModelConfig& m, int64_t z_dim) : config(m
     token_head = register_module("token_head", torch::nn::Linear(d, m.num_codes));
   }
   reward_head = register_module("reward_head", torch::nn::Linear(d, 2));
+  if (m.copy_prior) copy_gate = register_module("copy_gate", torch::nn::Linear(d, 1));
   InitWeights(*this);
+  if (copy_gate) {
+    // Zero-init residual (DIAMOND, iVideoGPT's action projection): the gate starts as the
+    // constant log(K), which puts the previous code clearly on top of the N(0, 0.02)-initialised
+    // logits (spread ~0.2) with probability about 1/2, whatever the grid or codebook.
+    torch::NoGradGuard no_grad;
+    copy_gate->weight.zero_();
+    copy_gate->bias.fill_(std::log(static_cast<double>(m.num_codes)));
+  }
 }
 
 DynamicsOutput DynamicsNetImpl::forward(const torch::Tensor& tokens, const torch::Tensor& actions,
                                         const torch::Tensor& z) {
-  const int64_t B = tokens.size(0), T = tokens.size(1);
-  // Position j carries a_{j-1} and z_{j-1} (eq. 5: x_{h+1} | x_{1:h}, a_{1:h}, z_h).
-  torch::Tensor past = actions.slice(1, 0, T - 1);
+  const int64_t B = tokens.size(0), T = tokens.size(1), K = config.num_codes;
+  // "masked": position j carries a_{j-1} and z_{j-1} (eq. 5: x_{h+1} | x_{1:h}, a_{1:h}, z_h) and
+  // a learned start vector at j = 0. "next_frame": position j carries a_j and z_j and predicts
+  // frame j+1 itself (action_start is then unused).
+  const bool shifted = next_frame();
+  const int64_t n_cond = shifted ? T : T - 1;
+  torch::Tensor past = actions.slice(1, 0, n_cond);
   // The action-blind control sees zeros: same parameters, no information in the actions.
   if (!config.action_conditioning) past = torch::zeros_like(past);
-  torch::Tensor cond =
-      torch::cat({action_start.expand({B, 1, -1}), action_in->forward(past)}, 1);  // [B, T, D]
+  torch::Tensor cond = action_in->forward(past);
+  if (!shifted) cond = torch::cat({action_start.expand({B, 1, -1}), cond}, 1);  // [B, T, D]
   if (z_dim > 0) {
-    torch::Tensor zc = z_in->forward(z.slice(1, 0, T - 1));     // [B, T-1, D]
-    cond = cond + F::pad(zc, F::PadFuncOptions({0, 0, 1, 0}));  // [B, T, D]
+    torch::Tensor zc = z_in->forward(z.slice(1, 0, n_cond));
+    cond = cond + (shifted ? zc : F::pad(zc, F::PadFuncOptions({0, 0, 1, 0})));  // [B, T, D]
   }
   torch::Tensor x = token_embed->forward(tokens) + spatial_pos +  // [B, T, N, D]
                     (temporal_pos.slice(0, 0, T) + cond).unsqueeze(2);
   torch::Tensor h = transformer->forward(x);  // [B, T, N, D]
   DynamicsOutput out;
   out.logits = token_head ? token_head->forward(h)  // [B, T, N, K]
-                          : F::linear(h, token_embed->weight.slice(0, 0, config.num_codes),
-                                      token_bias);
+                          : F::linear(h, token_embed->weight.slice(0, 0, K), token_bias);
+  if (copy_gate) {
+    // The code each position's predicted frame had one frame earlier: the input frame itself
+    // when predicting the next one, else the input one position back (none at j = 0; a masked
+    // one gets no bonus).
+    torch::Tensor prev =
+        shifted ? tokens
+                : torch::cat({torch::full_like(tokens.slice(1, 0, 1), K), tokens.slice(1, 0, T - 1)},
+                             1);  // [B, T, N]
+    torch::Tensor gate = copy_gate->forward(h);  // [B, T, N, 1]
+    gate = gate * (prev < K).unsqueeze(-1).to(gate.scalar_type());
+    out.logits = out.logits.scatter_add(-1, prev.clamp_max(K - 1).unsqueeze(-1),
+                                        gate.to(out.logits.scalar_type()));
+  }
   auto rt = reward_head->forward(h.mean(2)).unbind(-1);  // 2x [B, T]
   out.reward = rt[0];
   out.terminal_logit = rt[1];
@@ -87,9 +113,25 @@ torch::Tensor WorldModelImpl::DynamicsZ(const torch::Tensor& tokens, const torch
   return torch::softmax(logits, -1).flatten(2);           // [B, T, C*K]
 }
 
-DynamicsOutput WorldModelImpl::Dynamics(const torch::Tensor& masked_tokens,
-                                        const torch::Tensor& actions, const torch::Tensor& z) {
-  return dynamics->forward(masked_tokens, actions, z);
+DynamicsOutput WorldModelImpl::Dynamics(const torch::Tensor& tokens, const torch::Tensor& actions,
+                                        const torch::Tensor& z) {
+  return dynamics->forward(tokens, actions, z);
+}
+
+torch::Tensor WorldModelImpl::NextFrameLogits(const torch::Tensor& context,
+                                              const torch::Tensor& actions, const torch::Tensor& z,
+                                              const torch::Tensor& partial) {
+  const int64_t B = context.size(0), Tc = context.size(1), N = context.size(2);
+  if (dynamics->next_frame()) return dynamics->forward(context, actions, z).logits.select(1, Tc - 1);
+  auto pad_frame = [](const torch::Tensor& x) {  // [B, Tc, ...] -> [B, Tc + 1, ...]
+    return torch::cat({x, torch::zeros_like(x.slice(1, 0, 1))}, 1);
+  };
+  torch::Tensor frame = partial.defined()
+                            ? partial.view({B, 1, N})
+                            : torch::full({B, 1, N}, config.model.num_codes, context.options());
+  return dynamics
+      ->forward(torch::cat({context, frame}, 1), pad_frame(actions), z.defined() ? pad_frame(z) : z)
+      .logits.select(1, Tc);
 }
 
 WorldModelLosses WorldModelImpl::Losses(const SegmentBatch& b) {
@@ -101,18 +143,23 @@ WorldModelLosses WorldModelImpl::Losses(const SegmentBatch& b) {
     l.policy = policy->Losses(po, b.actions);
     z = torch::softmax(po.prior_logits.detach(), -1).flatten(2);  // [B, T, C*K], stop-gradient
   }
-  torch::Tensor input = b.tokens.masked_fill(b.mask, K);  // [B, T, N]
+  const bool shifted = dynamics->next_frame();
+  // MaskGIT: the masked tokens are the input's holes and the targets. Next-frame: the input is
+  // clean and position j's logits are scored against frame j+1.
+  torch::Tensor input = shifted ? b.tokens : b.tokens.masked_fill(b.mask, K);  // [B, T, N]
   DynamicsOutput out = dynamics->forward(input, b.actions, z);
-  // MaskGIT: cross-entropy on the masked tokens only.
-  torch::Tensor ce = F::cross_entropy(out.logits.reshape({-1, K}), b.tokens.reshape({-1}),
+  torch::Tensor logits = shifted ? out.logits.slice(1, 0, T - 1) : out.logits;
+  torch::Tensor target = shifted ? b.tokens.slice(1, 1, T) : b.tokens;
+  torch::Tensor is_target = shifted ? b.mask.slice(1, 1, T) : b.mask;
+  torch::Tensor ce = F::cross_entropy(logits.reshape({-1, K}), target.reshape({-1}),
                                       F::CrossEntropyFuncOptions().reduction(torch::kNone));
-  torch::Tensor m = b.mask.reshape({-1}).to(ce.scalar_type());
+  torch::Tensor m = is_target.reshape({-1}).to(ce.scalar_type());
   torch::Tensor n = b.token_normalizer > 0 ? torch::scalar_tensor(b.token_normalizer, m.options())
                                            : m.sum().clamp_min(1);
   l.token_ce = (ce * m).sum() / n;
   {
     torch::NoGradGuard no_grad;
-    torch::Tensor hit = (out.logits.argmax(-1).reshape({-1}) == b.tokens.reshape({-1}));
+    torch::Tensor hit = (logits.argmax(-1).reshape({-1}) == target.reshape({-1}));
     l.token_accuracy = ((hit.to(m.scalar_type()) * m).sum() / n).item<double>();
   }
   // Position j >= 1 predicts the reward and terminal flag of step j-1.

@@ -3,7 +3,9 @@
 // tokens of frame h+1 from frames <= h, actions a_{<=h} and the policy embedding z_h of the prior
 // (eq. 5), trained MaskGIT-style, plus a reward/terminal head (iVideoGPT Sec. 3.3). Position j of
 // the sequence holds frame j (partly masked in training), the action a_{j-1} and z_{j-1}, so it
-// predicts frame j's masked tokens and the reward/terminal flag of the step j-1 -> j.
+// predicts frame j's masked tokens and the reward/terminal flag of the step j-1 -> j. With
+// model.objective "next_frame" position j holds clean frame j, a_j and z_j and its token logits
+// predict frame j+1 (the reward/terminal flag stay those of step j-1 -> j).
 // Internal header (includes torch).
 #include <torch/torch.h>
 
@@ -21,13 +23,15 @@ struct SegmentBatch {
   torch::Tensor actions;        // [B, T, 7] float, normalised with the dataset's statistics
   torch::Tensor rewards;        // [B, T] float: r_t of (o_t, a_t)
   torch::Tensor terminals;      // [B, T] float 0/1: is_terminal of step t
-  torch::Tensor mask;           // [B, T, N] bool: tokens replaced by the mask token (frame 0 never)
+  // [B, T, N] bool: the target tokens, frame 0 never. "masked": replaced by the mask token;
+  // "next_frame": every token of frames 1..T-1, the input stays clean.
+  torch::Tensor mask;
   torch::Tensor z_noise;        // [B, C, K] uniform (0, 1) for the posterior sample
   double token_normalizer = 0;  // divides the summed masked-token CE; 0 = this batch's count
 };
 
 struct DynamicsOutput {
-  torch::Tensor logits;          // [B, T, N, num_codes]
+  torch::Tensor logits;          // [B, T, N, num_codes]: of frame j ("masked") or j+1
   torch::Tensor reward;          // [B, T]: position j predicts r_{j-1} (j = 0 is unused)
   torch::Tensor terminal_logit;  // [B, T]: position j predicts is_terminal_{j-1}
 };
@@ -53,6 +57,10 @@ struct DynamicsNetImpl : torch::nn::Module {
   StTransformer transformer{nullptr};
   torch::nn::Linear token_head{nullptr}, reward_head{nullptr};  // token_head null when tied
   torch::Tensor token_bias;  // [K], the tied head's bias
+  // model.copy_prior: the bonus added to the logit of the cell's previous code, per position
+  // (weight zero, bias log(num_codes) at init, so every position starts at "copy").
+  torch::nn::Linear copy_gate{nullptr};
+  bool next_frame() const { return config.objective == "next_frame"; }
 };
 TORCH_MODULE(DynamicsNet);
 
@@ -64,9 +72,16 @@ struct WorldModelImpl : torch::nn::Module {
   torch::Tensor DynamicsZ(const torch::Tensor& tokens, const torch::Tensor& actions);
   // Teacher-forced losses over the whole segment (eq. 4 + eq. 5 + reward terms).
   WorldModelLosses Losses(const SegmentBatch& batch);
-  // Next-frame logits only: [B, N, num_codes] for the last frame of `masked_tokens`.
-  DynamicsOutput Dynamics(const torch::Tensor& masked_tokens, const torch::Tensor& actions,
+  // The raw forward: `tokens` [B, T, N] (mask token = num_codes allowed with "masked").
+  DynamicsOutput Dynamics(const torch::Tensor& tokens, const torch::Tensor& actions,
                           const torch::Tensor& z);
+  // Logits [B, N, num_codes] of the frame after the clean `context` [B, Tc, N] (Tc <
+  // context_frames), actions [B, Tc, 7] (the last leads to the new frame), z [B, Tc, z_dim]
+  // (undefined without policy conditioning). "masked": the first MaskGIT round (the new frame
+  // fully masked); "next_frame": the last position of the context. With "masked", `partial`
+  // [B, N] (mask token where still unknown) replaces the fully masked frame.
+  torch::Tensor NextFrameLogits(const torch::Tensor& context, const torch::Tensor& actions,
+                                const torch::Tensor& z, const torch::Tensor& partial = {});
 
   DynamicsConfig config;
   DynamicsNet dynamics{nullptr};

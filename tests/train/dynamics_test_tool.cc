@@ -1,6 +1,6 @@
 // dynamics_test_tool: fixtures for the Python checks of the dynamics model.
 //   make-tokens --out DIR ...        a moving-block token dataset (tests/train/moving_block.h)
-//   reference --out FILE [--rmsnorm] [--no-policy] [--tied]
+//   reference --out FILE [--rmsnorm] [--no-policy] [--tied] [--copy-prior] [--next-frame]
 //                                    a tensor archive with random weights ("model/..."), inputs
 //                                    ("input/...") and the C++ outputs ("output/...") of one
 //                                    forward + losses, for the PyTorch twin (dynamics_twin.py)
@@ -22,11 +22,17 @@
 namespace {
 using namespace wm::train;
 
-void WriteReference(const std::string& path, bool rmsnorm, bool policy, bool tied,
-                    uint64_t seed) {
+struct ReferenceFlags {
+  bool rmsnorm = false, no_policy = false, tied = false, copy_prior = false, next_frame = false;
+};
+
+void WriteReference(const std::string& path, const ReferenceFlags& f, uint64_t seed) {
+  const bool policy = !f.no_policy;
   DynamicsConfig c = test::TinyConfig(policy);
-  c.model.norm = rmsnorm ? "rmsnorm" : "layernorm";
-  c.model.tied_token_head = tied;
+  c.model.norm = f.rmsnorm ? "rmsnorm" : "layernorm";
+  c.model.tied_token_head = f.tied;
+  c.model.copy_prior = f.copy_prior;
+  c.model.objective = f.next_frame ? "next_frame" : "masked";
   c.train.reward_weight = 0.7;
   c.train.terminal_weight = 0.3;
   c.train.policy_weight = 0.9;
@@ -35,7 +41,8 @@ void WriteReference(const std::string& path, bool rmsnorm, bool policy, bool tie
   {
     torch::NoGradGuard no_grad;  // non-trivial norm weights and biases, so the twin checks them
     for (auto& p : m->named_parameters()) {
-      if (p.key().find("norm") != std::string::npos || p.key().ends_with("token_bias"))
+      if (p.key().find("norm") != std::string::npos || p.key().ends_with("token_bias") ||
+          p.key().find("copy_gate") != std::string::npos)
         p.value().add_(torch::randn_like(p.value()) * 0.1);
     }
   }
@@ -46,6 +53,10 @@ void WriteReference(const std::string& path, bool rmsnorm, bool policy, bool tie
   b.rewards = torch::rand({B, T});
   b.terminals = (torch::rand({B, T}) > 0.7).to(torch::kFloat);
   b.mask = TrainingMask(torch::rand({B, T}), torch::rand({B, T, N}), torch::rand({B, T}), 0.7);
+  if (f.next_frame) {  // the targets: every token of frames 1..T-1 (as MakeSegmentBatch)
+    b.mask = torch::ones({B, T, N}, torch::kBool);
+    b.mask.select(1, 0).fill_(false);
+  }
   b.z_noise = torch::rand({B, c.policy.categories, c.policy.classes});
   WorldModelLosses l = m->Losses(b);
   wm::TensorArchiveWriter w;
@@ -57,7 +68,7 @@ void WriteReference(const std::string& path, bool rmsnorm, bool policy, bool tie
   wm::tokenize::AddTensor(w, "input/mask", b.mask.to(torch::kInt64));
   wm::tokenize::AddTensor(w, "input/z_noise", b.z_noise);
   torch::NoGradGuard no_grad;
-  torch::Tensor masked = b.tokens.masked_fill(b.mask, c.model.num_codes);
+  torch::Tensor masked = f.next_frame ? b.tokens : b.tokens.masked_fill(b.mask, c.model.num_codes);
   torch::Tensor z = m->DynamicsZ(b.tokens, b.actions);
   DynamicsOutput out = m->Dynamics(masked, b.actions, z);
   wm::tokenize::AddTensor(w, "output/logits", out.logits);
@@ -133,13 +144,15 @@ int main(int argc, char** argv) {
   make->add_option("--seed", mb.seed);
   make->add_flag("--uniform-moves", mb.uniform_moves);
   std::string ref_out;
-  bool rmsnorm = false, no_policy = false, tied = false;
+  ReferenceFlags flags;
   uint64_t seed = 0;
   auto* ref = app.add_subcommand("reference", "Write weights, inputs and C++ outputs");
   ref->add_option("--out", ref_out)->required();
-  ref->add_flag("--rmsnorm", rmsnorm);
-  ref->add_flag("--no-policy", no_policy);
-  ref->add_flag("--tied", tied);
+  ref->add_flag("--rmsnorm", flags.rmsnorm);
+  ref->add_flag("--no-policy", flags.no_policy);
+  ref->add_flag("--tied", flags.tied);
+  ref->add_flag("--copy-prior", flags.copy_prior);
+  ref->add_flag("--next-frame", flags.next_frame);
   ref->add_option("--seed", seed);
   std::string eval_run, eval_tokens;
   int eval_frames = 5, eval_windows = 200;
@@ -155,7 +168,7 @@ int main(int argc, char** argv) {
       mb.grid_w = mb.grid_h;
       test::WriteMovingBlockTokens(tokens_out, mb);
     } else if (ref->parsed()) {
-      WriteReference(ref_out, rmsnorm, !no_policy, tied, seed);
+      WriteReference(ref_out, flags, seed);
     } else {
       EvalNextFrame(eval_run, eval_tokens, eval_frames, eval_windows);
     }

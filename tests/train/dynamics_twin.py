@@ -155,24 +155,40 @@ class DynamicsNet(nn.Module):
         self.transformer = StTransformer(d, m["num_heads"], m["mlp_ratio"],
                                          m["norm"] == "rmsnorm", m["num_layers"])
         self.num_codes = m["num_codes"]
+        self.next_frame = m.get("objective", "masked") == "next_frame"
         if m.get("tied_token_head", False):
             self.token_bias = nn.Parameter(torch.zeros(m["num_codes"]))
         else:
             self.token_head = nn.Linear(d, m["num_codes"])
         self.reward_head = nn.Linear(d, 2)
+        if m.get("copy_prior", False):
+            self.copy_gate = nn.Linear(d, 1)
 
     def forward(self, tokens, actions, z):
+        """Logits of frame j at position j ("masked") or of frame j+1 ("next_frame")."""
         b, t = tokens.shape[:2]
-        cond = torch.cat([self.action_start.expand(b, 1, -1), self.action_in(actions[:, :t - 1])], 1)
-        if self.z_dim:
-            cond = cond + F.pad(self.z_in(z[:, :t - 1]), (0, 0, 1, 0))
+        k = self.num_codes
+        if self.next_frame:  # position j: frame j, a_j, z_j
+            cond = self.action_in(actions)
+            if self.z_dim:
+                cond = cond + self.z_in(z)
+        else:  # position j: frame j, a_{j-1}, z_{j-1}
+            cond = torch.cat([self.action_start.expand(b, 1, -1),
+                              self.action_in(actions[:, :t - 1])], 1)
+            if self.z_dim:
+                cond = cond + F.pad(self.z_in(z[:, :t - 1]), (0, 0, 1, 0))
         h = self.transformer(self.token_embed(tokens) + self.spatial_pos +
                              (self.temporal_pos[:t] + cond).unsqueeze(2))
         reward, terminal = self.reward_head(h.mean(2)).unbind(-1)
         if hasattr(self, "token_head"):
             logits = self.token_head(h)
         else:  # tied: the input embedding's code rows (not the mask row) score the codes
-            logits = F.linear(h, self.token_embed.weight[:self.num_codes], self.token_bias)
+            logits = F.linear(h, self.token_embed.weight[:k], self.token_bias)
+        if hasattr(self, "copy_gate"):  # bonus on the code the predicted cell had a frame earlier
+            prev = tokens if self.next_frame else torch.cat(
+                [torch.full_like(tokens[:, :1], k), tokens[:, :-1]], 1)
+            gate = self.copy_gate(h) * (prev < k).unsqueeze(-1).to(h.dtype)
+            logits = logits.scatter_add(-1, prev.clamp(max=k - 1).unsqueeze(-1), gate)
         return logits, reward, terminal
 
 
@@ -204,8 +220,13 @@ class WorldModel(nn.Module):
             kl = (log_q.exp() * (log_q - log_p)).sum((-2, -1)).sum(1).mean()
             out["policy_nll"], out["policy_kl"] = nll, kl
             z = prior.detach().softmax(-1).flatten(2)
-        logits, reward, terminal = self.dynamics(tokens.masked_fill(mask, k), actions, z)
-        ce = F.cross_entropy(logits.reshape(-1, k), tokens.reshape(-1), reduction="none")
+        if self.dynamics.next_frame:  # clean input; position j is scored on frame j+1
+            logits, reward, terminal = self.dynamics(tokens, actions, z)
+            logits, target, mask = logits[:, :-1], tokens[:, 1:], mask[:, 1:]
+        else:  # MaskGIT: the masked tokens are the targets
+            logits, reward, terminal = self.dynamics(tokens.masked_fill(mask, k), actions, z)
+            target = tokens
+        ce = F.cross_entropy(logits.reshape(-1, k), target.reshape(-1), reduction="none")
         m = mask.reshape(-1).float()
         out["token_ce"] = (ce * m).sum() / m.sum().clamp_min(1)
         out["reward_mse"] = F.mse_loss(reward[:, 1:], rewards[:, :-1])

@@ -36,9 +36,13 @@ void ExpectPrefixEqual(const torch::Tensor& a, const torch::Tensor& b, int64_t f
   EXPECT_FALSE(torch::equal(a, b)) << what << " did not change at all";
 }
 
+// With "next_frame" position j predicts frame j+1, so this also checks that it cannot see it.
 TEST(DynamicsCausality, FutureFrameDoesNotChangeEarlierPredictions) {
-  for (bool policy : {true, false}) {
+  for (bool policy : {true, false})
+  for (const char* objective : {"masked", "next_frame"}) {
     DynamicsConfig c = test::TinyConfig(policy);
+    c.model.objective = objective;
+    c.model.copy_prior = c.model.objective == "next_frame";
     torch::manual_seed(1);
     WorldModel m(c);
     Inputs in = RandomInputs(c, 2, 2);
@@ -184,13 +188,24 @@ TEST(TrainingMask, FirstFrameCleanCountsFollowTheRatio) {
   EXPECT_EQ(none.sum().item<int64_t>(), 1);
 }
 
+// A model from `model_seed` and a 2-row, 3-frame context (tokens, actions, prior z) to decode.
+struct DecodeCase {
+  WorldModel m{nullptr};
+  torch::Tensor ctx, act, z;
+};
+DecodeCase MakeDecodeCase(const DynamicsConfig& c, uint64_t model_seed) {
+  torch::manual_seed(model_seed);
+  DecodeCase d{WorldModel(c)};
+  Inputs in = RandomInputs(c, 2, model_seed + 1);
+  d.ctx = in.tokens.slice(1, 0, 3);
+  d.act = in.actions.slice(1, 0, 3);
+  d.z = d.m->DynamicsZ(d.ctx, d.act);
+  return d;
+}
+
 TEST(MaskGit, DecodingIsDeterministicGivenSeedAndFillsEveryToken) {
   DynamicsConfig c = test::TinyConfig(true);
-  torch::manual_seed(10);
-  WorldModel m(c);
-  Inputs in = RandomInputs(c, 2, 11);
-  torch::Tensor ctx = in.tokens.slice(1, 0, 3), act = in.actions.slice(1, 0, 3);
-  torch::Tensor z = m->DynamicsZ(ctx, act);
+  auto [m, ctx, act, z] = MakeDecodeCase(c, 10);
   torch::Tensor a = DecodeNextFrame(m, ctx, act, z, 4, 1.0, {123, 124});
   torch::Tensor b = DecodeNextFrame(m, ctx, act, z, 4, 1.0, {123, 124});
   EXPECT_TRUE(torch::equal(a, b));
@@ -211,6 +226,56 @@ TEST(MaskGit, DecodingIsDeterministicGivenSeedAndFillsEveryToken) {
                                .logits.select(1, 3)
                                .argmax(-1);
   EXPECT_TRUE(torch::equal(g1, one_shot));  // one greedy step = argmax of the fully masked frame
+}
+
+// model.copy_prior starts at the copy rule on any grid and either objective; without it an
+// untrained model's argmax is unrelated to the last frame.
+TEST(CopyPrior, UntrainedModelPredictsTheLastFrame) {
+  for (const char* objective : {"masked", "next_frame"})
+  for (auto [gh, gw] : {std::pair{2, 3}, std::pair{5, 4}})
+  for (bool copy_prior : {true, false}) {
+    DynamicsConfig c = test::TinyConfig(true);
+    c.model.objective = objective;
+    c.model.grid_h = gh;
+    c.model.grid_w = gw;
+    c.model.num_codes = 64;
+    c.model.tied_token_head = true;
+    c.model.copy_prior = copy_prior;
+    torch::manual_seed(20);
+    WorldModel m(c);
+    Inputs in = RandomInputs(c, 3, 21);
+    torch::Tensor ctx = in.tokens.slice(1, 0, 3), act = in.actions.slice(1, 0, 3);
+    torch::NoGradGuard no_grad;
+    torch::Tensor logp =
+        torch::log_softmax(m->NextFrameLogits(ctx, act, m->DynamicsZ(ctx, act)), -1);
+    torch::Tensor last = ctx.select(1, 2);  // [B, N]
+    const double copied = (logp.argmax(-1) == last).to(torch::kDouble).mean().item<double>();
+    const double p_copy = logp.gather(-1, last.unsqueeze(-1)).exp().mean().item<double>();
+    if (copy_prior) {
+      EXPECT_EQ(copied, 1.0) << objective << " " << gh << "x" << gw;
+      EXPECT_GT(p_copy, 0.4) << objective;  // ~ K / (K + K - 1): bias log(K) over ~0 logits
+      EXPECT_LT(p_copy, 0.6) << objective;
+    } else {
+      EXPECT_LT(copied, 0.3) << objective;
+    }
+  }
+}
+
+TEST(NextFrame, DecodingIsOnePassOverTheContext) {
+  DynamicsConfig c = test::TinyConfig(true);
+  c.model.objective = "next_frame";
+  auto [m, ctx, act, z] = MakeDecodeCase(c, 22);
+  torch::Tensor greedy = DecodeNextFrame(m, ctx, act, z, 4, 0.0, {1, 2});
+  torch::NoGradGuard no_grad;
+  // Position 2 (frame 2 + a_2) predicts frame 3; no appended masked frame.
+  EXPECT_TRUE(torch::equal(greedy, m->Dynamics(ctx, act, z).logits.select(1, 2).argmax(-1)));
+  torch::Tensor a = DecodeNextFrame(m, ctx, act, z, 4, 1.0, {5, 6});
+  EXPECT_TRUE(torch::equal(a, DecodeNextFrame(m, ctx, act, z, 1, 1.0, {5, 6})));  // steps unused
+  EXPECT_FALSE(torch::equal(a, DecodeNextFrame(m, ctx, act, z, 4, 1.0, {7, 8})));
+  // The last action matters: it is the input of the predicting position.
+  torch::Tensor moved = act.clone();
+  moved.select(1, 2).mul_(-3);
+  EXPECT_FALSE(torch::equal(m->NextFrameLogits(ctx, act, z), m->NextFrameLogits(ctx, moved, z)));
 }
 
 TEST(Overfit, TinyBatchReachesNearZeroLoss) {

@@ -35,7 +35,8 @@ def check_case(tool, flags, tmp):
 
     with torch.no_grad():
         z = model.dynamics_z(t["tokens"], t["actions"])
-        logits, reward, terminal = model.dynamics(t["tokens"].masked_fill(mask, k), t["actions"], z)
+        inputs = t["tokens"] if model.dynamics.next_frame else t["tokens"].masked_fill(mask, k)
+        logits, reward, terminal = model.dynamics(inputs, t["actions"], z)
         compare("logits", logits, tensors["output/logits"])
         compare("reward", reward, tensors["output/reward"])
         compare("terminal_logit", terminal, tensors["output/terminal_logit"])
@@ -58,7 +59,8 @@ def main():
     torch.set_num_threads(1)
     failures = []
     with tempfile.TemporaryDirectory() as tmp:
-        for flags in ([], ["--rmsnorm"], ["--no-policy"], ["--tied"]):
+        for flags in ([], ["--rmsnorm"], ["--no-policy"], ["--tied"], ["--tied", "--copy-prior"],
+                      ["--next-frame"], ["--tied", "--copy-prior", "--next-frame"]):
             failures += check_case(tool, flags, tmp)
     if failures:
         print("FAILED:\n  " + "\n  ".join(failures))

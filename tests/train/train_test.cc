@@ -102,6 +102,33 @@ TEST_F(DynamicsTrainTest, ResumeAfterStopEqualsUninterruptedRun) {
   EXPECT_EQ(Hash("full", "checkpoint.json"), Hash("split", "checkpoint.json"));
 }
 
+TEST_F(DynamicsTrainTest, NextFrameCopyPriorRunsAreReproducibleAndResume) {
+  auto options = [&](const std::string& run) {
+    TrainOptions o = Options(run, 20);
+    o.config.model.objective = "next_frame";
+    o.config.model.copy_prior = true;
+    o.config.model.tied_token_head = true;
+    o.val_dir = dir_ / "val";
+    return o;
+  };
+  TrainSummary full = TrainDynamics(options("full"));
+  EXPECT_LT(full.last_loss, full.first_loss);
+  TrainDynamics(options("again"));
+  EXPECT_EQ(Hash("full", "checkpoint.wmt"), Hash("again", "checkpoint.wmt"));
+  TrainOptions first = options("split");
+  first.max_steps_this_run = 10;
+  TrainDynamics(first);
+  TrainOptions rest = options("split");
+  rest.resume = true;
+  TrainDynamics(rest);
+  EXPECT_EQ(Hash("full", "checkpoint.wmt"), Hash("split", "checkpoint.wmt"));
+  EXPECT_EQ(Hash("full", "checkpoint.json"), Hash("split", "checkpoint.json"));
+  EXPECT_NE(Hash("full", "checkpoint.wmt"), [&] {
+    TrainDynamics(Options("masked", 20));
+    return Hash("masked", "checkpoint.wmt");
+  }());
+}
+
 TEST_F(DynamicsTrainTest, RefusesOverwriteOtherConfigAndMismatchedData) {
   TrainDynamics(Options("run", 2));
   EXPECT_NE(wm::test::ErrorText([&] { TrainDynamics(Options("run", 2)); }).find("--resume"),
@@ -243,6 +270,14 @@ TEST(DynamicsConfig, PresetsLoadAndErrorsNameFileAndKey) {
   EXPECT_NE(error("policy:\n  klbeta: 1\n").find("key 'policy.klbeta': unknown key"),
             std::string::npos);
   EXPECT_NE(error("model:\n  norm: batchnorm\n").find("key 'model.norm'"), std::string::npos);
+  EXPECT_NE(error("model:\n  objective: diffusion\n").find("key 'model.objective'"),
+            std::string::npos);
+  // A checkpoint written before model.objective / model.copy_prior existed keeps its behaviour.
+  nlohmann::json old = ConfigToJson(m);
+  old["model"].erase("objective");
+  old["model"].erase("copy_prior");
+  EXPECT_EQ(ConfigFromJson(old).model.objective, "masked");
+  EXPECT_FALSE(ConfigFromJson(old).model.copy_prior);
   EXPECT_NE(error("optim: {}\n").find("key 'optim'"), std::string::npos);
   EXPECT_NE(error("model: [1\n").find("dyn.yaml"), std::string::npos);
 }
