@@ -20,9 +20,10 @@ manifest.json and videos/episode_K.mp4 (real | plain | retrace | error). Rollout
 each episode's real first frame and follow its logged actions (open loop); baselines copy_last
 (the first real frame repeated), copy_last_tokens (its tokens, decoded, repeated) and
 tokenizer_recon (the tokenizer's reconstruction of the true frames: the ceiling) are scored in
-the same run. Controllability: the plain rollout is imagined again with its actions reversed
-(--controllability shuffled: seeded shuffle; off: skip) and scored as metric delta_tpsnr = PSNR
-minus the perturbed rollout's PSNR (Genie's ΔtPSNR; 0 for a model that ignores its actions).
+the same run. Controllability: the plain rollout is imagined again with the episode's actions
+reversed (--controllability shuffled: seeded shuffle; off: skip) and scored as metric
+delta_tpsnr = PSNR minus the perturbed rollout's PSNR (Genie's ΔtPSNR; 0 for a model that
+ignores its actions, and for the copies).
 Compare checkpoints with `wm-report compare`.
 Sharded (e.g. a Slurm array): --shard-index $SLURM_ARRAY_TASK_ID --num-shards N in every job;
 each writes REPORT_DIR/<name>/parts/, and the job that completes the set writes the report,
@@ -59,7 +60,7 @@ int main(int argc, char** argv) {
       ->check(CLI::IsMember({"plain", "retrace", "both"}))
       ->capture_default_str();
   app.add_option("--controllability", controllability,
-                 "delta_tpsnr: plain again with the actions reversed or shuffled (seeded), or off")
+                 "delta_tpsnr: plain again with the episode's actions reversed or shuffled, or off")
       ->check(CLI::IsMember({"reversed", "shuffled", "off"}))
       ->capture_default_str();
   app.add_option("--samples", o.rollout.samples, "Imaginations per episode (>= 2: uncertainty)")
