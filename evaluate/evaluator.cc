@@ -165,12 +165,11 @@ std::vector<EpisodeRecord> ScoreEpisodes(const EvalOptions& o, const std::string
     data.CopyTokens(episodes[i], 0, h + 1, true_tokens.data());
     add_clip("tokenizer_recon", DecodeClip(tok, true_tokens, 1, h));
     add_clip("copy_last_tokens", RepeatFrame(DecodeClip(tok, true_tokens, 0, 1), 0, h));
+    // A copy reads no action: with perturbed ones it is the same clip, ΔtPSNR 0 by construction,
+    // the static reference beside plain's row (and in wm-report's vs copy_last).
     for (const char* copy : {"copy_last", "copy_last_tokens"}) {
-      // A copy reads no action: with perturbed ones it is the same clip, ΔtPSNR 0 by
-      // construction. The static reference row beside plain's (and in compare's vs copy_last).
-      if (perturbed.empty()) break;
       const auto& psnr = rec.scores[copy].at("psnr");
-      rec.scores[copy]["delta_tpsnr"] = DeltaPsnr(psnr, psnr);
+      if (!perturbed.empty()) rec.scores[copy]["delta_tpsnr"] = DeltaPsnr(psnr, psnr);
     }
     for (int64_t s = 0; s < h; ++s) rec.real_return += ep.rewards.at(s);
     std::map<std::string, Clip> first_samples;
