@@ -25,8 +25,8 @@ std::vector<double> DeltaPsnr(const std::vector<double>& psnr,
 // the last real context frame) and real frame t (any channel > kMovedLevels apart), the mean
 // |pred - real| divided by the mean |pred - first|, over those pixels' 3 channels. < 1: the
 // prediction is nearer the truth than the start there (it moved the right way); a copy of the
-// first frame is undefined (0 in the denominator) and a static blur about 1. NaN when no pixel
-// moved or the denominator is 0.
+// first frame is undefined (0 in the denominator), one near it scores well above 1. NaN when no
+// pixel moved or the denominator is 0.
 std::vector<double> MovedErrorRatio(const Clip& first, const Clip& real, const Clip& pred);
 
 }  // namespace wm::evaluate
