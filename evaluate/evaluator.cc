@@ -18,6 +18,7 @@
 #include "evaluate/episode_strip.h"
 #include "evaluate/frame_scores.h"
 #include "evaluate/manifest.h"
+#include "evaluate/motion_scores.h"
 #include "evaluate/rollout_export.h"
 #include "metrics/frechet.h"
 #include "metrics/lpips/lpips.h"
@@ -131,6 +132,10 @@ std::vector<EpisodeRecord> ScoreEpisodes(const EvalOptions& o, const std::string
   const RegionMasks masks(o.masks);
   std::map<RolloutMode, std::vector<EpisodeRollout>> rollouts;
   for (RolloutMode mode : o.modes) rollouts[mode] = Rollout(model, data, episodes, mode, o.rollout);
+  std::vector<EpisodeRollout> perturbed;  // controllability: plain with perturbed actions
+  if (rollouts.contains(RolloutMode::kPlain) && o.controllability != Perturbation::kOff) {
+    perturbed = PerturbedRollout(model, data, episodes, o.rollout, o.controllability);
+  }
   std::vector<EpisodeRecord> records;
   const RolloutExporter exporter(o, name, model.checkpoint_file(), tok.checkpoint_sha256());
   std::optional<Progress> progress;
@@ -154,20 +159,23 @@ std::vector<EpisodeRecord> ScoreEpisodes(const EvalOptions& o, const std::string
       pictures[kind] = pred;
       if (kind != "real") {  // the real clip's scores would all be perfect
         rec.scores[kind] = ScoreFrames(target, pred, tok, lpips);
+        rec.scores[kind]["moved_error_ratio"] = MovedErrorRatio(real, target, pred);
         if (!maps.empty()) rec.scores[kind].merge(ScoreRegions(target, pred, maps));
       }
       rec.clip_descriptors[kind] = tok.ClipDescriptor(pred.pixels.data(), pred.frames);
     };
     add_clip("real", target);
-    Clip copy_last{h, real.size, {}};
-    for (int64_t s = 0; s < h; ++s) {
-      copy_last.pixels.insert(copy_last.pixels.end(), real.frame(0),
-                              real.frame(0) + 3 * real.size * real.size);
-    }
-    add_clip("copy_last", copy_last);
+    add_clip("copy_last", RepeatFrame(real, 0, h));
     std::vector<int64_t> true_tokens(static_cast<size_t>((h + 1) * data.tokens_per_frame()));
     data.CopyTokens(episodes[i], 0, h + 1, true_tokens.data());
     add_clip("tokenizer_recon", DecodeClip(tok, true_tokens, 1, h));
+    add_clip("copy_last_tokens", RepeatFrame(DecodeClip(tok, true_tokens, 0, 1), 0, h));
+    // A copy reads no action: with perturbed ones it is the same clip, ΔtPSNR 0 by construction,
+    // the static reference beside plain's row (and in wm-report's vs copy_last).
+    for (const char* copy : {"copy_last", "copy_last_tokens"}) {
+      const auto& psnr = rec.scores[copy].at("psnr");
+      if (!perturbed.empty()) rec.scores[copy]["delta_tpsnr"] = DeltaPsnr(psnr, psnr);
+    }
     for (int64_t s = 0; s < h; ++s) rec.real_return += ep.rewards.at(s);
     std::map<std::string, Clip> first_samples;
     for (RolloutMode mode : o.modes) {
@@ -177,6 +185,11 @@ std::vector<EpisodeRecord> ScoreEpisodes(const EvalOptions& o, const std::string
       for (const auto& s : r.tokens) samples.push_back(DecodeClip(tok, s, 1, h));
       add_clip(kind, samples[0]);
       first_samples[kind] = samples[0];
+      if (mode == RolloutMode::kPlain && !perturbed.empty()) {
+        rec.scores[kind]["delta_tpsnr"] =
+            DeltaPsnr(rec.scores[kind].at("psnr"),
+                      FramePsnr(target, DecodeClip(tok, perturbed[i].tokens[0], 1, h)));
+      }
       double model_return = 0;
       for (int64_t s = 0; s < h; ++s) model_return += r.rewards[0][s];
       rec.model_return[kind] = model_return;

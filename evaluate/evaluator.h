@@ -6,6 +6,7 @@
 #include <string>
 #include <vector>
 
+#include "evaluate/controllability.h"
 #include "evaluate/region_masks.h"
 #include "evaluate/rollout.h"
 
@@ -20,6 +21,10 @@ struct EvalOptions {
   std::string out_dir;                   // REPORT_DIR
   std::vector<RolloutMode> modes = {RolloutMode::kPlain, RolloutMode::kRetrace};
   RolloutOptions rollout;
+  // Controllability (metric delta_tpsnr of the plain rollout; 0 for the copy baselines): the
+  // plain rollout again with the episode's actions perturbed; kOff skips it. Only when the plain
+  // rollout is evaluated.
+  Perturbation controllability = Perturbation::kReversed;
   MaskOptions masks;          // segmented-region MSE (mse_arm, mse_object, mse_background) when set
   std::string lpips_weights;  // official LPIPS (metric "lpips") besides lpips_style when set
   int64_t max_episodes = 0;   // 0 = every episode

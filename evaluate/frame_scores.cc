@@ -18,6 +18,17 @@ Clip SubClip(const Clip& clip, int64_t first, int64_t count) {
                              clip.pixels.begin() + (first + count) * floats)};
 }
 
+Clip RepeatFrame(const Clip& clip, int64_t t, int64_t count) {
+  Check(t >= 0 && t < clip.frames, "clip frame out of bounds");
+  const int64_t floats = 3 * int64_t{clip.size} * clip.size;
+  Clip out{count, clip.size, {}};
+  out.pixels.reserve(static_cast<size_t>(count * floats));
+  for (int64_t i = 0; i < count; ++i) {
+    out.pixels.insert(out.pixels.end(), clip.frame(t), clip.frame(t) + floats);
+  }
+  return out;
+}
+
 std::map<std::string, std::vector<double>> ScoreFrames(const Clip& real, const Clip& pred,
                                                        const tokenize::Tokenizer& tokenizer,
                                                        metrics::Lpips* lpips) {

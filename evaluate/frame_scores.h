@@ -27,6 +27,9 @@ struct Clip {
 // Frames [first, first + count) of `clip` as a new clip.
 Clip SubClip(const Clip& clip, int64_t first, int64_t count);
 
+// Frame `t` of `clip` repeated `count` times: the copy baselines (copy_last, copy_last_tokens).
+Clip RepeatFrame(const Clip& clip, int64_t t, int64_t count);
+
 // metric -> one value per frame pair ("mse" on [0, 255], "psnr" in dB (+inf for identical
 // frames), "ssim", "ms_ssim" when frames are at least metrics::kMsSsimMinSide (176) pixels wide,
 // "lpips_style", and "lpips" when `lpips` is given). `real` and `pred` have the same frame count

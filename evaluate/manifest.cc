@@ -25,6 +25,7 @@ nlohmann::json EvalConfigJson(const EvalOptions& o) {
           {"temperature", o.rollout.temperature},
           {"decode_steps", o.rollout.decode_steps},
           {"policy_prefix", o.rollout.policy_prefix},
+          {"controllability", PerturbationName(o.controllability)},
           {"max_episodes", o.max_episodes},
           {"resamples", o.resamples},
           {"masks", o.masks.source},

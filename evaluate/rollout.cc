@@ -8,20 +8,20 @@
 #include "train/dynamics_model.h"
 
 namespace wm::evaluate {
-namespace {
 
-// SplitMix64 finaliser: derives a seed from (seed, counter).
-uint64_t Mix(uint64_t seed, int64_t counter) {
+uint64_t MixSeed(uint64_t seed, int64_t counter) {
   uint64_t x = seed ^ (0x9E3779B97F4A7C15ull * static_cast<uint64_t>(counter + 1));
   x = (x ^ (x >> 30)) * 0xBF58476D1CE4E5B9ull;
   x = (x ^ (x >> 27)) * 0x94D049BB133111EBull;
   return x ^ (x >> 31);
 }
 
+namespace {
+
 // One sampling seed per (run seed, episode, sample, step): an episode's imagination does not
 // depend on which other episodes share its batch or shard.
 uint64_t RowSeed(uint64_t seed, int64_t episode, int sample, int64_t step) {
-  return Mix(Mix(Mix(seed, episode), sample), step);
+  return MixSeed(MixSeed(MixSeed(seed, episode), sample), step);
 }
 
 // z of each episode from the prior over its first real frames and actions; empty without
@@ -53,7 +53,8 @@ const char* RolloutName(RolloutMode mode) {
 std::vector<EpisodeRollout> Rollout(const train::DynamicsModel& model,
                                     const tokens::TokenDataset& data,
                                     const std::vector<int64_t>& episodes, RolloutMode mode,
-                                    const RolloutOptions& o) {
+                                    const RolloutOptions& o,
+                                    const std::vector<std::vector<float>>* actions_given) {
   const int64_t n = data.tokens_per_frame();
   Check(n == model.tokens_per_frame() &&
             data.index().tokenizer.num_codes == model.config().model.num_codes,
@@ -77,8 +78,9 @@ std::vector<EpisodeRollout> Rollout(const train::DynamicsModel& model,
   // reward head (CPU GEMM kernels depend on the row count), and sharded runs must reproduce
   // single ones exactly.
   for (EpisodeRollout& r : out) {
-    const float* actions = data.actions(r.episode);
-    const auto& policy_z = z[&r - out.data()];
+    const auto index = static_cast<size_t>(&r - out.data());
+    const float* actions = actions_given ? (*actions_given)[index].data() : data.actions(r.episode);
+    const auto& policy_z = z[index];
     for (int s = 0; s < o.samples; ++s) {
       std::vector<int64_t>& frames = r.tokens[s];
       for (int64_t t = 0; t < r.steps; ++t) {

@@ -41,11 +41,17 @@ struct EpisodeRollout {
 };
 
 // Rolls out every episode in `episodes`, one (episode, sample) row at a time with its own
-// sampling seed, so an episode's result does not depend on which other episodes are rolled out. Throws wm::Error when
-// the model and the token data disagree on grid or codebook.
+// sampling seed, so an episode's result does not depend on which other episodes are rolled out.
+// `actions`, when given, holds per episode of `episodes` the actions ([num_frames, 7]) to feed
+// instead of the logged ones (controllability.h); the policy prior still sees the logged ones.
+// Throws wm::Error when the model and the token data disagree on grid or codebook.
 std::vector<EpisodeRollout> Rollout(const train::DynamicsModel& model,
                                     const tokens::TokenDataset& data,
                                     const std::vector<int64_t>& episodes, RolloutMode mode,
-                                    const RolloutOptions& options);
+                                    const RolloutOptions& options,
+                                    const std::vector<std::vector<float>>* actions = nullptr);
+
+// SplitMix64 finaliser: a seed derived from (seed, counter), for independent random streams.
+uint64_t MixSeed(uint64_t seed, int64_t counter);
 
 }  // namespace wm::evaluate

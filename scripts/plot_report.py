@@ -6,7 +6,7 @@
 
 Writes into DIR:
   step_<metric>.png   mean and 95% band vs horizon step per checkpoint x rollout (per_step.csv);
-                      a baseline rollout (copy_last, tokenizer_recon) whose curve is the same
+                      a baseline rollout (copy_last(_tokens), tokenizer_recon) whose curve is the same
                       for several checkpoints is drawn once
   values.png          real vs model value per policy, one panel per rollout (values.csv)
   scaling_<metric>_<rollout>.png, scaling_points.csv, scaling_fit.json
@@ -34,9 +34,11 @@ import matplotlib.pyplot as plt  # noqa: E402  (after the backend is chosen)
 import matplotlib.ticker  # noqa: E402
 import numpy as np  # noqa: E402
 
-ROLLOUT_ORDER = ["plain", "retrace", "copy_last", "tokenizer_recon"]
-LINE_STYLES = {"plain": "-", "retrace": "--", "copy_last": ":", "tokenizer_recon": "-."}
-BASELINE_ROLLOUTS = {"copy_last", "tokenizer_recon"}
+ROLLOUT_ORDER = ["plain", "retrace", "copy_last", "copy_last_tokens", "tokenizer_recon"]
+LINE_STYLES = {"plain": "-", "retrace": "--", "copy_last": ":", "copy_last_tokens": ":",
+               "tokenizer_recon": "-."}
+MARKERS = {"copy_last_tokens": "s"}  # dotted like copy_last, told apart by square markers
+BASELINE_ROLLOUTS = {"copy_last", "copy_last_tokens", "tokenizer_recon"}
 PNG_METADATA = {"Software": None}  # no matplotlib version in the file: same bytes across runs
 
 
@@ -176,8 +178,8 @@ def plot_steps(reports, args, written):
                 step, mean, lo, hi = (np.array(c, dtype=float) for c in zip(*points))
                 color = "0.4" if rollout in BASELINE_ROLLOUTS else colors[i % len(colors)]
                 label = rollout if rollout in BASELINE_ROLLOUTS else f"{r.name} / {rollout}"
-                ax.plot(step, mean, LINE_STYLES.get(rollout, "-"), color=color, marker="o",
-                        markersize=3, label=label)
+                ax.plot(step, mean, LINE_STYLES.get(rollout, "-"), color=color,
+                        marker=MARKERS.get(rollout, "o"), markersize=3, label=label)
                 if np.isfinite(lo).any():
                     ax.fill_between(step, lo, hi, color=color, alpha=0.15, linewidth=0)
         ax.set_xlabel("horizon step")

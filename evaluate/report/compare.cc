@@ -6,6 +6,7 @@
 #include <cmath>
 #include <limits>
 #include <map>
+#include <optional>
 #include <random>
 #include <set>
 
@@ -26,7 +27,8 @@ std::string JoinNames(const std::vector<std::string>& names) {
 // wm-eval's modes first, then its baselines, then anything else in byte order.
 std::vector<std::string> OrderRollouts(const std::set<std::string>& present) {
   std::vector<std::string> order;
-  for (const char* known : {"plain", "retrace", "copy_last", "tokenizer_recon"}) {
+  for (const char* known :
+       {"plain", "retrace", "copy_last", "copy_last_tokens", "tokenizer_recon"}) {
     if (present.contains(known)) order.push_back(known);
   }
   for (const auto& r : present) {
@@ -128,37 +130,78 @@ size_t DefinedCount(const std::map<int64_t, EpisodeValue>& values) {
       values.begin(), values.end(), [](const auto& v) { return std::isfinite(v.second.value); }));
 }
 
+using Key = std::pair<std::string, std::string>;  // (rollout, metric)
+
+// The paired delta of `key` in `candidate` minus `base_key` in `base` over the episodes both
+// scored with a defined value; nullopt when either lacks per-episode values or none pair.
+std::optional<PairedDelta> PairedAgainst(const CheckpointReport& candidate, const Key& key,
+                                         const CheckpointReport& base, const Key& base_key,
+                                         const CompareOptions& o) {
+  auto values = candidate.per_episode.find(key);
+  auto base_values = base.per_episode.find(base_key);
+  if (values == candidate.per_episode.end() || base_values == base.per_episode.end()) {
+    return std::nullopt;
+  }
+  auto [a, b] = PairEpisodes(candidate, values->second, base_values->second, base);
+  if (a.empty()) return std::nullopt;
+  const size_t own_n = DefinedCount(values->second), base_n = DefinedCount(base_values->second);
+  if (a.size() < std::max(own_n, base_n)) {
+    spdlog::warn("{} {} vs {} {} ({}): paired on the {} episodes both scored ({} and {})",
+                 candidate.name, key.first, base.name, base_key.first, key.second, a.size(), own_n,
+                 base_n);
+  }
+  return PairedBootstrapDelta(a, b, o.resamples, o.seed, o.level);
+}
+
+// Only whole-set values (fvd_style, correlations, value_gap, ...): their difference, no interval.
+double SummaryDifference(const CheckpointReport& candidate, const Key& key,
+                         const CheckpointReport& base, const Key& base_key) {
+  auto own = candidate.summary.find(key);
+  auto other = base.summary.find(base_key);
+  if (own == candidate.summary.end() || other == base.summary.end()) return kUndefined;
+  return own->second.mean - other->second.mean;
+}
+
+std::optional<bool> ExcludesZero(const PairedDelta& d) {
+  if (!std::isfinite(d.ci_low) || !std::isfinite(d.ci_high)) return std::nullopt;
+  return d.ci_low > 0 || d.ci_high < 0;
+}
+
+// The row against its own report's copy_last rollout, the verdict in the metric's direction.
+void CompareWithCopyLast(const CheckpointReport& report, const Key& key, MetricComparison& c,
+                         const CompareOptions& o) {
+  const Key copy_last = {"copy_last", key.second};
+  if (key.first == copy_last.first || !report.HasRollout(copy_last.first)) return;
+  const auto d = PairedAgainst(report, key, report, copy_last, o);
+  if (!d) {
+    c.vs_copy_last = SummaryDifference(report, key, report, copy_last);
+    return;
+  }
+  c.vs_copy_last = d->delta, c.vs_copy_last_ci_low = d->ci_low, c.vs_copy_last_ci_high = d->ci_high;
+  if (auto excludes = ExcludesZero(*d)) {
+    const bool higher = MetricDirection(key.second) == Direction::kHigherIsBetter;
+    c.beats_copy_last = !*excludes ? 0 : (d->ci_low > 0) == higher ? 1 : -1;
+  }
+}
+
 MetricComparison CompareOne(const CheckpointReport& candidate, const CheckpointReport& base,
                             bool is_baseline, const std::string& rollout, const std::string& metric,
                             const CompareOptions& o) {
   MetricComparison c;
-  const auto key = std::make_pair(rollout, metric);
+  const Key key = {rollout, metric};
   auto own = candidate.summary.find(key);
   if (own != candidate.summary.end()) {
     c.mean = own->second.mean, c.ci_low = own->second.ci_low, c.ci_high = own->second.ci_high;
   }
+  CompareWithCopyLast(candidate, key, c, o);
   if (is_baseline) return c;
-  auto values = candidate.per_episode.find(key);
-  auto base_values = base.per_episode.find(key);
-  if (values != candidate.per_episode.end() && base_values != base.per_episode.end()) {
-    auto [a, b] = PairEpisodes(candidate, values->second, base_values->second, base);
-    if (!a.empty()) {
-      const PairedDelta d = PairedBootstrapDelta(a, b, o.resamples, o.seed, o.level);
-      c.delta = d.delta, c.delta_ci_low = d.ci_low, c.delta_ci_high = d.ci_high, c.pairs = d.pairs;
-      if (std::isfinite(d.ci_low) && std::isfinite(d.ci_high)) {
-        c.significant = d.ci_low > 0 || d.ci_high < 0;
-      }
-      const size_t own_n = DefinedCount(values->second), base_n = DefinedCount(base_values->second);
-      if (a.size() < std::max(own_n, base_n)) {
-        spdlog::warn("{} vs {} ({} {}): paired on the {} episodes both scored ({} and {})",
-                     candidate.name, base.name, rollout, metric, a.size(), own_n, base_n);
-      }
-      return c;
-    }
+  if (const auto d = PairedAgainst(candidate, key, base, key, o)) {
+    c.delta = d->delta, c.delta_ci_low = d->ci_low, c.delta_ci_high = d->ci_high;
+    c.pairs = d->pairs;
+    c.significant = ExcludesZero(*d);
+    return c;
   }
-  // Only a whole-set value (fvd_style, correlations, value_gap, ...): no paired interval.
-  auto base_entry = base.summary.find(key);
-  if (base_entry != base.summary.end()) c.delta = c.mean - base_entry->second.mean;
+  c.delta = SummaryDifference(candidate, key, base, key);
   return c;
 }
 
@@ -237,6 +280,7 @@ Comparison CompareReports(const std::vector<CheckpointReport>& reports, const Co
                     .rows = {}};
   for (size_t i = 0; i < reports.size(); ++i) {
     if (i != base) WarnOnDifferentData(reports[i], reports[base]);
+    result.has_copy_last |= reports[i].HasRollout("copy_last");
   }
   for (const auto& rollout : rollouts) {
     for (size_t i = 0; i < reports.size(); ++i) {

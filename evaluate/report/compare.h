@@ -1,7 +1,8 @@
 #pragma once
 // `wm-report compare`: checkpoints side by side, per rollout: each headline metric's mean and
 // interval (from summary.csv), its difference to a baseline checkpoint with a paired bootstrap
-// interval over the episodes both reports scored (from per_episode.csv), and a rank.
+// interval over the episodes both reports scored (from per_episode.csv), a rank, and its
+// difference to the report's own copy_last baseline rollout, paired the same way.
 // Semantics: docs/reports.md, "wm-report compare".
 #include <cstdint>
 #include <optional>
@@ -41,6 +42,13 @@ struct MetricComparison {
   std::optional<bool> significant;  // the delta interval excludes 0; nullopt: untested
   std::optional<int64_t> rank;      // 1 = best among the checkpoints of this rollout
   int64_t pairs = 0;                // episodes behind the paired delta; 0: none
+  // Against the same report's copy_last rollout ("does it beat copying?"): this row minus
+  // copy_last, paired over episodes, with its interval; the verdict follows the metric's
+  // direction: +1 better than copying, -1 worse (the interval excludes 0), 0 indistinguishable,
+  // nullopt without an interval. Undefined in the copy_last rows themselves.
+  double vs_copy_last = kUndefined, vs_copy_last_ci_low = kUndefined;
+  double vs_copy_last_ci_high = kUndefined;
+  std::optional<int> beats_copy_last;
 };
 
 struct ComparisonRow {
@@ -52,6 +60,7 @@ struct ComparisonRow {
 struct Comparison {
   std::string baseline;
   std::vector<std::string> metrics;
+  bool has_copy_last = false;  // some report has a copy_last rollout: the vs_copy_last columns
   // Grouped by rollout (plain, retrace, copy_last, tokenizer_recon, then others in byte order),
   // checkpoints in the order given; a checkpoint without a rollout has no row for it.
   std::vector<ComparisonRow> rows;

@@ -30,9 +30,15 @@ then per metric m:
   m_delta_significant         1 when that interval excludes 0, else 0; empty when untested
   m_rank                      1 = best among the checkpoints of the rollout; ties share the
                               better rank (1, 2, 2, 4); direction per metric (higher is better
-                              for psnr, ssim, correlations, ranking_accuracy; lower for mse*,
-                              lpips_style, fvd_style, value_gap, return_error)
-The baseline row's delta cells are empty. Numbers are printed with %.9g, undefined ones as empty
+                              for psnr, ssim, correlations, ranking_accuracy, delta_tpsnr;
+                              lower for mse*, lpips_style, fvd_style, value_gap, return_error,
+                              moved_error_ratio)
+  m_vs_copy_last, _ci_low,    "does it beat copying?": m minus the same report's copy_last
+    _ci_high                  rollout, paired over episodes, with its paired bootstrap interval
+                              (only when some report has a copy_last rollout)
+  m_beats_copy_last           1 better than copy_last (the interval excludes 0 on the metric's
+                              better side), -1 worse, 0 the interval contains 0; empty untested
+The baseline row's delta cells are empty; copy_last rows have no vs_copy_last cells. Numbers are printed with %.9g, undefined ones as empty
 cells: the same inputs and --seed give the same bytes. Schema: schemas/report-compare.schema.json.
 
 Examples:
@@ -80,9 +86,10 @@ void AddCompareCommand(CLI::App& app) {
       ->delimiter(',')
       ->allow_extra_args(false);
   cmd->add_option("--rollout", o->compare.rollout,
-                  "plain, retrace, copy_last, tokenizer_recon or all")
+                  "plain, retrace, copy_last, copy_last_tokens, tokenizer_recon or all")
       ->capture_default_str();
-  cmd->add_option("--markdown", o->markdown, "Also write the table as Markdown to this file");
+  cmd->add_option("--markdown", o->markdown,
+                  "Also write the table (and one against copy_last) as Markdown to this file");
   cmd->add_option("--seed", o->compare.seed, "Paired bootstrap seed")->capture_default_str();
   cmd->add_option("--resamples", o->compare.resamples,
                   "Paired bootstrap replicates (0: no delta intervals)")

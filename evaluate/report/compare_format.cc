@@ -56,11 +56,17 @@ std::string DeltaCell(const MetricComparison& c, bool baseline) {
 
 std::string FormatNumber(double value) { return Format("%.9g", value); }
 
-std::vector<std::string> CompareCsvHeader(const std::vector<std::string>& metrics) {
+std::vector<std::string> CompareCsvHeader(const std::vector<std::string>& metrics,
+                                          bool vs_copy_last) {
   std::vector<std::string> header = {"checkpoint", "rollout"};
   for (const auto& m : metrics) {
     for (const char* suffix : {"", "_ci_low", "_ci_high", "_delta", "_delta_ci_low",
                                "_delta_ci_high", "_delta_significant", "_rank"}) {
+      header.push_back(m + suffix);
+    }
+    if (!vs_copy_last) continue;
+    for (const char* suffix :
+         {"_vs_copy_last", "_vs_copy_last_ci_low", "_vs_copy_last_ci_high", "_beats_copy_last"}) {
       header.push_back(m + suffix);
     }
   }
@@ -68,7 +74,8 @@ std::vector<std::string> CompareCsvHeader(const std::vector<std::string>& metric
 }
 
 std::string ComparisonToCsv(const Comparison& comparison) {
-  std::string out = JoinRow(CompareCsvHeader(comparison.metrics), ",") + "\n";
+  std::string out =
+      JoinRow(CompareCsvHeader(comparison.metrics, comparison.has_copy_last), ",") + "\n";
   for (const auto& row : comparison.rows) {
     std::vector<std::string> cells = {metrics::CsvCell(row.checkpoint),
                                       metrics::CsvCell(row.rollout)};
@@ -78,11 +85,65 @@ std::string ComparisonToCsv(const Comparison& comparison) {
       }
       cells.push_back(c.significant ? (*c.significant ? "1" : "0") : "");
       cells.push_back(c.rank ? std::to_string(*c.rank) : "");
+      if (!comparison.has_copy_last) continue;
+      for (double v : {c.vs_copy_last, c.vs_copy_last_ci_low, c.vs_copy_last_ci_high}) {
+        cells.push_back(FormatNumber(v));
+      }
+      cells.push_back(c.beats_copy_last ? std::to_string(*c.beats_copy_last) : "");
     }
     out += JoinRow(cells, ",") + "\n";
   }
   return out;
 }
+
+namespace {
+
+std::string MetricHeader(const std::string& metric) {
+  const bool higher = MetricDirection(metric) == Direction::kHigherIsBetter;
+  return MarkdownText(metric) + (higher ? " ↑" : " ↓");
+}
+
+std::string CopyLastCell(const MetricComparison& c) {
+  if (!std::isfinite(c.vs_copy_last)) return "–";
+  std::string cell =
+      Signed(c.vs_copy_last) + Interval(c.vs_copy_last_ci_low, c.vs_copy_last_ci_high, Signed);
+  if (!c.beats_copy_last) return cell;
+  return cell + (*c.beats_copy_last > 0 ? " better" : *c.beats_copy_last < 0 ? " worse" : " same");
+}
+
+// Every row but copy_last's against its own report's copy_last, for the metrics that have such a
+// difference somewhere; empty when none has.
+std::string CopyLastTable(const Comparison& comparison, const std::string& percent) {
+  std::vector<size_t> shown;
+  for (size_t m = 0; m < comparison.metrics.size(); ++m) {
+    for (const auto& row : comparison.rows) {
+      if (std::isfinite(row.metrics[m].vs_copy_last)) {
+        shown.push_back(m);
+        break;
+      }
+    }
+  }
+  if (shown.empty()) return "";
+  std::string out = "\nAgainst copy_last: Δ = rollout − the same report's copy_last, paired over ";
+  out += "episodes, with its " + percent + "% paired-bootstrap CI; better / worse = the CI ";
+  out += "excludes 0 on the metric's better / worse side (↑ higher, ↓ lower is better), same = ";
+  out += "it contains 0.\n\n";
+  std::vector<std::string> header = {"checkpoint", "rollout"}, rule = {"---", "---"};
+  for (size_t m : shown) {
+    header.push_back("Δ " + MetricHeader(comparison.metrics[m]));
+    rule.push_back("---:");
+  }
+  out += "| " + JoinRow(header, " | ") + " |\n| " + JoinRow(rule, " | ") + " |\n";
+  for (const auto& row : comparison.rows) {
+    if (row.rollout == "copy_last") continue;
+    std::vector<std::string> cells = {MarkdownText(row.checkpoint), MarkdownText(row.rollout)};
+    for (size_t m : shown) cells.push_back(CopyLastCell(row.metrics[m]));
+    out += "| " + JoinRow(cells, " | ") + " |\n";
+  }
+  return out;
+}
+
+}  // namespace
 
 std::string ComparisonToMarkdown(const Comparison& comparison, double level) {
   const std::string percent = Format("%g", 100 * level);
@@ -92,8 +153,7 @@ std::string ComparisonToMarkdown(const Comparison& comparison, double level) {
   out += "% paired-bootstrap CI; * = the CI excludes 0.\n\n";
   std::vector<std::string> header = {"checkpoint", "rollout"}, rule = {"---", "---"};
   for (const auto& m : comparison.metrics) {
-    const bool higher = MetricDirection(m) == Direction::kHigherIsBetter;
-    header.push_back(MarkdownText(m) + (higher ? " ↑" : " ↓"));
+    header.push_back(MetricHeader(m));
     header.push_back("Δ " + MarkdownText(m));
     rule.insert(rule.end(), {"---:", "---:"});
   }
@@ -106,7 +166,7 @@ std::string ComparisonToMarkdown(const Comparison& comparison, double level) {
     }
     out += "| " + JoinRow(cells, " | ") + " |\n";
   }
-  return out;
+  return out + CopyLastTable(comparison, percent);
 }
 
 }  // namespace wm::report

@@ -17,6 +17,10 @@ const std::map<std::string, Direction>& Directions() {
       {"ranking_accuracy", kHigherIsBetter},
       // A model whose sample spread tracks its error knows where it is wrong.
       {"uncertainty_error_corr", kHigherIsBetter},
+      // Controllability (Genie's ΔtPSNR): PSNR lost when the actions are perturbed.
+      {"delta_tpsnr", kHigherIsBetter},
+      // Error to the truth over error to the start, where the scene moved: < 1 moved right.
+      {"moved_error_ratio", kLowerIsBetter},
       {"mse", kLowerIsBetter},
       {"lpips", kLowerIsBetter},  // official LPIPS (wm-eval --lpips-weights)
       {"lpips_style", kLowerIsBetter},
@@ -46,6 +50,8 @@ const std::vector<std::string>& HeadlineMetrics() {
                                                    "mse_arm",
                                                    "mse_object",
                                                    "mse_background",
+                                                   "delta_tpsnr",
+                                                   "moved_error_ratio",
                                                    "value_gap",
                                                    "pearson",
                                                    "spearman",

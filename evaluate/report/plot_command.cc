@@ -11,8 +11,8 @@ namespace {
 constexpr const char* kFooter = R"(
 Draws with matplotlib (Agg) through scripts/plot_report.py, which it runs with --python:
   step_<metric>.png     mean and 95% band vs horizon step, one line per checkpoint x rollout
-                        (per_step.csv); identical baseline curves (copy_last, tokenizer_recon)
-                        are drawn once
+                        (per_step.csv); identical baseline curves (copy_last,
+                        copy_last_tokens, tokenizer_recon) are drawn once
   values.png            real vs model value per policy, a panel per rollout, y = x for
                         reference (values.csv)
   scaling_<metric>_<rollout>.png, scaling_points.csv, scaling_fit.json

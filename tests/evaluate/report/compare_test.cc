@@ -16,6 +16,7 @@ namespace {
 
 using test::FakeReport;
 using ::testing::HasSubstr;
+using ::testing::Not;
 
 std::vector<CheckpointReport> Read(const test::TempDir& tmp, const std::vector<FakeReport>& rs) {
   std::vector<CheckpointReport> reports;
@@ -170,6 +171,62 @@ TEST(Compare, SameSeedSameBytesAndTheSeedOnlyMovesIntervals) {
   const Comparison one = CompareReports(reports, {.seed = 1});
   EXPECT_EQ(Cell(other, "b", "psnr").delta, Cell(one, "b", "psnr").delta);
   EXPECT_NE(ComparisonToCsv(other), first);
+}
+
+TEST(Compare, EachRowAgainstItsOwnCopyLastIsPairedAndReadsInTheMetricsDirection) {
+  test::TempDir tmp;
+  FakeReport a{"a",
+               {{"plain",
+                 {{"psnr", {30, 32, 31}},
+                  {"ssim", {0.5, 0.6, 0.7}},
+                  {"mse", {1, 1.2, 1}},
+                  {"lpips_style", {0.5, 0.75, 1}}}},
+                {"copy_last",
+                 {{"psnr", {28, 29, 30}},
+                  {"ssim", {0.6, 0.5, 0.7}},
+                  {"mse", {2, 2.1, 2}},
+                  {"lpips_style", {0.25, 0.5, 0.75}}}}},
+               {{"plain", {{"fvd_style", 10.0}}}, {"copy_last", {{"fvd_style", 12.5}}}}};
+  // b's own copy_last is better than its plain rollout; a's copy_last must not be used for b.
+  FakeReport b{"b", {{"plain", {{"psnr", {30, 32, 31}}}}, {"copy_last", {{"psnr", {31, 33, 32}}}}}};
+  const Comparison c = CompareReports(Read(tmp, {a, b}), {.resamples = 500});
+  EXPECT_TRUE(c.has_copy_last);
+  const MetricComparison& psnr = Cell(c, "a", "psnr");
+  EXPECT_DOUBLE_EQ(psnr.vs_copy_last, 2.0);  // mean of (2, 3, 1)
+  EXPECT_GE(psnr.vs_copy_last_ci_low, 1.0);  // no resample goes below the smallest difference
+  EXPECT_LE(psnr.vs_copy_last_ci_high, 3.0);
+  EXPECT_EQ(psnr.beats_copy_last, 1);                 // higher PSNR: better than copying
+  EXPECT_EQ(Cell(c, "a", "mse").beats_copy_last, 1);  // lower MSE on every episode: better
+  EXPECT_NEAR(Cell(c, "a", "mse").vs_copy_last, -0.9666666666666667, 1e-12);
+  EXPECT_EQ(Cell(c, "a", "lpips_style").beats_copy_last, -1);  // +0.25 everywhere: worse
+  EXPECT_DOUBLE_EQ(Cell(c, "a", "lpips_style").vs_copy_last_ci_low, 0.25);
+  EXPECT_EQ(Cell(c, "a", "ssim").beats_copy_last, 0);  // -0.1, +0.1, 0: indistinguishable
+  // A whole-set metric: the difference only.
+  EXPECT_DOUBLE_EQ(Cell(c, "a", "fvd_style").vs_copy_last, -2.5);
+  EXPECT_FALSE(Cell(c, "a", "fvd_style").beats_copy_last.has_value());
+  // Against its own copy_last, also in the baseline report's rows; none in copy_last's rows.
+  EXPECT_DOUBLE_EQ(Cell(c, "b", "psnr").vs_copy_last, -1.0);
+  EXPECT_EQ(Cell(c, "b", "psnr").beats_copy_last, -1);
+  EXPECT_TRUE(std::isnan(Cell(c, "a", "psnr", "copy_last").vs_copy_last));
+  EXPECT_FALSE(Cell(c, "a", "psnr", "copy_last").beats_copy_last.has_value());
+}
+
+TEST(CompareFormat, CopyLastColumnsAndTableAppearWithACopyLastRollout) {
+  test::TempDir tmp;
+  auto reports =
+      Read(tmp, {{"a",
+                  {{"plain", {{"mse", {1, 2, 3}}, {"lpips_style", {0.5, 0.5, 0.5}}}},
+                   {"copy_last", {{"mse", {2, 3, 4}}, {"lpips_style", {0.25, 0.25, 0.25}}}}}}});
+  EXPECT_EQ(ComparisonToCsv(CompareReports(reports, {.metrics = {"mse"}, .resamples = 0})),
+            "checkpoint,rollout,mse,mse_ci_low,mse_ci_high,mse_delta,mse_delta_ci_low,"
+            "mse_delta_ci_high,mse_delta_significant,mse_rank,mse_vs_copy_last,"
+            "mse_vs_copy_last_ci_low,mse_vs_copy_last_ci_high,mse_beats_copy_last\n"
+            "a,plain,2,1,3,,,,,1,-1,,,\n"
+            "a,copy_last,3,2,4,,,,,1,,,,\n");
+  const std::string md = ComparisonToMarkdown(CompareReports(reports, {}), 0.95);
+  EXPECT_THAT(md, HasSubstr("| checkpoint | rollout | Δ mse ↓ | Δ lpips_style ↓ |\n"));
+  EXPECT_THAT(md, HasSubstr("| a | plain | -1 [-1, -1] better | +0.25 [+0.25, +0.25] worse |"));
+  EXPECT_THAT(md, Not(HasSubstr("| a | copy_last | -")));  // no row against itself
 }
 
 TEST(CompareFormat, CsvHasTheDocumentedColumnsAndEmptyCellsForUndefined) {

@@ -42,7 +42,8 @@ def typed(row):
     for k, v in row.items():
         if v == "":
             out[k] = None
-        elif k in INTEGER_COLUMNS or k.endswith("_rank") or k.endswith("_significant"):
+        elif (k in INTEGER_COLUMNS or k.endswith("_rank") or k.endswith("_significant")
+              or k.endswith("_beats_copy_last")):
             out[k] = int(v)
         elif k in ("checkpoint", "rollout", "metric", "policy_id"):
             out[k] = v
@@ -212,6 +213,42 @@ class WmReport(unittest.TestCase):
                     ref = np.percentile(boot, 97.5) - np.percentile(boot, 2.5)
                     self.assertLess(abs((hi - lo) / ref - 1), 0.35, (name, rollout, m))
 
+    def test_each_row_against_its_own_copy_last_equals_numpy(self):
+        """m_vs_copy_last: the mean paired difference to the same report's copy_last (the whole-
+        set difference for fvd_style, empty where copy_last lacks the metric); m_beats_copy_last:
+        the interval's side of 0 in the metric's direction."""
+        verdicts = set()
+        for row in self.rows:
+            name, rollout = row["checkpoint"], row["rollout"]
+            for m in self.metrics():
+                cells = [row[m + s] for s in ("_vs_copy_last", "_vs_copy_last_ci_low",
+                                              "_vs_copy_last_ci_high", "_beats_copy_last")]
+                if rollout == "copy_last" or m not in PER_EPISODE + ["fvd_style"]:
+                    self.assertEqual(cells, [""] * 4, (name, rollout, m))
+                    continue
+                if m == "fvd_style":
+                    want = self.whole[name][rollout][m] - self.whole[name]["copy_last"][m]
+                    self.assertAlmostEqual(float(cells[0]), want, delta=1e-8)
+                    self.assertEqual(cells[1:], [""] * 3)
+                    continue
+                a, b = (np.array([float(g9(x) or "nan") for x in self.episodes[name][r][m]])
+                        for r in (rollout, "copy_last"))
+                both = np.isfinite(a) & np.isfinite(b)
+                diff = a[both] - b[both]
+                self.assertAlmostEqual(float(cells[0]), diff.mean(),
+                                       delta=1e-8 * max(1, abs(diff.mean())), msg=(name, m))
+                lo, hi = float(cells[1]), float(cells[2])
+                self.assertLessEqual(diff.min() - 1e-9, lo)
+                self.assertLessEqual(lo, hi)
+                self.assertLessEqual(hi, diff.max() + 1e-9)
+                better = (lo > 0) if m in HIGHER else (hi < 0)
+                worse = (hi < 0) if m in HIGHER else (lo > 0)
+                self.assertEqual(int(cells[3]), 1 if better else -1 if worse else 0, (name, m))
+                verdicts.add(int(cells[3]))
+        # copy_last is 1.5x the baseline checkpoint: higher PSNR (worse for the models), higher
+        # MSE (better for them) -- both signs occur.
+        self.assertTrue({1, -1} <= verdicts, verdicts)
+
     def test_better_on_every_episode_is_significant_and_identical_is_not(self):
         rows = {(r["checkpoint"], r["rollout"]): r for r in self.rows}
         self.assertEqual(rows[("large", "plain")]["psnr_delta_significant"], "1")
@@ -253,6 +290,7 @@ class WmReport(unittest.TestCase):
         with open(self.md, encoding="utf-8") as f:
             md = f.read()
         self.assertIn("| checkpoint | rollout | psnr ↑ | Δ psnr |", md)
+        self.assertIn("| checkpoint | rollout | Δ psnr ↑ | Δ ssim ↑ |", md)  # against copy_last
         # --metrics before the directories takes one argument, not the directories too.
         p = wm_report("compare", "--metrics", "mse,value_gap", *self.dirs, "--out", out2,
                       "--baseline", "large", "--rollout", "plain")
@@ -260,7 +298,8 @@ class WmReport(unittest.TestCase):
         rows = read_rows(out2)
         self.assertEqual([r["checkpoint"] for r in rows], ["small", "base", "large"])
         self.assertEqual(list(rows[0])[2:4], ["mse", "mse_ci_low"])
-        self.assertEqual(len(rows[0]), 2 + 2 * 8)
+        self.assertEqual(len(rows[0]), 2 + 2 * (8 + 4))  # + 4 against copy_last per metric
+        self.assertEqual(rows[0]["value_gap_vs_copy_last"], "")  # copy_last has no value_gap
         self.assertEqual(rows[2]["mse_delta"], "")
         self.assertGreater(float(rows[0]["mse_delta"]), 0)
 
