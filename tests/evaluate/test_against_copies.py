@@ -1,8 +1,14 @@
 #!/usr/bin/python3
 """End to end on tiny tabletop data: a world model trained here by the built tools (wm-gen-tabletop
---look plain -> wm-ingest -> wm-tokenize -> wm-train) beats the copy-last-frame baseline in PSNR
-at horizon 1 on the val split, scored by wm-eval in the same run as the baseline; the same model
-stopped early does not, so the comparison can fail.
+--look plain -> wm-ingest -> wm-tokenize -> wm-train, the tiny preset: next-frame objective with
+the copy prior) against the two copy baselines at horizon 1 on the val split, scored by wm-eval
+in the same run: it is no worse than copying the last frame's tokens (copy_last_tokens), and it
+beats copying the last frame's pixels (copy_last) in PSNR.
+
+What this does not show: motion. copy_last_tokens, the tokenizer's picture of the last frame,
+scores the same PSNR as the model here, so the margin over copy_last is the tokenizer's smoothing
+(issue 20), not predicted motion; the strips of `make demo` show the frozen arm. The test guards
+against falling below copying; a model that moves will have to earn a stronger one.
 
 The plain look (one untextured table and light) is what makes this affordable: on the demo's
 varied textures the 8x8-token tokenizer's own error (23.9 dB ceiling) is as large as the arm's
@@ -10,7 +16,6 @@ motion between frames and a CPU-sized model does not beat copy-last (README, "Kn
 Sized for CI: about 2.5 min on 2 cores (PROCESSORS 2 in CMakeLists.txt)."""
 import csv
 import os
-import shutil
 import sys
 import tempfile
 import unittest
@@ -18,7 +23,7 @@ import unittest
 sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), ".."))
 from tiny_pipeline import TinyPipeline, run_ok  # noqa: E402
 
-DYNAMICS_STEPS, EARLY_STEPS = 300, 30
+DYNAMICS_STEPS = 300
 VAL_EPISODES = 16
 
 
@@ -46,14 +51,12 @@ class BeatsCopyLast(unittest.TestCase):
         p = TinyPipeline(cls.tmp.name, train_episodes=80, val_episodes=VAL_EPISODES,
                          look="plain", tokenizer_steps=1200, dynamics_steps=DYNAMICS_STEPS,
                          dynamics_model={"context_frames": 2}, dynamics_threads=2)
-        early, final = p.path("early"), p.path("final")
-        run_ok(p.dynamics_argv(early, "--stop-after", EARLY_STEPS))
-        shutil.copytree(early, final)
-        run_ok(p.dynamics_argv(final, "--resume"))  # on to DYNAMICS_STEPS
+        final = p.path("final")
+        run_ok(p.dynamics_argv(final))
         reports = p.path("reports")
         run_ok(p.eval_argv(reports, "--horizon", 1, "--rollout", "plain", "--temperature", 0,
-                           "--videos", 0, "--resamples", 100, checkpoints=[early, final]))
-        cls.early = step1_psnr(os.path.join(reports, "early"))
+                           "--videos", 0, "--strips", 0, "--controllability", "off",
+                           "--resamples", 100, checkpoints=[final]))
         cls.final = step1_psnr(os.path.join(reports, "final"))
 
     @classmethod
@@ -61,7 +64,7 @@ class BeatsCopyLast(unittest.TestCase):
         cls.tmp.cleanup()
 
     def test_every_val_episode_is_scored(self):
-        for rollout in ("plain", "copy_last", "tokenizer_recon"):
+        for rollout in ("plain", "copy_last", "copy_last_tokens", "tokenizer_recon"):
             self.assertEqual(sorted(self.final[rollout]), list(range(VAL_EPISODES)), rollout)
 
     def test_trained_model_beats_copy_last_at_horizon_1(self):
@@ -78,13 +81,12 @@ class BeatsCopyLast(unittest.TestCase):
         self.assertGreater(gain, 0)
         self.assertGreater(better, len(copy) // 2)
 
-    def test_the_model_stopped_early_does_not(self):
-        # The control: the comparison above is not won by construction (e.g. by scoring the
-        # model against its own input); with 30 of 300 steps the model still loses to copy_last.
-        self.assertEqual(self.early["copy_last"], self.final["copy_last"])
-        self.assertLess(mean(self.early["plain"].values()), mean(self.early["copy_last"].values()))
-        self.assertGreater(mean(self.final["plain"].values()) - mean(self.early["plain"].values()),
-                           0.5)
+    def test_trained_model_is_no_worse_than_copying_its_tokens(self):
+        model, tokens = self.final["plain"], self.final["copy_last_tokens"]
+        gain = mean([model[e] - tokens[e] for e in tokens])
+        print(f"horizon 1 PSNR: model - copy_last_tokens = {gain:+.3f} dB")
+        # The copy prior starts the model at this baseline; training must not leave it below.
+        self.assertGreater(gain, -0.05)
 
     def test_the_tokenizer_ceiling_is_above_the_model(self):
         self.assertGreater(mean(self.final["tokenizer_recon"].values()),
