@@ -3,7 +3,7 @@
 
 Two small C++ checkpoints are trained here (wm-tokenize train, 20 steps, 1 thread) on a tabletop
 set from wm-gen-tabletop + wm-ingest: A with the channel schedule (min_channels 8, 2 stride-2
-levels) and L2-normalised lookup, B with Euclidean lookup, constant width, a pixel-unshuffle
+levels), L2-normalised lookup and the detail-weighted L1 (model.detail_weight), B with Euclidean lookup, constant width, a pixel-unshuffle
 stem (factor 2) and 2 levels. For each,
 the twin loads checkpoint.wmt with its own archive reader and must give, on the set's frames plus
 random frames (tokenizer_ref_tool runs the C++ side):
@@ -33,10 +33,10 @@ TOL = 1e-5
 passed, failures = [], []
 
 CONFIGS = {
-    "A (cosine, min_channels 8)": """
+    "A (cosine, min_channels 8, detail weight)": """
 model: {image_size: 32, patch_size: 4, encoder_channels: 32, encoder_layers: 1,
         decoder_channels: 32, decoder_layers: 1, min_channels: 8, latent_dim: 8,
-        num_codes: 64, l2_normalize: true, beta: 0.25, dead_code_steps: 5}
+        num_codes: 64, l2_normalize: true, beta: 0.25, dead_code_steps: 5, detail_weight: 3}
 train: {batch_size: 8, steps: 20, max_lr: 3.0e-3, min_lr: 3.0e-4, warmup_steps: 3, threads: 1,
         seed: 3, checkpoint_every: 20, log_every: 5}
 """,
