@@ -59,9 +59,10 @@ VARIANTS = [  # (label, model overrides, train overrides)
     ("16x16, 128 codes, detail weight 4", {**P4, "num_codes": 128, "detail_weight": 4}, {"steps": 1200}),
     ("16x16, 512 codes, detail weight 4, dead_code_steps 0",
      {**P4, "num_codes": 512, "dead_code_steps": 0, "detail_weight": 4}, {"steps": 1200}),
+    ("16x16, 512 codes, detail weight 4, latent_dim 64",
+     {**P4, "num_codes": 512, "latent_dim": 64, "detail_weight": 4}, {"steps": 1200}),
 ]
 TRAIN = {"batch_size": 16, "max_lr": 2e-3, "min_lr": 1e-4, "warmup_steps": 20}
-CHANGE_LEVELS = 30  # a cell "changed" when some pixel moved by more than this (any channel)
 HORIZON = 8
 ARGS, DATA = None, None  # set by main, read by run in the worker processes
 
@@ -136,17 +137,6 @@ def to_uint8(x):  # [n, 3, S, S] in [-1, 1] -> [n, S, S, 3] float of uint8 level
     return ((x.numpy() + 1) * 127.5).round().clip(0, 255).transpose(0, 2, 3, 1)
 
 
-def flicker(codes, frames_u8, patch):
-    """codes [T, g, g], frames [T, S, S, 3] uint8 levels -> (token changes in cells where no pixel
-    changed by more than CHANGE_LEVELS, all token changes, cells compared)."""
-    changed_tok = codes[1:] != codes[:-1]  # [T-1, g, g]
-    diff = np.abs(frames_u8[1:] - frames_u8[:-1]).max(3)  # [T-1, S, S]
-    T1, S = diff.shape[0], diff.shape[1]
-    g = S // patch
-    moved = (diff.reshape(T1, g, patch, g, patch).max((2, 4)) > CHANGE_LEVELS)
-    return int((changed_tok & ~moved).sum()), int(changed_tok.sum()), changed_tok.size
-
-
 def region_mse(real, pred, seg, label):
     """Per-frame MSE over the pixels of `label` (mean over channels); NaN where absent."""
     out = []
@@ -166,7 +156,7 @@ def evaluate(model, config, episodes):
             a, b = to_uint8(frames), to_uint8(recon)
             psnrs += [10 * math.log10(255.0 ** 2 / max(1e-10, float(np.mean((x - y) ** 2))))
                       for x, y in zip(a, b)]
-            f, c, n = flicker(q["indices"].numpy(), a, config["patch_size"])
+            f, c, n = twin.flicker_counts(q["indices"].numpy(), a, config["patch_size"])
             flick, changes, cells = flick + f, changes + c, cells + n
             real, rec = a[1:HORIZON + 1], b[1:HORIZON + 1]
             copy = np.repeat(a[:1], len(real), 0)

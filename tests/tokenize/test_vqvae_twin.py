@@ -112,6 +112,25 @@ def compare_losses(label, model, frames, cpp, grads_path):
           f"|diff| {worst:.1e} (straight-through and stop-gradients agree)")
 
 
+def compare_flicker(label, model, run_dir, sampler, stored):
+    """val.csv's flicker and token_change_rate (C++, --val-data = the training set) against the
+    twin's codes counted by vqvae_twin.flicker_counts over the same episodes."""
+    patch = stored["model"]["patch_size"]
+    total = np.zeros(3, np.int64)
+    for k in range(len(sampler.steps[0])):
+        frames = sampler.frames(0, k)
+        codes = twin.encode(model, torch.from_numpy(frames)).numpy()
+        levels = ((frames + 1) * 127.5).round().clip(0, 255).transpose(0, 2, 3, 1)
+        total += twin.flicker_counts(codes, levels, patch)
+    with open(os.path.join(run_dir, "val.csv")) as f:
+        last = f.read().split()[-1].split(",")
+    ours = (total[0] / max(1, total[1]), total[1] / total[2])
+    err = max(abs(float(last[4]) - ours[0]), abs(float(last[5]) - ours[1]))
+    check(err <= 1e-5 and total[1] > 0, f"{label}: val.csv flicker {last[4]} / change rate "
+          f"{last[5]} = the twin's count {ours[0]:.6f} / {ours[1]:.6f} "
+          f"({total[0]} of {total[1]} changes static)")
+
+
 def train_twin(label, run_dir, shards):
     """The twin trained in Python reproduces the C++ checkpoint bit for bit."""
     tensors, header = twin.read_archive(os.path.join(run_dir, "checkpoint.wmt"))
@@ -200,7 +219,7 @@ def main():
             with open(config, "w") as f:
                 f.write(yaml)
             run([os.path.join(BIN, "wm-tokenize"), "train", "--config", config, "--data", shards,
-                 "--out", run_dir])
+                 "--val-data", shards, "--out", run_dir])
             grads = os.path.join(ref, "grads.wmt")
             os.makedirs(ref)
             cpp = json.loads(run([os.path.join(BIN, "tokenizer_ref_tool"), "--checkpoint",
@@ -210,6 +229,7 @@ def main():
             check(True, f"{label}: checkpoint loads into the twin, all names and shapes equal")
             compare_inference(label, model, frames, ref, cpp)
             compare_losses(label, model, frames, cpp, grads)
+            compare_flicker(label, model, run_dir, sampler, stored)
             train_twin(label, run_dir, shards)
             torch.set_num_threads(1)
             if i == 0:

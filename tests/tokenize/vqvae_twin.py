@@ -279,6 +279,17 @@ def mix64(x):
     return x ^ (x >> 31)
 
 
+def flicker_counts(codes, frames, patch, levels=30):
+    """validation.cc CountFlicker, in numpy: codes [T, g, g] of one episode, frames [T, S, S, 3]
+    uint8 levels (any numeric dtype) -> (token changes in cells where no pixel changed by more
+    than `levels` in any channel, all token changes, cells compared)."""
+    changed = codes[1:] != codes[:-1]  # [T-1, g, g]
+    diff = np.abs(frames[1:].astype(np.int32) - frames[:-1].astype(np.int32)).max(3)
+    t, g = diff.shape[0], diff.shape[1] // patch
+    moved = diff.reshape(t, g, patch, g, patch).max((2, 4)) > levels
+    return int((changed & ~moved).sum()), int(changed.sum()), int(changed.size)
+
+
 def decode_frame(encoded, size):
     """tokenize::DecodeFrame: imdecode, BGR->RGB, INTER_AREA resize, [3, S, S] in [-1, 1]."""
     bgr = cv2.imdecode(np.frombuffer(encoded, np.uint8), cv2.IMREAD_COLOR)
