@@ -3,7 +3,8 @@
 
 Two small C++ checkpoints are trained here (wm-tokenize train, 20 steps, 1 thread) on a tabletop
 set from wm-gen-tabletop + wm-ingest: A with the channel schedule (min_channels 8, 2 stride-2
-levels), L2-normalised lookup and the detail-weighted L1 (model.detail_weight), B with Euclidean lookup, constant width, a pixel-unshuffle
+levels), L2-normalised lookup and the detail-weighted L1
+(model.detail_weight), B with Euclidean lookup, constant width, a pixel-unshuffle
 stem (factor 2) and 2 levels. For each,
 the twin loads checkpoint.wmt with its own archive reader and must give, on the set's frames plus
 random frames (tokenizer_ref_tool runs the C++ side):
@@ -12,7 +13,8 @@ random frames (tokenizer_ref_tool runs the C++ side):
   - trained in Python from the same seed and config (torch.optim.AdamW, the same frame draws),
     a checkpoint equal to the C++ one bit for bit: weights, AdamW moments, dead-code counters
     and the dead-code RNG state.
-Also: `wm-tokenize encode` stores the twin's codes; corrupt or missing checkpoints fail cleanly.
+Also: val.csv's flicker and token_change_rate equal the twin's count (vqvae_twin.flicker_counts);
+`wm-tokenize encode` stores the twin's codes; corrupt or missing checkpoints fail cleanly.
 """
 import json
 import os
