@@ -32,6 +32,7 @@ void VisitFields(Config& c, F&& f) {
   f("model", "l2_normalize", m.l2_normalize);
   f("model", "beta", m.beta);
   f("model", "dead_code_steps", m.dead_code_steps);
+  f("model", "detail_weight", m.detail_weight);
   auto& t = c.train;
   f("train", "batch_size", t.batch_size);
   f("train", "steps", t.steps);
@@ -103,6 +104,7 @@ void ValidateConfig(const TokenizerConfig& c, const std::string& file) {
   require(m.num_codes >= 2, "model.num_codes", "must be >= 2");
   require(m.beta >= 0, "model.beta", "must be >= 0");
   require(m.dead_code_steps >= 0, "model.dead_code_steps", "must be >= 0");
+  require(m.detail_weight >= 0, "model.detail_weight", "must be >= 0");
   const TrainConfig& t = c.train;
   require(t.batch_size > 0, "train.batch_size", "must be > 0");
   require(t.steps > 0, "train.steps", "must be > 0");

@@ -25,6 +25,7 @@ struct ModelConfig {
   bool l2_normalize = true;   // nearest code by cosine: latents and codes are L2-normalised
   double beta = 0.25;         // commitment weight
   int dead_code_steps = 100;  // a code unused for this many steps is re-seeded (0 = never)
+  double detail_weight = 0;   // extra L1 weight on pixels far from their blurred frame (0: none)
 };
 
 struct TrainConfig {

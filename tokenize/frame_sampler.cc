@@ -129,6 +129,20 @@ std::vector<FrameRef> FrameSampler::BatchRefs(int64_t step, int batch_size) cons
   return refs;
 }
 
+std::vector<std::vector<FrameRef>> FrameSampler::EpisodeRefs(size_t max_episodes) const {
+  std::vector<std::vector<FrameRef>> out;
+  for (size_t d = 0; d < readers_.size(); ++d) {
+    const shard::DatasetReader& reader = *readers_[d];
+    for (size_t e = 0; e < reader.num_episodes() && out.size() < max_episodes; ++e) {
+      const auto [shard, local] = reader.Locate(e);
+      std::vector<FrameRef>& clip = out.emplace_back();
+      for (size_t t = 0; t < reader.shard(shard).entries()[local].num_steps; ++t)
+        clip.push_back({d, e, t});
+    }
+  }
+  return out;
+}
+
 void FrameSampler::Load(const std::vector<FrameRef>& refs, float* out) const {
   const size_t frame_floats = 3ull * size_ * size_;
   std::vector<bool> done(refs.size(), false);

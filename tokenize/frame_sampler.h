@@ -39,6 +39,9 @@ class FrameSampler {
 
   // The frames of training batch `step` (slots 0..batch_size-1).
   std::vector<FrameRef> BatchRefs(int64_t step, int batch_size) const;
+  // Every frame, in order, of up to `max_episodes` episodes taken from the datasets in order
+  // (dataset 0's first episodes first): whole clips, for metrics over consecutive frames.
+  std::vector<std::vector<FrameRef>> EpisodeRefs(size_t max_episodes) const;
   // Decodes `refs` into out[refs.size() * 3 * size * size] ([B, 3, H, W]); reads each episode
   // once. Const and thread-safe: the readers are read-only memory maps.
   void Load(const std::vector<FrameRef>& refs, float* out) const;

@@ -24,6 +24,7 @@
 #include "tokenize/frame_sampler.h"
 #include "tokenize/mixture.h"
 #include "tokenize/module_archive.h"
+#include "tokenize/tokenizer.h"
 #include "tokenize/validation.h"
 #include "tokenize/vqvae.h"
 
@@ -36,7 +37,9 @@ constexpr const char* kMetrics = "metrics.csv";
 constexpr const char* kValMetrics = "val.csv";
 constexpr const char* kMetricsHeader =
     "step,loss,recon_l1,codebook_loss,commitment,perplexity,usage,reseeded,lr,frames_per_s";
-constexpr const char* kValHeader = "step,psnr,ssim,recon_l1";
+constexpr const char* kValHeader = "step,psnr,ssim,recon_l1,flicker,token_change_rate";
+// Validation episodes whose consecutive frames are scored for token flicker: the demo's 16.
+constexpr size_t kFlickerEpisodes = 16;
 
 std::string RngText(const std::mt19937_64& rng) {
   std::ostringstream s;
@@ -137,6 +140,10 @@ class Validation {
     const auto refs = sampler->BatchRefs(0, o.config.train.val_frames);
     frames_.resize(refs.size() * 3 * size_ * size_);
     sampler->Load(refs, frames_.data());
+    for (const auto& clip : sampler->EpisodeRefs(kFlickerEpisodes)) {
+      std::vector<float>& e = episodes_.emplace_back(clip.size() * 3 * size_ * size_);
+      sampler->Load(clip, e.data());
+    }
     TruncateStepLog(path_, kValHeader, resume_step);
   }
 
@@ -147,17 +154,44 @@ class Validation {
     torch::Tensor recon = model->forward(images).reconstruction.to(torch::kCPU).contiguous();
     ReconstructionScore score =
         ScoreReconstruction(frames_.data(), recon.data_ptr<float>(), n, size_);
+    const FlickerCounts flicker = Flicker(model, device);
+    score.flicker = flicker.flicker();
+    score.token_change_rate = flicker.change_rate();
     std::ofstream out(path_, std::ios::app);
-    out << step << ',' << score.psnr << ',' << score.ssim << ',' << score.l1 << '\n';
+    out << step << ',' << score.psnr << ',' << score.ssim << ',' << score.l1 << ','
+        << score.flicker << ',' << score.token_change_rate << '\n';
     out.flush();
     Check(out.good(), "cannot append a row (disk full?)", {.file = path_});
     return score;
   }
 
  private:
+  // Token flicker over the validation episodes' consecutive frames.
+  FlickerCounts Flicker(VqVae& model, const torch::Device& device) {
+    FlickerCounts total;
+    const size_t frame_floats = 3ull * size_ * size_;
+    for (std::vector<float>& e : episodes_) {
+      const int64_t n = static_cast<int64_t>(e.size() / frame_floats);
+      torch::Tensor images = torch::from_blob(e.data(), {n, 3, size_, size_}).to(device);
+      torch::Tensor codes = model->quantizer->forward(model->Encode(images))
+                                .indices.to(torch::kCPU, torch::kInt64)
+                                .contiguous();  // [n, g, g]
+      std::vector<uint8_t> rgb;
+      rgb.reserve(static_cast<size_t>(n) * frame_floats);
+      for (int64_t t = 0; t < n; ++t) {
+        const std::vector<uint8_t> frame = PlanarToRgb8(e.data() + t * frame_floats, size_);
+        rgb.insert(rgb.end(), frame.begin(), frame.end());
+      }
+      total += CountFlicker(codes.data_ptr<int64_t>(), rgb.data(), n, size_,
+                            static_cast<int>(codes.size(1)));
+    }
+    return total;
+  }
+
   int size_;
   std::string path_;
   std::vector<float> frames_;
+  std::vector<std::vector<float>> episodes_;  // [T, 3, size, size] each, for Flicker
 };
 
 }  // namespace

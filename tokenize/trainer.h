@@ -4,7 +4,7 @@
 //   checkpoint.wmt   model + AdamW moments, meta: step, RNG states (wmkit tensor archive)
 //   checkpoint.json  manifest: config, config hash, data hashes, provenance, step, RNG states
 //   metrics.csv      one row every train.log_every steps (has a wall-clock column)
-//   val.csv          validation reconstruction PSNR/SSIM/L1 (with --val-data)
+//   val.csv          validation reconstruction PSNR/SSIM/L1 and token flicker (with --val-data)
 #include <cstdint>
 #include <optional>
 #include <string>

@@ -1,12 +1,70 @@
 #include "tokenize/validation.h"
 
+#include <algorithm>
 #include <cmath>
+#include <cstdlib>
 
 #include "metrics/image.h"
 #include "metrics/pixel_metrics.h"
 #include "tokenize/tokenizer.h"
 
 namespace wm::tokenize {
+
+double FlickerCounts::flicker() const {
+  return changes ? static_cast<double>(static_changes) / static_cast<double>(changes) : 0.0;
+}
+
+double FlickerCounts::change_rate() const {
+  return cells ? static_cast<double>(changes) / static_cast<double>(cells) : 0.0;
+}
+
+FlickerCounts& FlickerCounts::operator+=(const FlickerCounts& o) {
+  static_changes += o.static_changes;
+  changes += o.changes;
+  cells += o.cells;
+  return *this;
+}
+
+namespace {
+
+// Whether some pixel of cell (cy, cx) differs by more than kFlickerLevels between a and b.
+bool CellChanged(const uint8_t* a, const uint8_t* b, int size, int cell, int cy, int cx) {
+  for (int y = cy * cell; y < (cy + 1) * cell; ++y) {
+    const size_t row = static_cast<size_t>(y) * size;
+    for (int x = cx * cell; x < (cx + 1) * cell; ++x) {
+      for (int c = 0; c < 3; ++c) {
+        const size_t i = (row + x) * 3 + c;
+        if (std::abs(static_cast<int>(a[i]) - static_cast<int>(b[i])) > kFlickerLevels)
+          return true;
+      }
+    }
+  }
+  return false;
+}
+
+}  // namespace
+
+FlickerCounts CountFlicker(const int64_t* codes, const uint8_t* rgb, int64_t frames, int size,
+                           int grid) {
+  const int cell = size / grid;
+  const size_t frame_bytes = 3ull * size * size, frame_codes = static_cast<size_t>(grid) * grid;
+  FlickerCounts n;
+  for (int64_t t = 1; t < frames; ++t) {
+    const int64_t* prev = codes + (t - 1) * frame_codes;
+    const int64_t* cur = codes + t * frame_codes;
+    for (int cy = 0; cy < grid; ++cy) {
+      for (int cx = 0; cx < grid; ++cx) {
+        ++n.cells;
+        const size_t k = static_cast<size_t>(cy) * grid + cx;
+        if (prev[k] == cur[k]) continue;
+        ++n.changes;
+        if (!CellChanged(rgb + (t - 1) * frame_bytes, rgb + t * frame_bytes, size, cell, cy, cx))
+          ++n.static_changes;
+      }
+    }
+  }
+  return n;
+}
 
 ReconstructionScore ScoreReconstruction(const float* original, const float* recon, int64_t n,
                                         int size) {

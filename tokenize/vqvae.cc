@@ -105,6 +105,14 @@ int64_t VectorQuantizerImpl::UpdateUsageAndReseed(const QuantizerOutput& out, in
   return n;
 }
 
+torch::Tensor DetailWeight(const torch::Tensor& images, double alpha) {
+  torch::NoGradGuard no_grad;
+  torch::Tensor blur = F::avg_pool2d(
+      images, F::AvgPool2dFuncOptions(7).stride(1).padding(3).count_include_pad(false));
+  torch::Tensor d = (images - blur).abs().amax(1, /*keepdim=*/true);  // [B, 1, H, W]
+  return 1 + alpha * (d / 0.25).clamp_max(1);
+}
+
 VqVaeImpl::VqVaeImpl(const ModelConfig& c) : config(c) {
   using torch::nn::Conv2dOptions;
   using torch::nn::ConvTranspose2dOptions;
@@ -158,8 +166,15 @@ VqVaeOutput VqVaeImpl::forward(const torch::Tensor& images) {
   VqVaeOutput out;
   out.quant = quantizer->forward(Encode(images));  // z_q: [B, D, h, w]
   out.reconstruction = Decode(out.quant.z_q);      // [B, 3, H, W]
-  out.recon_l1 = (out.reconstruction - images).abs().mean();
-  out.loss = out.recon_l1 + out.quant.codebook_loss + config.beta * out.quant.commitment;
+  torch::Tensor error = (out.reconstruction - images).abs();
+  out.recon_l1 = error.mean();
+  torch::Tensor recon = out.recon_l1;
+  if (config.detail_weight > 0) {
+    // Normalised by the mean weight so the loss keeps L1's scale (and the lr its meaning).
+    torch::Tensor w = DetailWeight(images, config.detail_weight);
+    recon = (w * error).mean() / w.mean();
+  }
+  out.loss = recon + out.quant.codebook_loss + config.beta * out.quant.commitment;
   return out;
 }
 

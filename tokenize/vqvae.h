@@ -50,8 +50,17 @@ TORCH_MODULE(VectorQuantizer);
 struct VqVaeOutput {
   torch::Tensor reconstruction;  // [B, 3, H, W] in [-1, 1] (not clamped)
   QuantizerOutput quant;
-  torch::Tensor recon_l1, loss;  // loss = L1 + codebook + beta * commitment
+  torch::Tensor recon_l1;        // mean |recon - image| (unweighted: what metrics.csv logs)
+  torch::Tensor loss;            // recon + codebook + beta * commitment, recon = recon_l1 or,
+                                 // with model.detail_weight, the detail-weighted L1
 };
+
+// Per-pixel reconstruction weight [B, 1, H, W] for model.detail_weight = alpha > 0:
+// 1 + alpha * min(1, d / 0.25), d = max over channels of |image - 7x7 box blur of image|
+// (0.25 in [-1, 1] units is 32 levels). A small object differs from its blur over its whole
+// area, the flat table not at all, so a 3-4 pixel block is not drowned by the table without any
+// segmentation label. A function of the input only: no gradient flows through it.
+torch::Tensor DetailWeight(const torch::Tensor& images, double alpha);
 
 struct VqVaeImpl : torch::nn::Module {
   explicit VqVaeImpl(const ModelConfig& config);

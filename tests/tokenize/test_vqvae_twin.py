@@ -3,7 +3,8 @@
 
 Two small C++ checkpoints are trained here (wm-tokenize train, 20 steps, 1 thread) on a tabletop
 set from wm-gen-tabletop + wm-ingest: A with the channel schedule (min_channels 8, 2 stride-2
-levels) and L2-normalised lookup, B with Euclidean lookup, constant width, a pixel-unshuffle
+levels), L2-normalised lookup and the detail-weighted L1
+(model.detail_weight), B with Euclidean lookup, constant width, a pixel-unshuffle
 stem (factor 2) and 2 levels. For each,
 the twin loads checkpoint.wmt with its own archive reader and must give, on the set's frames plus
 random frames (tokenizer_ref_tool runs the C++ side):
@@ -12,7 +13,8 @@ random frames (tokenizer_ref_tool runs the C++ side):
   - trained in Python from the same seed and config (torch.optim.AdamW, the same frame draws),
     a checkpoint equal to the C++ one bit for bit: weights, AdamW moments, dead-code counters
     and the dead-code RNG state.
-Also: `wm-tokenize encode` stores the twin's codes; corrupt or missing checkpoints fail cleanly.
+Also: val.csv's flicker and token_change_rate equal the twin's count (vqvae_twin.flicker_counts);
+`wm-tokenize encode` stores the twin's codes; corrupt or missing checkpoints fail cleanly.
 """
 import json
 import os
@@ -33,10 +35,10 @@ TOL = 1e-5
 passed, failures = [], []
 
 CONFIGS = {
-    "A (cosine, min_channels 8)": """
+    "A (cosine, min_channels 8, detail weight)": """
 model: {image_size: 32, patch_size: 4, encoder_channels: 32, encoder_layers: 1,
         decoder_channels: 32, decoder_layers: 1, min_channels: 8, latent_dim: 8,
-        num_codes: 64, l2_normalize: true, beta: 0.25, dead_code_steps: 5}
+        num_codes: 64, l2_normalize: true, beta: 0.25, dead_code_steps: 5, detail_weight: 3}
 train: {batch_size: 8, steps: 20, max_lr: 3.0e-3, min_lr: 3.0e-4, warmup_steps: 3, threads: 1,
         seed: 3, checkpoint_every: 20, log_every: 5}
 """,
@@ -110,6 +112,25 @@ def compare_losses(label, model, frames, cpp, grads_path):
                 max(1e-12, float(p.grad.abs().max())) for n, p in model.named_parameters())
     check(ok and worst <= 1e-4, f"{label}: gradients of all {len(names)} parameters, max relative "
           f"|diff| {worst:.1e} (straight-through and stop-gradients agree)")
+
+
+def compare_flicker(label, model, run_dir, sampler, stored):
+    """val.csv's flicker and token_change_rate (C++, --val-data = the training set) against the
+    twin's codes counted by vqvae_twin.flicker_counts over the same episodes."""
+    patch = stored["model"]["patch_size"]
+    total = np.zeros(3, np.int64)
+    for k in range(len(sampler.steps[0])):
+        frames = sampler.frames(0, k)
+        codes = twin.encode(model, torch.from_numpy(frames)).numpy()
+        levels = ((frames + 1) * 127.5).round().clip(0, 255).transpose(0, 2, 3, 1)
+        total += twin.flicker_counts(codes, levels, patch)
+    with open(os.path.join(run_dir, "val.csv")) as f:
+        last = f.read().split()[-1].split(",")
+    ours = (total[0] / max(1, total[1]), total[1] / total[2])
+    err = max(abs(float(last[4]) - ours[0]), abs(float(last[5]) - ours[1]))
+    check(err <= 1e-5 and total[1] > 0, f"{label}: val.csv flicker {last[4]} / change rate "
+          f"{last[5]} = the twin's count {ours[0]:.6f} / {ours[1]:.6f} "
+          f"({total[0]} of {total[1]} changes static)")
 
 
 def train_twin(label, run_dir, shards):
@@ -200,7 +221,7 @@ def main():
             with open(config, "w") as f:
                 f.write(yaml)
             run([os.path.join(BIN, "wm-tokenize"), "train", "--config", config, "--data", shards,
-                 "--out", run_dir])
+                 "--val-data", shards, "--out", run_dir])
             grads = os.path.join(ref, "grads.wmt")
             os.makedirs(ref)
             cpp = json.loads(run([os.path.join(BIN, "tokenizer_ref_tool"), "--checkpoint",
@@ -210,6 +231,7 @@ def main():
             check(True, f"{label}: checkpoint loads into the twin, all names and shapes equal")
             compare_inference(label, model, frames, ref, cpp)
             compare_losses(label, model, frames, cpp, grads)
+            compare_flicker(label, model, run_dir, sampler, stored)
             train_twin(label, run_dir, shards)
             torch.set_num_threads(1)
             if i == 0:

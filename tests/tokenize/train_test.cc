@@ -130,7 +130,7 @@ TEST_F(TrainTest, RefusesToOverwriteOrResumeWithAnotherConfig) {
 }
 
 TEST(TokenizerConfig, PresetsLoad) {
-  for (const char* name : {"tiny", "meta64", "whale-x"}) {
+  for (const char* name : {"tiny", "tiny16", "meta64", "whale-x"}) {
     EXPECT_NO_THROW(LoadTokenizerConfig(test::SourceDir() + "/configs/tokenizer/" + name + ".yaml"))
         << name;
   }
@@ -138,6 +138,9 @@ TEST(TokenizerConfig, PresetsLoad) {
   EXPECT_EQ(w.model.num_codes, 2048);
   EXPECT_EQ(w.model.image_size / w.model.patch_size, 16);
   EXPECT_EQ(ConfigFromJson(ConfigToJson(w)).model.decoder_channels, 1024);
+  TokenizerConfig t16 = LoadTokenizerConfig(test::SourceDir() + "/configs/tokenizer/tiny16.yaml");
+  EXPECT_EQ(t16.model.image_size / t16.model.patch_size, 16);
+  EXPECT_EQ(ConfigFromJson(ConfigToJson(t16)).model.detail_weight, 4.0);  // the key round-trips
 }
 
 TEST(TokenizerConfig, ErrorsNameFileAndKey) {

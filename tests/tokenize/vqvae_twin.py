@@ -35,7 +35,8 @@ DTYPES = {"float32": "<f4", "float64": "<f8", "float16": "<f2", "int32": "<i4", 
 # ModelConfig's defaults (tokenize/config.h): ConfigFromJson keeps them for absent keys.
 MODEL_DEFAULTS = {"image_size": 64, "patch_size": 8, "stem_factor": 1, "encoder_channels": 64, "encoder_layers": 1,
                   "decoder_channels": 64, "decoder_layers": 1, "min_channels": 0, "latent_dim": 32,
-                  "num_codes": 1024, "l2_normalize": True, "beta": 0.25, "dead_code_steps": 100}
+                  "num_codes": 1024, "l2_normalize": True, "beta": 0.25, "dead_code_steps": 100,
+                  "detail_weight": 0.0}
 CHUNK = 64  # tokenizer.cc kChunk: frames per forward pass
 M64 = (1 << 64) - 1
 
@@ -142,13 +143,21 @@ class VectorQuantizer(nn.Module):
         return dead.numel()
 
 
+@torch.no_grad()
+def detail_weight(images, alpha):
+    """DetailWeight: 1 + alpha * min(1, d / 0.25), d = max over channels of |image - its 7x7 box
+    blur| (padding not counted), [B, 1, H, W]."""
+    blur = F.avg_pool2d(images, 7, stride=1, padding=3, count_include_pad=False)
+    return 1 + alpha * ((images - blur).abs().amax(1, keepdim=True) / 0.25).clamp(max=1)
+
+
 class VqVae(nn.Module):
     """VqVaeImpl: modules are created in the C++ order, so torch.manual_seed gives the same
     initial weights, and registered in its order (encoder, decoder, quantizer)."""
 
     def __init__(self, c):
         super().__init__()
-        self.beta = c["beta"]
+        self.beta, self.detail_weight = c["beta"], c["detail_weight"]
         f = c["stem_factor"]  # pixel unshuffle before the first conv, pixel shuffle after the last
         downs = int(math.log2(c["patch_size"] // f))
         mc = c["min_channels"]
@@ -179,8 +188,13 @@ class VqVae(nn.Module):
     def forward(self, images):  # [B, 3, H, W] in [-1, 1]
         quant = self.quantizer(self.encoder(images))
         recon = self.decoder(quant["z_q"])
-        recon_l1 = (recon - images).abs().mean()
-        loss = recon_l1 + quant["codebook_loss"] + self.beta * quant["commitment"]
+        error = (recon - images).abs()
+        recon_l1 = error.mean()
+        term = recon_l1
+        if self.detail_weight > 0:  # normalised by the mean weight: L1's scale
+            w = detail_weight(images, self.detail_weight)
+            term = (w * error).mean() / w.mean()
+        loss = term + quant["codebook_loss"] + self.beta * quant["commitment"]
         return {"reconstruction": recon, "quant": quant, "recon_l1": recon_l1, "loss": loss}
 
 
@@ -263,6 +277,17 @@ def mix64(x):
     x = ((x ^ (x >> 30)) * 0xBF58476D1CE4E5B9) & M64
     x = ((x ^ (x >> 27)) * 0x94D049BB133111EB) & M64
     return x ^ (x >> 31)
+
+
+def flicker_counts(codes, frames, patch, levels=30):
+    """validation.cc CountFlicker, in numpy: codes [T, g, g] of one episode, frames [T, S, S, 3]
+    uint8 levels (any numeric dtype) -> (token changes in cells where no pixel changed by more
+    than `levels` in any channel, all token changes, cells compared)."""
+    changed = codes[1:] != codes[:-1]  # [T-1, g, g]
+    diff = np.abs(frames[1:].astype(np.int32) - frames[:-1].astype(np.int32)).max(3)
+    t, g = diff.shape[0], diff.shape[1] // patch
+    moved = diff.reshape(t, g, patch, g, patch).max((2, 4)) > levels
+    return int((changed & ~moved).sum()), int(changed.sum()), int(changed.size)
 
 
 def decode_frame(encoded, size):

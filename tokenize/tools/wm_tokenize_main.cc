@@ -43,7 +43,7 @@ void AddTrain(CLI::App& app, TrainArgs& a) {
   train->add_option("--out", a.options.out_dir, "Run directory (RUN_DIR)")->required();
   train
       ->add_option("--val-data", a.options.val_dirs,
-                   "Validation shard datasets: reconstruction PSNR/SSIM to RUN_DIR/val.csv")
+                   "Validation shard datasets: reconstruction PSNR/SSIM and token flicker to RUN_DIR/val.csv")
       ->check(CLI::ExistingDirectory);
   train
       ->add_option("--mixture", a.options.mixture_file,
@@ -75,8 +75,11 @@ int RunTrain(TrainArgs& a) {
                summary.start_step, summary.end_step, summary.last_loss, summary.last_recon_l1,
                summary.last_perplexity, summary.checkpoint_path);
   if (summary.val) {
-    spdlog::info("validation reconstruction: PSNR {:.2f} dB, SSIM {:.4f}", summary.val->psnr,
-                 summary.val->ssim);
+    spdlog::info(
+        "validation reconstruction: PSNR {:.2f} dB, SSIM {:.4f}; token flicker {:.3f} (share of "
+        "token changes in cells whose pixels did not change), token change rate {:.3f}",
+        summary.val->psnr, summary.val->ssim, summary.val->flicker,
+        summary.val->token_change_rate);
   }
   return 0;
 }
