@@ -74,7 +74,7 @@ DYNAMICS_ARGS="$DYN" bash scripts/train.sh "$BIN" "$RUN" "$SHARDS/train" "$SHARD
 
 echo
 echo "== 6/6 evaluate both checkpoints on val (plain + retracing rollouts, baselines) and compare"
-COMPARE_ARGS="--metrics psnr,ssim,lpips_style,fvd_style,mse_arm" \
+COMPARE_ARGS="--metrics psnr,ssim,lpips_style,mse_arm,mse_object,delta_tpsnr,moved_error_ratio" \
 EVAL_ARGS="--horizon 8 --episodes 8 --temperature 0 --masks files --seg-config configs/segmentation/tabletop.yaml --resamples 500" \
   bash scripts/eval.sh "$BIN" "$OUT/reports" "$RUN/tokenizer" "$SHARDS/val" "$RUN/tokens/val" \
   "$RUN/early/dynamics" "$RUN/dynamics"
