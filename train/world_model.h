@@ -1,7 +1,8 @@
 #pragma once
 // The dynamics model of WHALE Sec. 3.3: an ST-transformer over token frames that predicts the
 // tokens of frame h+1 from frames <= h, actions a_{<=h} and the policy embedding z_h of the prior
-// (eq. 5), trained MaskGIT-style, plus a reward/terminal head (iVideoGPT Sec. 3.3). Position j of
+// (eq. 5), trained MaskGIT-style or teacher-forced (model.objective), plus a reward/terminal head
+// (iVideoGPT Sec. 3.3). With "masked" position j of
 // the sequence holds frame j (partly masked in training), the action a_{j-1} and z_{j-1}, so it
 // predicts frame j's masked tokens and the reward/terminal flag of the step j-1 -> j. With
 // model.objective "next_frame" position j holds clean frame j, a_j and z_j and its token logits
