@@ -14,7 +14,7 @@ namespace {
 
 const cv::Scalar kBackground(40, 40, 40), kText(235, 235, 235);
 constexpr const char* kModelRollouts[] = {"plain", "retrace"};
-constexpr const char* kBaselines[] = {"copy_last", "tokenizer_recon"};
+constexpr const char* kBaselines[] = {"copy_last", "copy_last_tokens", "tokenizer_recon"};
 constexpr const char* kErrorPrefix = "error ";
 
 // Draws `lines` left-aligned in `box`, vertically centred, shrinking the font until the widest

@@ -39,7 +39,8 @@ TEXT_COLUMNS = {"checkpoint", "rollout", "metric", "policy_id"}
 STRIPS = [os.path.join("strips", f"episode_{k}.png") for k in range(EPISODES)]
 # evaluate/episode_strip.h: label column, header row, gap between cells; frames drawn 3x.
 STRIP_LABEL, STRIP_HEADER, STRIP_GAP, STRIP_SCALE = 144, 24, 2, 3
-STRIP_ROWS = ["real", "plain", "retrace", "copy_last", "tokenizer_recon", "error plain"]
+STRIP_ROWS = ["real", "plain", "retrace", "copy_last", "copy_last_tokens", "tokenizer_recon",
+              "error plain"]
 # configs/segmentation/tabletop.yaml: segmentation label values -> region.
 REGIONS = {"arm": [1], "object": [2], "background": [0, 3]}
 
@@ -479,7 +480,9 @@ class WmEval(unittest.TestCase):
             np.testing.assert_array_equal(cells["copy_last"], self.baselines["copy_last"][k])
             np.testing.assert_array_equal(cells["tokenizer_recon"][1:],
                                           self.baselines["tokenizer_recon"][k][1:])
-            for row in ("plain", "retrace", "copy_last", "tokenizer_recon"):
+            np.testing.assert_array_equal(cells["copy_last_tokens"][1:],
+                                          self.baselines["copy_last_tokens"][k][1:])
+            for row in ("plain", "retrace", "copy_last", "copy_last_tokens", "tokenizer_recon"):
                 # Column 0 is the given real frame in every row.
                 np.testing.assert_array_equal(cells[row][0], self.real[k][0], row)
             diff = np.abs(self.real[k].astype(int) - cells["plain"]).astype(np.uint8)
@@ -502,7 +505,7 @@ class WmEval(unittest.TestCase):
             for i, r in enumerate((0, 1, len(STRIP_ROWS) - 1)):  # real, plain, error plain
                 y, ys = y0 + i * (cell + STRIP_GAP), STRIP_HEADER + r * (cell + STRIP_GAP)
                 np.testing.assert_array_equal(overview[y:y + cell, STRIP_LABEL:],
-                                              strip[ys:ys + cell, STRIP_LABEL:], (k, r))
+                                              strip[ys:ys + cell, STRIP_LABEL:], f"{k} {r}")
 
     def test_saved_rollouts_read_back_through_wm_ingest(self):
         """Every exported kind, ingested with wm-ingest --format folder, decodes to the frames
@@ -515,7 +518,8 @@ class WmEval(unittest.TestCase):
         strips = [self.strip_cells(k) for k in range(EPISODES)]
         want = {"real": [r[1:] for r in self.real], "context": [r[:1] for r in self.real],
                 **{kind: [s[kind][1:] for s in strips]
-                   for kind in ("plain", "retrace", "copy_last", "tokenizer_recon")}}
+                   for kind in ("plain", "retrace", "copy_last", "copy_last_tokens",
+                                "tokenizer_recon")}}
         self.assertEqual(sorted(os.listdir(export)), sorted(want))
         validator = jsonschema.Draft202012Validator(schema("folder-meta"))
         for kind, clips in want.items():
