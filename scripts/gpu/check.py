@@ -111,7 +111,8 @@ def dynamics_flops(checkpoint, batch):
             step()
         torch.cuda.synchronize()
     table = prof.key_averages().table(sort_by="cuda_time_total", row_limit=15)
-    return {"flops_per_step": counter.get_total_flops(), "batch": batch,
+    flops = counter.get_total_flops()
+    return {"flops_per_step": flops, "flops_per_token": flops / (batch * T * N), "batch": batch,
             "tokens_per_step": batch * T * N, "twin_seconds_per_step": twin_s,
             "parameters": sum(x.numel() for x in model.parameters())}, table
 
@@ -123,7 +124,10 @@ def main():
     ap.add_argument("--tokenizer", help="a tokenizer run (checkpoint.wmt) for the numerics")
     ap.add_argument("--tokenizer-size", type=int, default=64)
     ap.add_argument("--dynamics", help="a wm-train checkpoint.wmt whose config the FLOPs use")
-    ap.add_argument("--batch", type=int, default=64)
+    # The twin writes attention out: at meta64's batch 64 its [B*T, H, 256, 256] scores and the
+    # policy model's activations did not fit in 140 GB (docs/gpu.md). FLOPs scale with the batch,
+    # so count at 8 and compare per token.
+    ap.add_argument("--batch", type=int, default=8)
     a = ap.parse_args()
     result = {"torch": torch.__version__, "device": torch.cuda.get_device_name(0)}
     with tempfile.TemporaryDirectory() as tmp:
