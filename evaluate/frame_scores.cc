@@ -29,6 +29,11 @@ Clip RepeatFrame(const Clip& clip, int64_t t, int64_t count) {
   return out;
 }
 
+metrics::Image FrameImage(const Clip& clip, int64_t t) {
+  const std::vector<uint8_t> rgb = tokenize::PlanarToRgb8(clip.frame(t), clip.size);
+  return metrics::Image::FromUint8(rgb.data(), clip.size, clip.size, 3);
+}
+
 std::map<std::string, std::vector<double>> ScoreFrames(const Clip& real, const Clip& pred,
                                                        const tokenize::Tokenizer& tokenizer,
                                                        metrics::Lpips* lpips) {

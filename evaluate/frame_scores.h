@@ -7,6 +7,8 @@
 #include <string>
 #include <vector>
 
+#include "metrics/image.h"
+
 namespace wm::tokenize {
 class Tokenizer;
 }
@@ -26,6 +28,9 @@ struct Clip {
 
 // Frames [first, first + count) of `clip` as a new clip.
 Clip SubClip(const Clip& clip, int64_t first, int64_t count);
+
+// Frame `t` of `clip` as the pixel metrics score it: rounded to uint8 RGB (data range 255).
+metrics::Image FrameImage(const Clip& clip, int64_t t);
 
 // Frame `t` of `clip` repeated `count` times: the copy baselines (copy_last, copy_last_tokens).
 Clip RepeatFrame(const Clip& clip, int64_t t, int64_t count);

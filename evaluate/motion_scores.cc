@@ -13,13 +13,8 @@ namespace wm::evaluate {
 std::vector<double> FramePsnr(const Clip& real, const Clip& pred) {
   Check(real.frames == pred.frames && real.size == pred.size, "clips differ in shape");
   std::vector<double> out;
-  const int s = real.size;
-  for (int64_t t = 0; t < real.frames; ++t) {
-    const std::vector<uint8_t> a = tokenize::PlanarToRgb8(real.frame(t), s);
-    const std::vector<uint8_t> b = tokenize::PlanarToRgb8(pred.frame(t), s);
-    out.push_back(metrics::Psnr(metrics::Image::FromUint8(a.data(), s, s, 3),
-                                metrics::Image::FromUint8(b.data(), s, s, 3)));
-  }
+  for (int64_t t = 0; t < real.frames; ++t)
+    out.push_back(metrics::Psnr(FrameImage(real, t), FrameImage(pred, t)));
   return out;
 }
 

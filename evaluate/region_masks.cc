@@ -5,7 +5,6 @@
 #include "core/error.h"
 #include "metrics/image_io.h"
 #include "metrics/segmentation/segmented_mse.h"
-#include "tokenize/tokenizer.h"
 
 namespace wm::evaluate {
 namespace seg = metrics::seg;
@@ -88,11 +87,9 @@ std::map<std::string, std::vector<double>> ScoreRegions(const Clip& real, const 
   Check(real.frames == pred.frames && real.frames == static_cast<int64_t>(maps.size()),
         "one region map per scored frame expected");
   std::map<std::string, std::vector<double>> out;
-  const int s = real.size;
   for (int64_t t = 0; t < real.frames; ++t) {
-    auto a = metrics::Image::FromUint8(tokenize::PlanarToRgb8(real.frame(t), s).data(), s, s, 3);
-    auto b = metrics::Image::FromUint8(tokenize::PlanarToRgb8(pred.frame(t), s).data(), s, s, 3);
-    const seg::FrameSegmentedMse m = seg::FrameMse(a, b, maps[t]);
+    const seg::FrameSegmentedMse m =
+        seg::FrameMse(FrameImage(real, t), FrameImage(pred, t), maps[t]);
     for (seg::Region region : seg::kRegions) {
       const auto& r = m.regions[seg::RegionSlot(region)];
       out["mse_" + seg::RegionName(region)].push_back(r.mse ? *r.mse : NAN);
