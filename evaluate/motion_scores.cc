@@ -7,6 +7,7 @@
 #include "metrics/image.h"
 #include "metrics/pixel_metrics.h"
 #include "tokenize/tokenizer.h"
+#include "tokenize/validation.h"
 
 namespace wm::evaluate {
 
@@ -45,10 +46,7 @@ std::vector<double> MovedErrorRatio(const Clip& first, const Clip& real, const C
     int64_t moved = 0;
     for (size_t p = 0; p < pixels; ++p) {  // interleaved RGB: 3 bytes per pixel
       const size_t i = 3 * p;
-      bool changed = false;
-      for (size_t c = 0; c < 3; ++c)
-        changed |= std::abs(truth[i + c] - start[i + c]) > kMovedLevels;
-      if (!changed) continue;
+      if (!tokenize::PixelChanged(&truth[i], &start[i])) continue;
       ++moved;
       for (size_t c = 0; c < 3; ++c) {
         to_truth += std::abs(guess[i + c] - truth[i + c]);

@@ -9,10 +9,6 @@
 
 namespace wm::evaluate {
 
-// A pixel has "moved" when some channel differs by more than this many 8-bit levels between the
-// first real frame and the true frame t (the threshold of issue #20's motion measurement).
-inline constexpr int kMovedLevels = 30;
-
 // PSNR (dB, R = 255) per frame, as ScoreFrames' "psnr": +inf for identical frames.
 std::vector<double> FramePsnr(const Clip& real, const Clip& pred);
 
@@ -22,10 +18,10 @@ std::vector<double> DeltaPsnr(const std::vector<double>& psnr,
                               const std::vector<double>& psnr_perturbed);
 
 // moved_error_ratio per step t: over the pixels that moved between `first` (frame 0 of a clip:
-// the last real context frame) and real frame t (any channel > kMovedLevels apart), the mean
-// |pred - real| divided by the mean |pred - first|, over those pixels' 3 channels. < 1: the
-// prediction is nearer the truth than the start there (it moved the right way); a copy of the
-// first frame is undefined (0 in the denominator), one near it scores well above 1. NaN when no
+// the last real context frame) and real frame t (tokenize::PixelChanged: any channel > 30 levels
+// apart), the mean |pred - real| divided by the mean |pred - first|, over those pixels' 3 channels.
+// < 1: the prediction is nearer the truth than the start there (it moved the right way); a copy of
+// the first frame is undefined (0 in the denominator), one near it scores well above 1. NaN when no
 // pixel moved or the denominator is 0.
 std::vector<double> MovedErrorRatio(const Clip& first, const Clip& real, const Clip& pred);
 

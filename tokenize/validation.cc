@@ -27,16 +27,12 @@ FlickerCounts& FlickerCounts::operator+=(const FlickerCounts& o) {
 
 namespace {
 
-// Whether some pixel of cell (cy, cx) differs by more than kFlickerLevels between a and b.
+// Whether some pixel of cell (cy, cx) changed (PixelChanged) between a and b.
 bool CellChanged(const uint8_t* a, const uint8_t* b, int size, int cell, int cy, int cx) {
   for (int y = cy * cell; y < (cy + 1) * cell; ++y) {
     const size_t row = static_cast<size_t>(y) * size;
     for (int x = cx * cell; x < (cx + 1) * cell; ++x) {
-      for (int c = 0; c < 3; ++c) {
-        const size_t i = (row + x) * 3 + c;
-        if (std::abs(static_cast<int>(a[i]) - static_cast<int>(b[i])) > kFlickerLevels)
-          return true;
-      }
+      if (PixelChanged(a + (row + x) * 3, b + (row + x) * 3)) return true;
     }
   }
   return false;

@@ -14,9 +14,17 @@ struct ReconstructionScore {
   double token_change_rate = 0;  // token changes per cell and frame pair
 };
 
-// A cell "changed" between two frames when one of its pixels moved by more than this many
-// levels (0..255) in some channel.
-inline constexpr int kFlickerLevels = 30;
+// A pixel "really changed" between two frames when some channel differs by more than this many
+// levels (0..255): the rule of issue 20's flicker and motion measurements (also wm-eval's
+// moved_error_ratio). A cell changed when one of its pixels did.
+inline constexpr int kChangedLevels = 30;
+// `a`, `b`: one pixel of interleaved RGB uint8 frames.
+inline bool PixelChanged(const uint8_t* a, const uint8_t* b) {
+  for (int c = 0; c < 3; ++c) {
+    if (a[c] - b[c] > kChangedLevels || b[c] - a[c] > kChangedLevels) return true;
+  }
+  return false;
+}
 
 // Token flicker (issue 20): a token that changes between consecutive frames in a cell whose
 // pixels did not change is noise a dynamics model cannot predict (and argmax over near-synonym
