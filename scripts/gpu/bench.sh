@@ -9,8 +9,7 @@ BIN=$1 DATA=$2 RUNS=${4:-gpu-runs}/bench
 DYN_STEPS=${DYN_STEPS:-20}
 mkdir -p "$RUNS"
 data=$DATA/tabletop64
-sed -e 's/^  steps: .*/  steps: 100/' -e 's/^  warmup_steps: .*/  warmup_steps: 10/' \
-  configs/tokenizer/meta64.yaml > "$RUNS/tokenizer.yaml"
+bash scripts/gpu/short_config.sh configs/tokenizer/meta64.yaml 100 "$RUNS/tokenizer.yaml"
 [ -f "$RUNS/tokenizer/checkpoint.wmt" ] ||
   "$BIN/wm-tokenize" train --config "$RUNS/tokenizer.yaml" --data "$data/train" \
     --device cuda --out "$RUNS/tokenizer" 2>&1 | grep -v '%'

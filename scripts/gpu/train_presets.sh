@@ -11,12 +11,6 @@ BIN=$1 DATA=$2 LOGS=$3 RUNS=${4:-gpu-runs}
 TOK_STEPS=${TOK_STEPS:-400} DYN_STEPS=${DYN_STEPS:-400}
 mkdir -p "$RUNS" "$LOGS"
 
-# A preset with train.steps and train.warmup_steps set for a short run.
-short_config() {  # preset steps out
-  sed -e "s/^  steps: .*/  steps: $2/" -e "s/^  warmup_steps: .*/  warmup_steps: $(($2 / 10))/" \
-    "$1" > "$3"
-}
-
 # Trains half the steps, then resumes to the end: the second process continues from the
 # checkpoint the first wrote on the GPU.
 train_twice() {  # tool... (ends with --out DIR)
@@ -27,8 +21,8 @@ train_twice() {  # tool... (ends with --out DIR)
 run_preset() {  # name tokenizer-preset dynamics-preset data
   local name=$1 tok=$2 dyn=$3 data=$4 run=$RUNS/$1
   mkdir -p "$run"
-  short_config "$tok" "$TOK_STEPS" "$run/tokenizer.yaml"
-  short_config "$dyn" "$DYN_STEPS" "$run/dynamics.yaml"
+  bash scripts/gpu/short_config.sh "$tok" "$TOK_STEPS" "$run/tokenizer.yaml"
+  bash scripts/gpu/short_config.sh "$dyn" "$DYN_STEPS" "$run/dynamics.yaml"
   echo "== $name tokenizer ($tok, $TOK_STEPS steps, cuda)"
   HALF=$((TOK_STEPS / 2)) train_twice "$BIN/wm-tokenize" train --config "$run/tokenizer.yaml" \
     --data "$data/train" --val-data "$data/val" --device cuda --out "$run/tokenizer"
