@@ -57,11 +57,14 @@ Clip RealClip(const Episode& ep, const std::string& image_key, int size, int64_t
   return clip;
 }
 
+// Frames first..first+count-1 of `tokens`, decoded. An anchored tokenizer decodes them all with
+// `given`, the episode's last real frame the rollout started from: what a user of the model has.
 Clip DecodeClip(const tokenize::Tokenizer& tok, const std::vector<int64_t>& tokens, int64_t first,
-                int64_t count) {
+                int64_t count, const Clip& given) {
   const int64_t n = tok.tokens_per_frame();
   std::vector<uint32_t> codes(tokens.begin() + first * n, tokens.begin() + (first + count) * n);
-  return {count, tok.image_size(), tok.Decode(codes.data(), count)};
+  const Clip anchors = RepeatFrame(given, given.frames - 1, count);
+  return {count, tok.image_size(), tok.Decode(codes.data(), count, anchors.pixels.data())};
 }
 
 double FiniteMean(const std::vector<double>& v) {
@@ -168,8 +171,9 @@ std::vector<EpisodeRecord> ScoreEpisodes(const EvalOptions& o, const std::string
     add_clip("copy_last", RepeatFrame(real, 0, h));
     std::vector<int64_t> true_tokens(static_cast<size_t>((h + 1) * data.tokens_per_frame()));
     data.CopyTokens(episodes[i], 0, h + 1, true_tokens.data());
-    add_clip("tokenizer_recon", DecodeClip(tok, true_tokens, 1, h));
-    add_clip("copy_last_tokens", RepeatFrame(DecodeClip(tok, true_tokens, 0, 1), 0, h));
+    const Clip given = SubClip(real, 0, 1);
+    add_clip("tokenizer_recon", DecodeClip(tok, true_tokens, 1, h, given));
+    add_clip("copy_last_tokens", RepeatFrame(DecodeClip(tok, true_tokens, 0, 1, given), 0, h));
     // A copy reads no action: with perturbed ones it is the same clip, ΔtPSNR 0 by construction,
     // the static reference beside plain's row (and in wm-report's vs copy_last).
     for (const char* copy : {"copy_last", "copy_last_tokens"}) {
@@ -182,13 +186,13 @@ std::vector<EpisodeRecord> ScoreEpisodes(const EvalOptions& o, const std::string
       const std::string kind = RolloutName(mode);
       const EpisodeRollout& r = rollouts[mode][i];
       std::vector<Clip> samples;
-      for (const auto& s : r.tokens) samples.push_back(DecodeClip(tok, s, 1, h));
+      for (const auto& s : r.tokens) samples.push_back(DecodeClip(tok, s, 1, h, given));
       add_clip(kind, samples[0]);
       first_samples[kind] = samples[0];
       if (mode == RolloutMode::kPlain && !perturbed.empty()) {
         rec.scores[kind]["delta_tpsnr"] =
             DeltaPsnr(rec.scores[kind].at("psnr"),
-                      FramePsnr(target, DecodeClip(tok, perturbed[i].tokens[0], 1, h)));
+                      FramePsnr(target, DecodeClip(tok, perturbed[i].tokens[0], 1, h, given)));
       }
       double model_return = 0;
       for (int64_t s = 0; s < h; ++s) model_return += r.rewards[0][s];

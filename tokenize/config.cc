@@ -33,6 +33,7 @@ void VisitFields(Config& c, F&& f) {
   f("model", "beta", m.beta);
   f("model", "dead_code_steps", m.dead_code_steps);
   f("model", "detail_weight", m.detail_weight);
+  f("model", "anchor_decoder", m.anchor_decoder);
   auto& t = c.train;
   f("train", "batch_size", t.batch_size);
   f("train", "steps", t.steps);
@@ -49,6 +50,8 @@ void VisitFields(Config& c, F&& f) {
   f("train", "log_every", t.log_every);
   f("train", "val_every", t.val_every);
   f("train", "val_frames", t.val_frames);
+  f("train", "anchor_max_gap", t.anchor_max_gap);
+  f("train", "anchor_dropout", t.anchor_dropout);
   f("data", "image_key", c.data.image_key);
 }
 
@@ -120,6 +123,9 @@ void ValidateConfig(const TokenizerConfig& c, const std::string& file) {
   require(t.log_every > 0, "train.log_every", "must be > 0");
   require(t.val_every >= 0, "train.val_every", "must be >= 0");
   require(t.val_frames > 0, "train.val_frames", "must be > 0");
+  require(t.anchor_max_gap >= 1, "train.anchor_max_gap", "must be >= 1");
+  require(t.anchor_dropout >= 0 && t.anchor_dropout <= 1, "train.anchor_dropout",
+          "must be in [0, 1]");
   require(!c.data.image_key.empty(), "data.image_key", "must not be empty");
 }
 

@@ -26,6 +26,8 @@ struct ModelConfig {
   double beta = 0.25;         // commitment weight
   int dead_code_steps = 100;  // a code unused for this many steps is re-seeded (0 = never)
   double detail_weight = 0;   // extra L1 weight on pixels far from their blurred frame (0: none)
+  bool anchor_decoder = false;  // the decoder also sees an anchor: an earlier real frame of the
+                                // episode (docs/tokenizer.md, "Anchor decoder")
 };
 
 struct TrainConfig {
@@ -43,6 +45,11 @@ struct TrainConfig {
   int64_t log_every = 10;  // metrics.csv row period
   int64_t val_every = 0;   // val.csv period in steps with --val-data (0: only at the end)
   int val_frames = 64;     // validation frames (fixed, drawn once from the val data)
+  // model.anchor_decoder: a frame at step t is decoded with the anchor t - k, k drawn in
+  // [1, min(t, anchor_max_gap)]; with probability anchor_dropout (and always at t = 0) the anchor
+  // is blank, so the tokens alone must describe the frame.
+  int anchor_max_gap = 8;
+  double anchor_dropout = 0.5;
 };
 
 struct DataConfig {

@@ -59,22 +59,35 @@ int64_t DecodeEpisode(const DecodeOptions& o) {
   std::vector<int64_t> wide(static_cast<size_t>(e.num_frames * data.tokens_per_frame()));
   data.CopyTokens(o.episode, 0, e.num_frames, wide.data());
   std::vector<uint32_t> codes(wide.begin(), wide.end());
-  std::vector<cv::Mat> decoded = ToBgr(tok.Decode(codes.data(), e.num_frames), tok.image_size());
 
-  std::vector<cv::Mat> originals;
+  std::vector<float> planar;  // the originals, [frames, 3, S, S]
+  const size_t floats = 3ull * tok.image_size() * tok.image_size();
   if (!o.originals_dir.empty()) {
     shard::DatasetReader source(o.originals_dir);
     Episode src = source.ReadEpisode(static_cast<size_t>(e.source_episode));
     const auto& frames = src.images.at(data.index().tokenizer.image_key).frames;
-    std::vector<float> planar(frames.size() * 3 * tok.image_size() * tok.image_size());
+    Check(static_cast<int64_t>(frames.size()) == e.num_frames,
+          "source episode has a different frame count", {.file = o.originals_dir});
+    planar.resize(frames.size() * floats);
     for (size_t t = 0; t < frames.size(); ++t) {
-      DecodeFrame(frames[t], tok.image_size(),
-                  planar.data() + t * 3 * tok.image_size() * tok.image_size());
+      DecodeFrame(frames[t], tok.image_size(), planar.data() + t * floats);
     }
-    originals = ToBgr(planar, tok.image_size());
-    Check(originals.size() == decoded.size(), "source episode has a different frame count",
-          {.file = o.originals_dir});
   }
+  // An anchored tokenizer decodes every frame after the first with the first original as its
+  // anchor, as a rollout from that frame would; frame 0 (and every frame without --originals)
+  // from its tokens alone.
+  std::vector<float> anchors;
+  if (tok.anchored() && !planar.empty()) {
+    anchors.assign(planar.size(), 0.f);
+    for (int64_t t = 1; t < e.num_frames; ++t) {
+      std::copy(planar.begin(), planar.begin() + floats, anchors.begin() + t * floats);
+    }
+  }
+  std::vector<cv::Mat> decoded = ToBgr(
+      tok.Decode(codes.data(), e.num_frames, anchors.empty() ? nullptr : anchors.data()),
+      tok.image_size());
+  std::vector<cv::Mat> originals;
+  if (!planar.empty()) originals = ToBgr(planar, tok.image_size());
 
   const std::string ext = fs::path(o.out).extension().string();
   if (ext == ".png") {

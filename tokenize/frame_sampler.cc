@@ -113,10 +113,55 @@ FrameSampler::FrameSampler(const std::vector<std::string>& dataset_dirs, std::st
 
 FrameSampler::~FrameSampler() = default;
 
+namespace {
+
+// The hash key of (batch step, slot): every draw of the slot is Mix64(key + i), i distinct.
+uint64_t SlotKey(uint64_t seed, int64_t step, int slot) {
+  return Mix64(seed ^ Mix64(static_cast<uint64_t>(step) * 0x10000ull + slot));
+}
+
+}  // namespace
+
+std::vector<AnchorRef> FixedGapAnchors(const std::vector<FrameRef>& frames, int gap) {
+  std::vector<AnchorRef> anchors;
+  for (FrameRef f : frames) {
+    const bool blank = f.step == 0;
+    f.step -= std::min<size_t>(f.step, static_cast<size_t>(gap));
+    anchors.push_back({f, blank});
+  }
+  return anchors;
+}
+
+std::vector<AnchorRef> FrameSampler::TrainingAnchors(const std::vector<FrameRef>& frames,
+                                                     int64_t step, int max_gap,
+                                                     double dropout) const {
+  std::vector<AnchorRef> anchors;
+  for (size_t b = 0; b < frames.size(); ++b) {
+    const uint64_t key = SlotKey(seed_, step, static_cast<int>(b));
+    const double u = static_cast<double>(Mix64(key + 4) >> 11) * 0x1.0p-53;  // [0, 1)
+    FrameRef f = frames[b];
+    const size_t span = std::min<size_t>(f.step, static_cast<size_t>(max_gap));
+    const bool blank = span == 0 || u < dropout;
+    if (!blank) f.step -= 1 + Mix64(key + 5) % span;
+    anchors.push_back({f, blank});
+  }
+  return anchors;
+}
+
+void FrameSampler::Load(const std::vector<AnchorRef>& anchors, float* out) const {
+  std::vector<FrameRef> refs;
+  for (const AnchorRef& a : anchors) refs.push_back(a.frame);
+  Load(refs, out);
+  const size_t floats = 3ull * size_ * size_;
+  for (size_t b = 0; b < anchors.size(); ++b) {
+    if (anchors[b].blank) std::fill(out + b * floats, out + (b + 1) * floats, 0.f);
+  }
+}
+
 std::vector<FrameRef> FrameSampler::BatchRefs(int64_t step, int batch_size) const {
   std::vector<FrameRef> refs(static_cast<size_t>(batch_size));
   for (int b = 0; b < batch_size; ++b) {
-    const uint64_t key = Mix64(seed_ ^ Mix64(static_cast<uint64_t>(step) * 0x10000ull + b));
+    const uint64_t key = SlotKey(seed_, step, b);
     const double u = static_cast<double>(Mix64(key + 1) >> 11) * 0x1.0p-53;  // [0, 1)
     FrameRef& r = refs[b];
     while (r.dataset + 1 < weights_prefix_.size() && u >= weights_prefix_[r.dataset]) ++r.dataset;

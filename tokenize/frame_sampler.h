@@ -30,6 +30,17 @@ struct FrameRef {
   size_t dataset = 0, episode = 0, step = 0;
 };
 
+// The anchor of a frame for an anchored tokenizer (model.anchor_decoder): an earlier frame of
+// the same episode, or none (blank: decoded from the tokens alone).
+struct AnchorRef {
+  FrameRef frame;
+  bool blank = true;
+};
+
+// Each frame's anchor `gap` steps earlier (clamped to the episode's first frame); frames at step
+// 0 have none. Validation's fixed rule.
+std::vector<AnchorRef> FixedGapAnchors(const std::vector<FrameRef>& frames, int gap);
+
 class FrameSampler {
  public:
   // `weights`: one per dataset (any positive scale), empty = proportional to num_steps.
@@ -42,9 +53,15 @@ class FrameSampler {
   // Every frame, in order, of up to `max_episodes` episodes taken from the datasets in order
   // (dataset 0's first episodes first): whole clips, for metrics over consecutive frames.
   std::vector<std::vector<FrameRef>> EpisodeRefs(size_t max_episodes) const;
+  // The anchors of BatchRefs(step, ...) = `frames`: gap k uniform in [1, min(t, max_gap)], blank
+  // with probability `dropout` and at t = 0. Like BatchRefs, a pure function of (seed, step, slot).
+  std::vector<AnchorRef> TrainingAnchors(const std::vector<FrameRef>& frames, int64_t step,
+                                         int max_gap, double dropout) const;
   // Decodes `refs` into out[refs.size() * 3 * size * size] ([B, 3, H, W]); reads each episode
   // once. Const and thread-safe: the readers are read-only memory maps.
   void Load(const std::vector<FrameRef>& refs, float* out) const;
+  // The same for anchors; a blank anchor is all zeros (mid-grey), the model's "no anchor".
+  void Load(const std::vector<AnchorRef>& anchors, float* out) const;
 
   std::vector<std::string> dataset_names() const;
   std::vector<double> step_counts() const;

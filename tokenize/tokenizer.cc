@@ -74,7 +74,8 @@ std::vector<uint32_t> Tokenizer::Encode(const float* frames, int64_t n) const {
   return codes;
 }
 
-std::vector<float> Tokenizer::Decode(const uint32_t* codes, int64_t n) const {
+std::vector<float> Tokenizer::Decode(const uint32_t* codes, int64_t n,
+                                     const float* anchors) const {
   torch::NoGradGuard no_grad;
   const int g = grid();
   const int64_t per_frame = tokens_per_frame(), floats = 3 * int64_t{image_size()} * image_size();
@@ -89,7 +90,9 @@ std::vector<float> Tokenizer::Decode(const uint32_t* codes, int64_t n) const {
             {.file = state_->path});
     }
     torch::Tensor idx = torch::tensor(wide, torch::kInt64).view({m, g, g}).to(state_->device);
-    torch::Tensor img = state_->model->Decode(state_->model->quantizer->Lookup(idx));
+    torch::Tensor anchor;
+    if (anchors != nullptr && anchored()) anchor = state_->Frames(anchors + i * floats, m);
+    torch::Tensor img = state_->model->Decode(state_->model->quantizer->Lookup(idx), anchor);
     img = img.clamp(-1, 1).to(torch::kCPU).contiguous();  // [m, 3, S, S]
     std::copy(img.data_ptr<float>(), img.data_ptr<float>() + m * floats,
               frames.begin() + i * floats);
@@ -97,9 +100,10 @@ std::vector<float> Tokenizer::Decode(const uint32_t* codes, int64_t n) const {
   return frames;
 }
 
-std::vector<float> Tokenizer::Reconstruct(const float* frames, int64_t n) const {
+std::vector<float> Tokenizer::Reconstruct(const float* frames, int64_t n,
+                                          const float* anchors) const {
   std::vector<uint32_t> codes = Encode(frames, n);
-  return Decode(codes.data(), n);
+  return Decode(codes.data(), n, anchors);
 }
 
 std::vector<FeatureMap> Tokenizer::EncoderFeatures(const float* frames, int64_t n) const {

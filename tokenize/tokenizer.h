@@ -34,11 +34,19 @@ class Tokenizer {
   int grid() const { return config().model.image_size / config().model.patch_size; }
   int64_t tokens_per_frame() const { return int64_t{grid()} * grid(); }
 
+  // Whether the decoder reads an anchor frame (model.anchor_decoder): frames are then decoded
+  // from their tokens and an earlier real frame of the episode (docs/tokenizer.md).
+  bool anchored() const { return config().model.anchor_decoder; }
+
   // frames: [n, 3, S, S] planar RGB floats in [-1, 1] (tokenize::DecodeFrame's layout).
   std::vector<uint32_t> Encode(const float* frames, int64_t n) const;  // -> [n, g, g]
-  std::vector<float> Decode(const uint32_t* codes, int64_t n) const;   // -> [n, 3, S, S]
-  // Decode(Encode(frames)), clamped to [-1, 1] like Decode.
-  std::vector<float> Reconstruct(const float* frames, int64_t n) const;
+  // -> [n, 3, S, S]. `anchors`: [n, 3, S, S] like frames, one per decoded frame, or null (no
+  // anchor: what an anchored tokenizer's tokens say alone). Ignored unless anchored().
+  std::vector<float> Decode(const uint32_t* codes, int64_t n,
+                            const float* anchors = nullptr) const;
+  // Decode(Encode(frames), anchors), clamped to [-1, 1] like Decode.
+  std::vector<float> Reconstruct(const float* frames, int64_t n,
+                                 const float* anchors = nullptr) const;
   // The encoder's activations after each non-linearity (and the pre-quantisation latent),
   // shallow to deep: the feature stack of the lpips_style / fvd_style metrics.
   std::vector<FeatureMap> EncoderFeatures(const float* frames, int64_t n) const;

@@ -140,6 +140,10 @@ class Validation {
     const auto refs = sampler->BatchRefs(0, o.config.train.val_frames);
     frames_.resize(refs.size() * 3 * size_ * size_);
     sampler->Load(refs, frames_.data());
+    if (o.config.model.anchor_decoder) {  // the hardest gap the decoder was trained on
+      anchors_.resize(frames_.size());
+      sampler->Load(FixedGapAnchors(refs, o.config.train.anchor_max_gap), anchors_.data());
+    }
     for (const auto& clip : sampler->EpisodeRefs(kFlickerEpisodes)) {
       std::vector<float>& e = episodes_.emplace_back(clip.size() * 3 * size_ * size_);
       sampler->Load(clip, e.data());
@@ -151,7 +155,10 @@ class Validation {
     torch::NoGradGuard no_grad;
     const int64_t n = static_cast<int64_t>(frames_.size()) / (3 * size_ * size_);
     torch::Tensor images = torch::from_blob(frames_.data(), {n, 3, size_, size_}).to(device);
-    torch::Tensor recon = model->forward(images).reconstruction.to(torch::kCPU).contiguous();
+    torch::Tensor anchors;
+    if (!anchors_.empty()) anchors = torch::from_blob(anchors_.data(), images.sizes()).to(device);
+    torch::Tensor recon =
+        model->forward(images, anchors).reconstruction.to(torch::kCPU).contiguous();
     ReconstructionScore score =
         ScoreReconstruction(frames_.data(), recon.data_ptr<float>(), n, size_);
     const FlickerCounts flicker = Flicker(model, device);
@@ -191,6 +198,7 @@ class Validation {
   int size_;
   std::string path_;
   std::vector<float> frames_;
+  std::vector<float> anchors_;  // with model.anchor_decoder: each frame's (FixedGapAnchors)
   std::vector<std::vector<float>> episodes_;  // [T, 3, size, size] each, for Flicker
 };
 
@@ -251,9 +259,18 @@ TrainSummary TrainTokenizer(const TrainOptions& o) {
   if (o.show_progress) progress.emplace("tokenizer train", stop - s.step, "steps");
   const int B = cfg.train.batch_size, S = cfg.model.image_size;
   // The next batch is decoded on another thread while this one trains.
-  auto load = [&s, B, S](int64_t step) {
-    std::vector<float> batch(static_cast<size_t>(B) * 3 * S * S);
-    s.sampler->Load(s.sampler->BatchRefs(step, B), batch.data());
+  // A batch: B frames, then (with model.anchor_decoder) their B anchors.
+  const bool anchored = cfg.model.anchor_decoder;
+  auto load = [&s, &cfg, B, S, anchored](int64_t step) {
+    const size_t floats = static_cast<size_t>(B) * 3 * S * S;
+    std::vector<float> batch(anchored ? 2 * floats : floats);
+    const std::vector<FrameRef> refs = s.sampler->BatchRefs(step, B);
+    s.sampler->Load(refs, batch.data());
+    if (anchored) {
+      s.sampler->Load(s.sampler->TrainingAnchors(refs, step, cfg.train.anchor_max_gap,
+                                                 cfg.train.anchor_dropout),
+                      batch.data() + floats);
+    }
     return batch;
   };
   std::future<std::vector<float>> pending;
@@ -264,11 +281,15 @@ TrainSummary TrainTokenizer(const TrainOptions& o) {
     std::vector<float> batch = pending.get();
     if (s.step + 1 < stop) pending = std::async(std::launch::async, load, s.step + 1);
     torch::Tensor images = torch::from_blob(batch.data(), {B, 3, S, S}).to(device, true, true);
+    torch::Tensor anchors;
+    if (anchored) {
+      anchors = torch::from_blob(batch.data() + images.numel(), {B, 3, S, S}).to(device, true, true);
+    }
     const double lr = LearningRateAt(cfg.train, s.step);
     s.optimizer->set_lr(lr);
     s.optimizer->ZeroGrad();
     if (s.step == 0) s.model->quantizer->SeedFromLatents(s.model->Encode(images), s.reseed_rng);
-    VqVaeOutput out = s.model->forward(images);  // images: [B, 3, S, S]
+    VqVaeOutput out = s.model->forward(images, anchors);  // images: [B, 3, S, S]
     out.loss.backward();
     if (cfg.train.grad_clip > 0) {
       torch::nn::utils::clip_grad_norm_(s.model->parameters(), cfg.train.grad_clip);

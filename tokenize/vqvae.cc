@@ -144,13 +144,39 @@ VqVaeImpl::VqVaeImpl(const ModelConfig& c) : config(c) {
     decoder->push_back(torch::nn::ReLU());
     decoder->push_back(torch::nn::ConvTranspose2d(
         ConvTranspose2dOptions(width(cd, level), width(cd, level + 1), 4).stride(2).padding(1)));
+  }  // [B, Cd(downs), H/f, W/f]
+  const int64_t top = width(cd, downs);
+  // The pixel head; anchor-decoded frames are the anchor plus its output (unshuffled).
+  auto pixel_head = [&](torch::nn::Sequential& seq) {
+    seq->push_back(torch::nn::ReLU());
+    seq->push_back(torch::nn::Conv2d(Conv2dOptions(top, pixels, 3).padding(1)));
+  };
+  if (!c.anchor_decoder) {
+    pixel_head(decoder);
+    if (f > 1) decoder->push_back(torch::nn::PixelShuffle(f));  // [B, 3, H, W]
   }
-  decoder->push_back(torch::nn::ReLU());
-  decoder->push_back(torch::nn::Conv2d(Conv2dOptions(width(cd, downs), pixels, 3).padding(1)));
-  if (f > 1) decoder->push_back(torch::nn::PixelShuffle(f));  // [B, 3, H, W]
-
   register_module("encoder", encoder);
   register_module("decoder", decoder);
+  if (c.anchor_decoder) {
+    anchor_stem = torch::nn::Sequential();
+    if (f > 1) anchor_stem->push_back(torch::nn::PixelUnshuffle(f));
+    anchor_stem->push_back(torch::nn::Conv2d(Conv2dOptions(pixels, top, 3).padding(1)));
+    // One push_back per layer: constructor arguments are evaluated in no fixed order, and the
+    // layers must draw their initial weights in this order (the twin's).
+    merge = torch::nn::Sequential(torch::nn::ReLU());
+    merge->push_back(torch::nn::Conv2d(Conv2dOptions(2 * top, top, 3).padding(1)));
+    merge->push_back(ResBlock(top));
+    head = torch::nn::Sequential();
+    pixel_head(head);
+    // Zero-initialised correction: at step 0 every decoded frame is its anchor.
+    auto& last = head->ptr(1)->as<torch::nn::Conv2dImpl>()->weight;
+    torch::NoGradGuard no_grad;
+    last.zero_();
+    head->ptr(1)->as<torch::nn::Conv2dImpl>()->bias.zero_();
+    register_module("anchor_stem", anchor_stem);
+    register_module("merge", merge);
+    register_module("head", head);
+  }
   quantizer =
       register_module("quantizer", VectorQuantizer(QuantizerOptions{.num_codes = c.num_codes,
                                                                     .dim = c.latent_dim,
@@ -160,12 +186,21 @@ VqVaeImpl::VqVaeImpl(const ModelConfig& c) : config(c) {
 
 torch::Tensor VqVaeImpl::Encode(const torch::Tensor& images) { return encoder->forward(images); }
 
-torch::Tensor VqVaeImpl::Decode(const torch::Tensor& z_q) { return decoder->forward(z_q); }
+torch::Tensor VqVaeImpl::Decode(const torch::Tensor& z_q, const torch::Tensor& anchors) {
+  if (!config.anchor_decoder) return decoder->forward(z_q);
+  const int64_t f = config.stem_factor, S = config.image_size;
+  torch::Tensor anchor =
+      anchors.defined() ? anchors : torch::zeros({z_q.size(0), 3, S, S}, z_q.options());
+  torch::Tensor h = merge->forward(torch::cat({decoder->forward(z_q), anchor_stem->forward(anchor)}, 1));
+  torch::Tensor base = f > 1 ? F::pixel_unshuffle(anchor, F::PixelUnshuffleFuncOptions(f)) : anchor;
+  torch::Tensor y = head->forward(h) + base;  // [B, 3f^2, H/f, W/f]
+  return f > 1 ? F::pixel_shuffle(y, F::PixelShuffleFuncOptions(f)) : y;
+}
 
-VqVaeOutput VqVaeImpl::forward(const torch::Tensor& images) {
+VqVaeOutput VqVaeImpl::forward(const torch::Tensor& images, const torch::Tensor& anchors) {
   VqVaeOutput out;
-  out.quant = quantizer->forward(Encode(images));  // z_q: [B, D, h, w]
-  out.reconstruction = Decode(out.quant.z_q);      // [B, 3, H, W]
+  out.quant = quantizer->forward(Encode(images));      // z_q: [B, D, h, w]
+  out.reconstruction = Decode(out.quant.z_q, anchors);  // [B, 3, H, W]
   torch::Tensor error = (out.reconstruction - images).abs();
   out.recon_l1 = error.mean();
   torch::Tensor recon = out.recon_l1;

@@ -62,14 +62,24 @@ struct VqVaeOutput {
 // segmentation label. A function of the input only: no gradient flows through it.
 torch::Tensor DetailWeight(const torch::Tensor& images, double alpha);
 
+// With model.anchor_decoder the decoder also reads an anchor frame (an earlier real frame of
+// the episode, or zeros: "no anchor"). Its features join the tokens' at the stem resolution, and
+// the output is the anchor plus a correction whose last layer starts at zero, so an untrained
+// decoder copies the anchor. Training blanks the anchor often (train.anchor_dropout), so the
+// tokens keep describing the whole frame; the anchor restores what they lose (a 3-pixel block).
 struct VqVaeImpl : torch::nn::Module {
   explicit VqVaeImpl(const ModelConfig& config);
-  VqVaeOutput forward(const torch::Tensor& images);   // images: [B, 3, H, W] in [-1, 1]
+  // images: [B, 3, H, W] in [-1, 1]; anchors: the same shape, or undefined (no anchor).
+  VqVaeOutput forward(const torch::Tensor& images, const torch::Tensor& anchors = {});
   torch::Tensor Encode(const torch::Tensor& images);  // -> [B, D, h, w] pre-quantisation
-  torch::Tensor Decode(const torch::Tensor& z_q);     // [B, D, h, w] -> [B, 3, H, W]
+  // [B, D, h, w] -> [B, 3, H, W]; `anchors` as in forward (ignored without anchor_decoder).
+  torch::Tensor Decode(const torch::Tensor& z_q, const torch::Tensor& anchors = {});
 
   ModelConfig config;
   torch::nn::Sequential encoder{nullptr}, decoder{nullptr};
+  // Only with anchor_decoder (else `decoder` ends with the pixel head): anchor -> features at
+  // the stem resolution; [tokens' features, anchor's] -> features; features -> pixels.
+  torch::nn::Sequential anchor_stem{nullptr}, merge{nullptr}, head{nullptr};
   VectorQuantizer quantizer{nullptr};
 };
 TORCH_MODULE(VqVae);

@@ -1,19 +1,19 @@
 #!/usr/bin/python3
 """End to end on tiny tabletop data: a world model trained here by the built tools (wm-gen-tabletop
---look plain -> wm-ingest -> wm-tokenize -> wm-train, the tiny preset: next-frame objective with
-the copy prior) against the two copy baselines at horizon 1 on the val split, scored by wm-eval
-in the same run: it is no worse than copying the last frame's tokens (copy_last_tokens), and it
-beats copying the last frame's pixels (copy_last) in PSNR.
+--look plain -> wm-ingest -> wm-tokenize -> wm-train, the tiny presets: the anchor-decoder
+tokenizer, the next-frame objective with the copy prior) against the copy baselines on the val
+split, scored by wm-eval in the same run:
+  - the tokenizer keeps what the task is about (issue 20, goal 1, small version): over 8 steps
+    decoded with the real first frame as anchor, tokenizer_recon's arm- and object-region MSE are
+    well below copy_last's (the anchor keeps the block that 8x8 codes cannot draw);
+  - at horizon 1 the model is no worse than copying the last frame's tokens (copy_last_tokens)
+    or its pixels (copy_last), and below the tokenizer's ceiling.
 
-What this does not show: motion. copy_last_tokens, the tokenizer's picture of the last frame,
-scores the same PSNR as the model here, so the margin over copy_last is the tokenizer's smoothing
-(issue 20), not predicted motion; the strips of `make demo` show the frozen arm. The test guards
-against falling below copying; a model that moves will have to earn a stronger one.
-
-The plain look (one untextured table and light) is what makes this affordable: on the demo's
-varied textures the 8x8-token tokenizer's own error (23.9 dB ceiling) is as large as the arm's
-motion between frames and a CPU-sized model does not beat copy-last (README, "Known limits").
-Sized for CI: about 2.5 min on 2 cores (PROCESSORS 2 in CMakeLists.txt)."""
+What this does not show: motion. With the anchor decoder copy_last_tokens decodes to nearly
+copy_last itself, and the model scores the same as both: it still copies (issue 20, goal 2);
+the strips of `make demo` show it. The margin over copy_last that an earlier test asserted came
+from the old tokenizer's smoothing, not from motion, and is gone.
+Sized for CI: about 3 min on 2 cores (PROCESSORS 2 in CMakeLists.txt)."""
 import csv
 import os
 import sys
@@ -21,7 +21,7 @@ import tempfile
 import unittest
 
 sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), ".."))
-from tiny_pipeline import TinyPipeline, run_ok  # noqa: E402
+from tiny_pipeline import CONFIGS, TinyPipeline, run_ok  # noqa: E402
 
 DYNAMICS_STEPS = 300
 VAL_EPISODES = 16
@@ -38,11 +38,17 @@ def step1_psnr(report):
     return out
 
 
+def summary_means(report):
+    """{(rollout, metric): mean} from summary.csv."""
+    with open(os.path.join(report, "summary.csv"), newline="", encoding="utf-8") as f:
+        return {(r["rollout"], r["metric"]): float(r["mean"]) for r in csv.DictReader(f)}
+
+
 def mean(values):
     return sum(values) / len(values)
 
 
-class BeatsCopyLast(unittest.TestCase):
+class AgainstCopies(unittest.TestCase):
     @classmethod
     def setUpClass(cls):
         cls.tmp = tempfile.TemporaryDirectory(prefix="wm-beats-copy-last-")
@@ -58,6 +64,13 @@ class BeatsCopyLast(unittest.TestCase):
                            "--videos", 0, "--strips", 0, "--controllability", "off",
                            "--resamples", 100, checkpoints=[final]))
         cls.final = step1_psnr(os.path.join(reports, "final"))
+        regions = p.path("regions")
+        run_ok(p.eval_argv(regions, "--horizon", 8, "--rollout", "plain", "--temperature", 0,
+                           "--videos", 0, "--strips", 0, "--controllability", "off",
+                           "--resamples", 100, "--masks", "files", "--seg-config",
+                           os.path.join(CONFIGS, "segmentation", "tabletop.yaml"),
+                           checkpoints=[final]))
+        cls.regions = summary_means(os.path.join(regions, "final"))
 
     @classmethod
     def tearDownClass(cls):
@@ -67,19 +80,23 @@ class BeatsCopyLast(unittest.TestCase):
         for rollout in ("plain", "copy_last", "copy_last_tokens", "tokenizer_recon"):
             self.assertEqual(sorted(self.final[rollout]), list(range(VAL_EPISODES)), rollout)
 
-    def test_trained_model_beats_copy_last_at_horizon_1(self):
+    def test_tokenizer_keeps_the_arm_and_the_block(self):
+        ratio = {region: self.regions["tokenizer_recon", region] /
+                 self.regions["copy_last", region] for region in ("mse_arm", "mse_object")}
+        print(f"8 steps, tokenizer_recon / copy_last region MSE: arm {ratio['mse_arm']:.2f}, "
+              f"block {ratio['mse_object']:.2f}")
+        # Measured 0.22 / 0.45 on the demo's data (200 episodes, 2400 tokenizer steps); the old
+        # 8x8 tokenizer without anchor was at about 0.23 / 1.95 (it erased the block).
+        self.assertLess(ratio["mse_arm"], 0.4)
+        self.assertLess(ratio["mse_object"], 0.75)
+
+    def test_trained_model_is_no_worse_than_copy_last(self):
         model, copy = self.final["plain"], self.final["copy_last"]
         gain = mean([model[e] - copy[e] for e in copy])
-        better = sum(model[e] > copy[e] for e in copy)
         print(f"horizon 1 PSNR: model {mean(model.values()):.2f} dB, copy_last "
               f"{mean(copy.values()):.2f} dB, ceiling "
-              f"{mean(self.final['tokenizer_recon'].values()):.2f} dB; model better on "
-              f"{better} of {len(copy)} episodes")
-        # Measured gains 0.49 / 0.28 / 0.51 dB (better on 14 / 13 / 14 of 16 episodes) for
-        # data and training seeds 0 / 1 / 2: another CPU's float kernels change the run like
-        # another seed, so the bound is the claim itself, not the margin of one run.
-        self.assertGreater(gain, 0)
-        self.assertGreater(better, len(copy) // 2)
+              f"{mean(self.final['tokenizer_recon'].values()):.2f} dB")
+        self.assertGreater(gain, -0.05)
 
     def test_trained_model_is_no_worse_than_copying_its_tokens(self):
         model, tokens = self.final["plain"], self.final["copy_last_tokens"]

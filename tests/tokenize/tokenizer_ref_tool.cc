@@ -85,13 +85,26 @@ std::vector<float> ReadFrames(const std::string& path, int size, int64_t& n) {
   return frames;
 }
 
+// An anchored tokenizer's anchors here: frame i - 1 for frame i, blank (zeros) for frame 0
+// (vqvae_twin.previous_frames). Empty for other tokenizers.
+std::vector<float> PreviousFrames(const wm::tokenize::Tokenizer& tok,
+                                  const std::vector<float>& frames) {
+  if (!tok.anchored()) return {};
+  const size_t floats = 3ull * tok.image_size() * tok.image_size();
+  std::vector<float> anchors(floats, 0.f);
+  anchors.insert(anchors.end(), frames.begin(), frames.end() - static_cast<long>(floats));
+  return anchors;
+}
+
 void WriteOutputs(const wm::tokenize::Tokenizer& tok, const std::vector<float>& frames, int64_t n,
                   const std::string& dir, nlohmann::json& out) {
   std::filesystem::create_directories(dir);
   const int64_t g = tok.grid(), S = tok.image_size();
   const std::vector<uint32_t> codes = tok.Encode(frames.data(), n);
   WriteNpy(dir + "/codes.npy", "<u4", {n, g, g}, codes.data(), codes.size() * sizeof(uint32_t));
-  const std::vector<float> recon = tok.Reconstruct(frames.data(), n);
+  const std::vector<float> anchors = PreviousFrames(tok, frames);
+  const std::vector<float> recon =
+      tok.Reconstruct(frames.data(), n, anchors.empty() ? nullptr : anchors.data());
   WriteNpy(dir + "/reconstruction.npy", "<f4", {n, 3, S, S}, recon.data(),
            recon.size() * sizeof(float));
   const auto features = tok.EncoderFeatures(frames.data(), n);
@@ -113,7 +126,12 @@ nlohmann::json Losses(const wm::tokenize::Tokenizer& tok, std::vector<float>& fr
   model->to(torch::Device(o.device));
   const int S = tok.image_size();
   torch::Tensor images = torch::from_blob(frames.data(), {n, 3, S, S}).to(torch::Device(o.device));
-  wm::tokenize::VqVaeOutput v = model->forward(images);
+  std::vector<float> previous = PreviousFrames(tok, frames);
+  torch::Tensor anchors;
+  if (!previous.empty()) {
+    anchors = torch::from_blob(previous.data(), {n, 3, S, S}).to(torch::Device(o.device));
+  }
+  wm::tokenize::VqVaeOutput v = model->forward(images, anchors);
   v.loss.backward();
   if (!o.grads_path.empty()) {
     wm::TensorArchiveWriter w;

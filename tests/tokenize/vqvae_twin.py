@@ -36,7 +36,7 @@ DTYPES = {"float32": "<f4", "float64": "<f8", "float16": "<f2", "int32": "<i4", 
 MODEL_DEFAULTS = {"image_size": 64, "patch_size": 8, "stem_factor": 1, "encoder_channels": 64, "encoder_layers": 1,
                   "decoder_channels": 64, "decoder_layers": 1, "min_channels": 0, "latent_dim": 32,
                   "num_codes": 1024, "l2_normalize": True, "beta": 0.25, "dead_code_steps": 100,
-                  "detail_weight": 0.0}
+                  "detail_weight": 0.0, "anchor_decoder": False}
 CHUNK = 64  # tokenizer.cc kChunk: frames per forward pass
 M64 = (1 << 64) - 1
 
@@ -179,15 +179,39 @@ class VqVae(nn.Module):
         for level in range(downs):  # each doubles H and W
             dec += [nn.ReLU(), nn.ConvTranspose2d(width(cd, level), width(cd, level + 1), 4,
                                                   stride=2, padding=1)]
-        dec += [nn.ReLU(), nn.Conv2d(width(cd, downs), 3 * f * f, 3, padding=1)]
-        dec += [nn.PixelShuffle(f)] if f > 1 else []  # [B, 3, H, W]
+        top, pixels = width(cd, downs), 3 * f * f
+        self.f, self.anchored = f, c["anchor_decoder"]
+        if not self.anchored:
+            dec += [nn.ReLU(), nn.Conv2d(top, pixels, 3, padding=1)]
+            dec += [nn.PixelShuffle(f)] if f > 1 else []  # [B, 3, H, W]
         decoder = nn.Sequential(*dec)
         self.encoder, self.decoder = encoder, decoder
+        if self.anchored:  # created in the C++ order: anchor_stem, merge, head
+            self.anchor_stem = nn.Sequential(*([nn.PixelUnshuffle(f)] if f > 1 else []),
+                                             nn.Conv2d(pixels, top, 3, padding=1))
+            self.merge = nn.Sequential(nn.ReLU(), nn.Conv2d(2 * top, top, 3, padding=1),
+                                       ResBlock(top))
+            self.head = nn.Sequential(nn.ReLU(), nn.Conv2d(top, pixels, 3, padding=1))
+            with torch.no_grad():  # the correction starts at zero: decoded = anchor
+                self.head[1].weight.zero_()
+                self.head[1].bias.zero_()
         self.quantizer = VectorQuantizer(c["num_codes"], d, c["l2_normalize"])
 
-    def forward(self, images):  # [B, 3, H, W] in [-1, 1]
+    def decode(self, z_q, anchors=None):
+        """VqVaeImpl::Decode; anchors None = blank (zeros)."""
+        if not self.anchored:
+            return self.decoder(z_q)
+        h = self.decoder(z_q)
+        if anchors is None:
+            anchors = torch.zeros(z_q.shape[0], 3, h.shape[2] * self.f, h.shape[3] * self.f)
+        h = self.merge(torch.cat([h, self.anchor_stem(anchors)], 1))
+        base = F.pixel_unshuffle(anchors, self.f) if self.f > 1 else anchors
+        y = self.head(h) + base
+        return F.pixel_shuffle(y, self.f) if self.f > 1 else y
+
+    def forward(self, images, anchors=None):  # [B, 3, H, W] in [-1, 1]
         quant = self.quantizer(self.encoder(images))
-        recon = self.decoder(quant["z_q"])
+        recon = self.decode(quant["z_q"], anchors)
         error = (recon - images).abs()
         recon_l1 = error.mean()
         term = recon_l1
@@ -226,13 +250,20 @@ def encode(model, frames):  # [n, 3, S, S] -> [n, g, g] int64
 
 
 @torch.no_grad()
-def decode(model, codes):  # [n, g, g] -> [n, 3, S, S], clamped like Tokenizer::Decode
-    return torch.cat([model.decoder(model.quantizer.lookup(codes[i:i + CHUNK])).clamp(-1, 1)
+def decode(model, codes, anchors=None):  # [n, g, g] -> [n, 3, S, S], clamped like Decode
+    return torch.cat([model.decode(model.quantizer.lookup(codes[i:i + CHUNK]),
+                                   None if anchors is None else anchors[i:i + CHUNK]).clamp(-1, 1)
                       for i in range(0, len(codes), CHUNK)])
 
 
-def reconstruct(model, frames):
-    return decode(model, encode(model, frames))
+def reconstruct(model, frames, anchors=None):
+    return decode(model, encode(model, frames), anchors)
+
+
+def previous_frames(frames):
+    """tokenizer_ref_tool's anchors for an anchored tokenizer: frame i-1 for frame i, blank for
+    frame 0."""
+    return torch.cat([torch.zeros_like(frames[:1]), frames[:-1]])
 
 
 @torch.no_grad()
@@ -331,6 +362,26 @@ class FrameSampler:
             refs.append((ds, episode, mix64((key + 3) & M64) % self.steps[ds][episode]))
         return refs
 
+    def training_anchors(self, refs, step, max_gap, dropout):
+        """FrameSampler::TrainingAnchors: [(ref, blank)], draws Mix64(key + 4), Mix64(key + 5)."""
+        out = []
+        for b, (ds, episode, t) in enumerate(refs):
+            key = mix64(self.seed ^ mix64((step * 0x10000 + b) & M64))
+            u = (mix64((key + 4) & M64) >> 11) * 2.0 ** -53
+            span = min(t, max_gap)
+            blank = span == 0 or u < dropout
+            if not blank:
+                t -= 1 + mix64((key + 5) & M64) % span
+            out.append(((ds, episode, t), blank))
+        return out
+
+    def load_anchors(self, anchors):  # [B, 3, S, S], blank = zeros
+        x = self.load([r for r, _ in anchors]).clone()
+        for b, (_, blank) in enumerate(anchors):
+            if blank:
+                x[b] = 0
+        return x
+
     def frames(self, ds, episode):  # [T, 3, S, S] float32
         if (ds, episode) not in self.cache:
             blobs = self.datasets[ds].episode(episode)[2][self.image_key]
@@ -366,13 +417,13 @@ class Trainer:
         self.reseed_rng = Mt19937_64(self.t["seed"] ^ 0x9E3779B97F4A7C15)
         self.step = 0
 
-    def train_step(self, images):  # [B, 3, S, S]; returns the forward's output dict
+    def train_step(self, images, anchors=None):  # [B, 3, S, S]; the forward's output dict
         for group in self.optimizer.param_groups:
             group["lr"] = learning_rate_at(self.t, self.step)
         self.optimizer.zero_grad(set_to_none=False)
         if self.step == 0:
             self.model.quantizer.seed_from_latents(self.model.encoder(images), self.reseed_rng)
-        out = self.model(images)
+        out = self.model(images, anchors)
         out["loss"].backward()
         if self.t["grad_clip"] > 0:
             nn.utils.clip_grad_norm_(self.model.parameters(), self.t["grad_clip"])
