@@ -106,36 +106,39 @@ TEST(PolicyProcessTest, HangAtStartUp) {
   EXPECT_THAT(RunUntilError(o), HasSubstr("policy 'echo', at start-up: did not answer within 0.5 s"));
 }
 
-TEST(PolicyProcessTest, MalformedJson) {
-  EXPECT_THAT(RunUntilError(Options("--bad malformed --at 0")),
-              HasSubstr("policy 'echo', episode 4, step 0: answered a line that is not JSON: "
-                        "'{this is not json'"));
+// Each misbehaviour of echo_policy.py and the error it must give.
+struct BadPolicyCase {
+  const char* args;
+  const char* error;
+};
+
+class BadPolicyTest : public ::testing::TestWithParam<BadPolicyCase> {};
+
+TEST_P(BadPolicyTest, NamesPolicyEpisodeStepAndProblem) {
+  EXPECT_THAT(RunUntilError(Options(GetParam().args)), HasSubstr(GetParam().error));
 }
 
-TEST(PolicyProcessTest, WrongWidth) {
-  EXPECT_THAT(RunUntilError(Options("--bad wide --at 2")),
-              HasSubstr("policy 'echo', episode 4, step 2: answered an action of width 6, "
-                        "expected 7"));
-}
+INSTANTIATE_TEST_SUITE_P(
+    PolicyProcessTest, BadPolicyTest,
+    ::testing::Values(
+        BadPolicyCase{"--bad malformed --at 0",
+                      "policy 'echo', episode 4, step 0: answered a line that is not JSON: "
+                      "'{this is not json'"},
+        BadPolicyCase{"--bad wide --at 2",
+                      "policy 'echo', episode 4, step 2: answered an action of width 6, expected 7"},
+        BadPolicyCase{"--bad nan --at 1",
+                      "policy 'echo', episode 4, step 1: answered a non-finite action value NaN "
+                      "at index 2"},
+        BadPolicyCase{"--bad inf --at 0",
+                      "episode 4, step 0: answered a non-finite action value -inf at index 4"},
+        BadPolicyCase{"--bad raise --at 1",
+                      "policy 'echo', episode 4, step 1: reported an error: RuntimeError: the "
+                      "policy's own failure"},
+        BadPolicyCase{"--bad old_version",
+                      "policy 'echo', at start-up: speaks protocol 'wmkit-policy' version 0, "
+                      "wmkit speaks 'wmkit-policy' version 1"}));
 
-TEST(PolicyProcessTest, NanAndInfinity) {
-  EXPECT_THAT(RunUntilError(Options("--bad nan --at 1")),
-              HasSubstr("policy 'echo', episode 4, step 1: answered a non-finite action value "
-                        "NaN at index 2"));
-  EXPECT_THAT(RunUntilError(Options("--bad inf --at 0")),
-              HasSubstr("episode 4, step 0: answered a non-finite action value -inf at index 4"));
-}
-
-TEST(PolicyProcessTest, PolicyReportsItsOwnError) {
-  EXPECT_THAT(RunUntilError(Options("--bad raise --at 1")),
-              HasSubstr("policy 'echo', episode 4, step 1: reported an error: RuntimeError: "
-                        "the policy's own failure"));
-}
-
-TEST(PolicyProcessTest, VersionMismatchAndMissingCommand) {
-  EXPECT_THAT(RunUntilError(Options("--bad old_version")),
-              HasSubstr("speaks protocol 'wmkit-policy' version 0, wmkit speaks 'wmkit-policy' "
-                        "version 1"));
+TEST(PolicyProcessTest, MissingCommand) {
   PolicyProcessOptions o = Options("");
   o.command = "/nonexistent/policy";
   EXPECT_THAT(RunUntilError(o), HasSubstr("policy 'echo', at start-up: exited with status 127"));
