@@ -25,10 +25,6 @@ std::string Encode(const std::string& ext, const cv::Mat& image, const std::vect
   return {bytes.begin(), bytes.end()};
 }
 
-struct EncodedFrame {
-  std::string jpeg, depth_png, labels_png;
-};
-
 EncodedFrame EncodeFrame(Frame& f) {
   const std::vector<int> png = {cv::IMWRITE_PNG_COMPRESSION, 3};
   cv::Mat rgb(f.size, f.size, CV_8UC3, f.rgb.data()), bgr;
@@ -45,13 +41,12 @@ uint64_t EpisodeSeed(uint64_t global_seed, const std::string& split, int64_t ind
   return MixBits(h ^ static_cast<uint64_t>(index)) >> 1;
 }
 
-Rollout RollOut(uint64_t episode_seed, PolicyKind policy_kind, int max_steps,
-                LookVariation look) {
+Rollout RollOutWith(uint64_t episode_seed, int max_steps, LookVariation look,
+                    const ActionChooser& choose) {
   Check(max_steps >= 1, "max_steps must be at least 1", {.key = "--max-steps"});
   Rng rng(episode_seed);
   Scene scene = SampleScene(rng, look);
-  const std::unique_ptr<Policy> policy = MakePolicy(policy_kind, scene.state);
-  Rollout out{episode_seed, policy_kind, scene.look, {}, false};
+  Rollout out{episode_seed, PolicyKind::kExpert, scene.look, {}, false};
   for (int t = 0; t < max_steps; ++t) {
     EpisodeStep step;
     step.state = scene.state;
@@ -64,7 +59,7 @@ Rollout RollOut(uint64_t episode_seed, PolicyKind policy_kind, int max_steps,
       out.success = true;
       break;
     }
-    step.action = policy->Act(scene.state, rng);
+    step.action = ClampAction(choose(scene, t, rng));
     step.is_last = t == max_steps - 1;
     out.steps.push_back(step);
     StepScene(scene.state, step.action);
@@ -72,16 +67,43 @@ Rollout RollOut(uint64_t episode_seed, PolicyKind policy_kind, int max_steps,
   return out;
 }
 
+Rollout RollOut(uint64_t episode_seed, PolicyKind policy_kind, int max_steps,
+                LookVariation look) {
+  std::unique_ptr<Policy> policy;  // made from the first state (wrong_goal needs it)
+  Rollout out = RollOutWith(episode_seed, max_steps, look,
+                            [&](const Scene& scene, int, Rng& rng) {
+                              if (!policy) policy = MakePolicy(policy_kind, scene.state);
+                              return policy->Act(scene.state, rng);
+                            });
+  out.policy = policy_kind;
+  return out;
+}
+
+EncodedFrame RenderEncodedFrame(const Scene& scene, int size) {
+  Frame frame = RenderFrame(scene, size);
+  return EncodeFrame(frame);
+}
+
 std::string EncodeEpisode(const Rollout& rollout, int size) {
+  std::vector<EncodedFrame> frames;
+  frames.reserve(rollout.steps.size());
+  for (const EpisodeStep& step : rollout.steps) {
+    frames.push_back(RenderEncodedFrame({step.state, rollout.look}, size));
+  }
+  return EncodeEpisode(rollout, frames, size, PolicyName(rollout.policy));
+}
+
+std::string EncodeEpisode(const Rollout& rollout, const std::vector<EncodedFrame>& frames,
+                          int size, const std::string& policy_id) {
+  Check(frames.size() == rollout.steps.size(), "one encoded frame per step is needed");
   std::vector<std::string> images, depths, labels, instructions;
   std::vector<float> actions, rewards, discounts;
   std::vector<int64_t> is_first, is_last, is_terminal;
-  for (const EpisodeStep& step : rollout.steps) {
-    Frame frame = RenderFrame({step.state, rollout.look}, size);
-    EncodedFrame encoded = EncodeFrame(frame);
-    images.push_back(std::move(encoded.jpeg));
-    depths.push_back(std::move(encoded.depth_png));
-    labels.push_back(std::move(encoded.labels_png));
+  for (size_t i = 0; i < rollout.steps.size(); ++i) {
+    const EpisodeStep& step = rollout.steps[i];
+    images.push_back(frames[i].jpeg);
+    depths.push_back(frames[i].depth_png);
+    labels.push_back(frames[i].labels_png);
     instructions.push_back(rollout.look.instruction);
     actions.insert(actions.end(), step.action.begin(), step.action.end());
     rewards.push_back(step.reward);
@@ -102,7 +124,7 @@ std::string EncodeEpisode(const Rollout& rollout, int size) {
   b.AddInt64s(kIsLastKey, is_last);
   b.AddInt64s(kIsTerminalKey, is_terminal);
   b.AddBytes(kInstructionKey, instructions);
-  b.AddBytes(kPolicyIdKey, {PolicyName(rollout.policy)});
+  b.AddBytes(kPolicyIdKey, {policy_id});
   b.AddInt64s(kEpisodeSeedKey, {static_cast<int64_t>(rollout.seed)});
   b.AddFloats(kIntrinsicsKey, {k.fx, k.fy, k.cx, k.cy});
   return b.Serialize();

@@ -3,6 +3,7 @@
 // then rendered and encoded as one tf.train.Example with the flattened keys TFDS writes for an
 // RLDS dataset (per-step values concatenated over the steps).
 #include <cstdint>
+#include <functional>
 #include <string>
 #include <vector>
 
@@ -46,13 +47,33 @@ struct Rollout {
   bool success = false;  // ended on a terminal step (block in the goal)
 };
 
-// Simulates one episode (no rendering): at most `max_steps` steps; the episode ends at the
-// first step whose state has the block in the goal (reward 1, is_last = is_terminal = 1), or
-// after `max_steps` steps (is_last = 1, is_terminal = 0).
+// Chooses the action for step `step` of the episode whose scene is `scene`; `rng` is the
+// episode's generator (after the scene was sampled from it).
+using ActionChooser = std::function<Action(const Scene& scene, int step, Rng& rng)>;
+
+// Simulates one episode under `choose`: at most `max_steps` steps; the episode ends at the first
+// step whose state has the block in the goal (reward 1, is_last = is_terminal = 1, no action
+// chosen), or after `max_steps` steps (is_last = 1, is_terminal = 0). Recorded actions are the
+// clamped ones StepScene applies. Rollout::policy is left as kExpert.
+Rollout RollOutWith(uint64_t episode_seed, int max_steps, LookVariation look,
+                    const ActionChooser& choose);
+
+// Simulates one episode under a scripted policy (no rendering).
 Rollout RollOut(uint64_t episode_seed, PolicyKind policy, int max_steps,
                 LookVariation look = LookVariation::kVaried);
 
+// One step's images as the dataset stores them.
+struct EncodedFrame {
+  std::string jpeg, depth_png, labels_png;
+};
+// Renders the scene at size x size and encodes it (deterministic bytes).
+EncodedFrame RenderEncodedFrame(const Scene& scene, int size);
+
 // Renders every step at size x size and serializes the tf.train.Example (deterministic bytes).
 std::string EncodeEpisode(const Rollout& rollout, int size);
+// The tf.train.Example of an episode whose frames are already encoded (one per step), with
+// `policy_id` as its episode_metadata/policy_id.
+std::string EncodeEpisode(const Rollout& rollout, const std::vector<EncodedFrame>& frames,
+                          int size, const std::string& policy_id);
 
 }  // namespace wm::tabletop

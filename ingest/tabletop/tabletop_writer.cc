@@ -85,24 +85,6 @@ std::vector<std::string> EncodeAll(const std::vector<Rollout>& rollouts, int siz
   return encoded;
 }
 
-// Removes shard files of this dataset that the current run did not write.
-void RemoveStaleShards(const std::string& dir, const std::string& name,
-                       const std::set<std::string>& written) {
-  const std::regex shard_name(name + "-[a-z0-9_]+\\.tfrecord-[0-9]{5}-of-[0-9]{5}");
-  std::error_code ec;
-  for (const auto& entry : fs::directory_iterator(dir, ec)) {
-    const std::string file = entry.path().filename().string();
-    if (std::regex_match(file, shard_name) && !written.count(file)) {
-      spdlog::info("removing stale shard {} from an earlier run", file);
-      if (!fs::remove(entry.path(), ec) || ec) {
-        throw Error("cannot remove a stale shard: " + ec.message(),
-                    {.file = entry.path().string()});
-      }
-    }
-  }
-  if (ec) throw Error("cannot list the dataset directory: " + ec.message(), {.file = dir});
-}
-
 }  // namespace
 
 void TabletopOptions::Check() const {
@@ -127,6 +109,23 @@ void TabletopOptions::Check() const {
 
 PolicyKind TabletopOptions::PolicyForEpisode(int64_t index) const {
   return ParsePolicyKind(policies[static_cast<size_t>(index) % policies.size()]);
+}
+
+void RemoveStaleShards(const std::string& dir, const std::string& name,
+                       const std::set<std::string>& written) {
+  const std::regex shard_name(name + "-[a-z0-9_]+\\.tfrecord-[0-9]{5}-of-[0-9]{5}");
+  std::error_code ec;
+  for (const auto& entry : fs::directory_iterator(dir, ec)) {
+    const std::string file = entry.path().filename().string();
+    if (std::regex_match(file, shard_name) && !written.count(file)) {
+      spdlog::info("removing stale shard {} from an earlier run", file);
+      if (!fs::remove(entry.path(), ec) || ec) {
+        throw Error("cannot remove a stale shard: " + ec.message(),
+                    {.file = entry.path().string()});
+      }
+    }
+  }
+  if (ec) throw Error("cannot list the dataset directory: " + ec.message(), {.file = dir});
 }
 
 TabletopSummary WriteTabletopDataset(const TabletopOptions& o) {

@@ -6,6 +6,7 @@
 // one tf.train.Example per episode (keys in episode.h). Same options -> identical bytes.
 #include <cstdint>
 #include <map>
+#include <set>
 #include <string>
 #include <vector>
 
@@ -47,5 +48,10 @@ struct TabletopSummary {
 // atomically; stale shard files of an earlier run with another file count are removed, and
 // dataset_info.json is written last.
 TabletopSummary WriteTabletopDataset(const TabletopOptions& options);
+
+// Removes TFRecord shard files of dataset `name` in `dir` that are not in `written` (left by an
+// earlier run with other files or splits).
+void RemoveStaleShards(const std::string& dir, const std::string& name,
+                       const std::set<std::string>& written);
 
 }  // namespace wm::tabletop
