@@ -53,7 +53,7 @@ DatasetIndex ReadIndex(const std::string& dir);
 void WriteIndex(const std::string& dir, const DatasetIndex& index);  // atomic
 
 // `actions` is [N, dim] row-major. Quantiles interpolate linearly (numpy's default).
-ActionStats ComputeActionStats(const std::vector<float>& actions, int64_t dim);
+ActionStats ComputeActionStats(const std::vector<float>& actions, int64_t dim = kActionDim);
 // features.action.dim (7 for indexes that predate other widths).
 int64_t ActionDimOf(const nlohmann::json& features);
 // Whether the dataset's action is the canonical 7-dim eef_delta one (index.json version 1).
