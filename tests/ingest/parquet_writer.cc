@@ -187,4 +187,41 @@ std::string ParquetFileBytes(
   return file + footer + LengthBytes(footer.size()) + "PAR1";
 }
 
+// Optional DOUBLE with nulls [1.5, null, 2.5, 1.5, null, 2.5], dictionary-encoded, in a snappy
+// data page v2 (levels uncompressed).
+std::string OptionalDictionaryFile() {
+  const std::string dict = PlainDouble({1.5, 2.5});
+  const std::string def = BitPackedRun({1, 0, 1, 1, 0, 1}, 1);
+  const std::string indices = std::string(1, '\1') + BitPackedRun({0, 1, 0, 1}, 1);
+  const std::string page =
+      Page({.type = PageType::kDataV2, .num_values = 6, .encoding = Encoding::kRleDictionary,
+            .raw_size = static_cast<int32_t>(def.size() + indices.size()), .num_nulls = 2,
+            .num_rows = 6, .definition_bytes = static_cast<int32_t>(def.size())},
+           def + Snappy(indices));
+  ChunkSpec chunk{Page({.type = PageType::kDictionary, .num_values = 2,
+                        .raw_size = static_cast<int32_t>(dict.size())},
+                       Snappy(dict)) + page,
+                  6, /*codec=*/1, /*dictionary_first=*/true};
+  return ParquetFileBytes({ScalarLeaf("reward", PhysicalType::kDouble, Repetition::kOptional)},
+                          {{6, {chunk}}});
+}
+
+// list<float> (pyarrow's 3 levels): [1,2,3], [], null, [4] in row group 0; [5,6] in row group 1,
+// split over two v1 pages.
+std::string ListColumnFile(bool null_element) {
+  const std::string rep = WithLength(BitPackedRun({0, 1, 1, 0, 0, 0}, 1));
+  const std::string def = WithLength(BitPackedRun({3, 3, null_element ? 2u : 3u, 1, 0, 3}, 2));
+  const std::string v0 = PlainFloat(null_element ? std::vector<float>{1, 2, 4}
+                                                 : std::vector<float>{1, 2, 3, 4});
+  const std::string p0 = rep + def + v0;
+  ChunkSpec g0{Page({.num_values = 6, .raw_size = static_cast<int32_t>(p0.size())}, Snappy(p0)),
+               6, /*codec=*/1};
+  const std::string p1 = WithLength(RleRun(0, 1, 1)) + WithLength(RleRun(3, 1, 2)) + PlainFloat({5});
+  const std::string p2 = WithLength(RleRun(1, 1, 1)) + WithLength(RleRun(3, 1, 2)) + PlainFloat({6});
+  ChunkSpec g1{Page({.num_values = 1, .raw_size = static_cast<int32_t>(p1.size())}, p1) +
+                   Page({.num_values = 1, .raw_size = static_cast<int32_t>(p2.size())}, p2),
+               2};
+  return ParquetFileBytes({ListLeaf("action", PhysicalType::kFloat)}, {{4, {g0}}, {1, {g1}}});
+}
+
 }  // namespace wm::parquet::testing

@@ -54,4 +54,10 @@ std::string ParquetFileBytes(const std::vector<LeafSpec>& leaves,
 LeafSpec ScalarLeaf(const std::string& name, PhysicalType type, Repetition repetition);
 LeafSpec ListLeaf(const std::string& name, PhysicalType type);
 
+// Ready-made files (tests and fuzz seeds): column "reward", and column "action" holding
+// [1,2,3], [], null, [4] in row group 0 and [5,6] over two v1 pages in row group 1 (with
+// `null_element`, the 3 is a null element instead).
+std::string OptionalDictionaryFile();
+std::string ListColumnFile(bool null_element = false);
+
 }  // namespace wm::parquet::testing
