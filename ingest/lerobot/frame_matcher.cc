@@ -33,10 +33,10 @@ std::vector<size_t> FrameMatcher::Offer(double t) {
   std::vector<size_t> won;
   auto less = [&](size_t step, double v) { return timestamps_[step] < v; };
   // Steps within tolerance, and the one on each side of the frame (for error messages).
-  size_t lo = std::lower_bound(order_.begin(), order_.end(), t - tolerance_s_, less) -
-              order_.begin();
-  size_t hi = std::lower_bound(order_.begin(), order_.end(), t + tolerance_s_, less) -
-              order_.begin();
+  size_t lo =
+      std::lower_bound(order_.begin(), order_.end(), t - tolerance_s_, less) - order_.begin();
+  size_t hi =
+      std::lower_bound(order_.begin(), order_.end(), t + tolerance_s_, less) - order_.begin();
   if (lo > 0) --lo;
   hi = std::min(hi + 1, order_.size());
   for (size_t k = lo; k < hi; ++k) Consider(k, t, won);

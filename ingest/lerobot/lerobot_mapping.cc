@@ -14,10 +14,17 @@ nlohmann::json LeRobotMapping::ToJson() const {
   auto opt = [](const std::optional<std::string>& s) {
     return s ? nlohmann::json(*s) : nlohmann::json(nullptr);
   };
-  return {{"camera", camera}, {"action", action}, {"action_space", action_space},
-          {"state", opt(state)}, {"timestamp", timestamp}, {"frame_index", frame_index},
-          {"episode_index", episode_index}, {"task_index", task_index}, {"reward", opt(reward)},
-          {"is_terminal", opt(is_terminal)}, {"tolerance_s", tolerance_s}};
+  return {{"camera", camera},
+          {"action", action},
+          {"action_space", action_space},
+          {"state", opt(state)},
+          {"timestamp", timestamp},
+          {"frame_index", frame_index},
+          {"episode_index", episode_index},
+          {"task_index", task_index},
+          {"reward", opt(reward)},
+          {"is_terminal", opt(is_terminal)},
+          {"tolerance_s", tolerance_s}};
 }
 
 LeRobotMapping LoadLeRobotMapping(const std::string& file) {
@@ -70,8 +77,9 @@ std::string FindLeRobotMapping(const std::string& mapping, const std::string& co
   const fs::path dir = fs::path(configs_dir) / "lerobot";
   if (fs::exists(dir / (dataset + ".yaml"))) return (dir / (dataset + ".yaml")).string();
   const fs::path fallback = dir / "default.yaml";
-  Check(fs::exists(fallback), "no LeRobot mapping: neither " + dataset +
-                                  ".yaml nor default.yaml exists (pass --mapping FILE)",
+  Check(fs::exists(fallback),
+        "no LeRobot mapping: neither " + dataset +
+            ".yaml nor default.yaml exists (pass --mapping FILE)",
         {.file = dir.string()});
   return fallback.string();
 }

@@ -15,8 +15,8 @@ struct LeRobotMapping {
   std::string action = "action";
   std::string action_space = "other";  // "eef_delta", "joint_position" or "other"
   std::optional<std::string> state = "observation.state";  // read and checked when present
-  std::string timestamp = "timestamp", frame_index = "frame_index",
-              episode_index = "episode_index", task_index = "task_index";
+  std::string timestamp = "timestamp", frame_index = "frame_index", episode_index = "episode_index",
+              task_index = "task_index";
   std::optional<std::string> reward, is_terminal;  // e.g. next.reward, next.done
   // |parquet timestamp - video frame time| must be below this; LeRobotDataset's default
   // tolerance_s (lerobot/datasets/lerobot_dataset.py) is 1e-4 s.

@@ -102,8 +102,9 @@ LeRobotMeta ReadLeRobotMeta(const std::string& root) {
   try {
     key = "codebase_version", m.codebase_version = info.at(key).get<std::string>();
     Check(m.codebase_version.rfind("v2.", 0) == 0,
-          "LeRobot " + m.codebase_version + " is not supported yet (v2.0 and v2.1 are; v3.0 "
-          "keeps many episodes per file, see docs/lerobot-mapping.md)");
+          "LeRobot " + m.codebase_version +
+              " is not supported yet (v2.0 and v2.1 are; v3.0 "
+              "keeps many episodes per file, see docs/lerobot-mapping.md)");
     key = "fps", m.fps = info.at(key).get<double>();
     Check(m.fps > 0, "must be positive");
     key = "chunks_size", m.chunks_size = info.value(key, int64_t{1000});

@@ -16,14 +16,14 @@ struct LeRobotEpisodeMeta {
 };
 
 struct LeRobotMeta {
-  std::string root;             // the dataset directory (holds meta/, data/, videos/)
+  std::string root;              // the dataset directory (holds meta/, data/, videos/)
   std::string codebase_version;  // "v2.1", "v2.0"
   double fps = 0;
-  int64_t chunks_size = 1000;   // episodes per chunk-XXX directory
-  std::string data_path, video_path;  // templates, e.g. data/chunk-{episode_chunk:03d}/...
-  nlohmann::json features;      // info.json "features"
-  std::vector<std::string> video_keys;  // features of dtype "video", in info.json order
-  std::map<int64_t, std::string> tasks;  // task_index -> task text
+  int64_t chunks_size = 1000;                // episodes per chunk-XXX directory
+  std::string data_path, video_path;         // templates, e.g. data/chunk-{episode_chunk:03d}/...
+  nlohmann::json features;                   // info.json "features"
+  std::vector<std::string> video_keys;       // features of dtype "video", in info.json order
+  std::map<int64_t, std::string> tasks;      // task_index -> task text
   std::vector<LeRobotEpisodeMeta> episodes;  // in episodes.jsonl order
 
   // Paths relative to `root` of one episode's parquet file and camera video.

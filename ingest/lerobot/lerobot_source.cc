@@ -21,13 +21,14 @@ std::vector<double> Numbers(const parquet::ParquetFile& file, const std::string&
                             int64_t width) {
   Column c = file.Read(key);
   for (int64_t r = 0; r < c.rows(); ++r) {
-    Check(c.RowSize(r) == width, "row " + std::to_string(r) + " holds " +
-                                     std::to_string(c.RowSize(r)) + " values, expected " +
-                                     std::to_string(width),
+    Check(c.RowSize(r) == width,
+          "row " + std::to_string(r) + " holds " + std::to_string(c.RowSize(r)) +
+              " values, expected " + std::to_string(width),
           {.file = file.name(), .key = key});
   }
   if (!c.values.reals.empty() || c.values.size() == 0) return c.values.reals;
-  Check(c.values.strings.empty(), "expected numbers, found strings", {.file = file.name(), .key = key});
+  Check(c.values.strings.empty(), "expected numbers, found strings",
+        {.file = file.name(), .key = key});
   return {c.values.ints.begin(), c.values.ints.end()};
 }
 
@@ -79,20 +80,23 @@ std::vector<EpisodeRef> LeRobotSource::ListEpisodes(std::vector<shard::SkippedEp
   for (const auto& e : meta_.episodes) {
     const std::string data = meta_.DataPath(e.index), video = meta_.VideoPath(e.index, camera_);
     std::string lacking;
-    if (!fs::exists(fs::path(meta_.root) / data)) lacking = data;
-    else if (!fs::exists(fs::path(meta_.root) / video)) lacking = video;
+    if (!fs::exists(fs::path(meta_.root) / data))
+      lacking = data;
+    else if (!fs::exists(fs::path(meta_.root) / video))
+      lacking = video;
     if (lacking.empty()) {
       refs.push_back({(fs::path(meta_.root) / data).string(), data, e.index, 0});
       continue;
     }
     missing.push_back(e.index);
-    absent_.push_back({data, e.index, "listed in meta/episodes.jsonl, but " + lacking +
-                                          " does not exist"});
+    absent_.push_back(
+        {data, e.index, "listed in meta/episodes.jsonl, but " + lacking + " does not exist"});
   }
   if (!missing.empty()) {
-    spdlog::warn("{} of the {} episodes in meta/episodes.jsonl are absent (no parquet or {} "
-                 "video), ingesting the {} present; absent: {}",
-                 missing.size(), meta_.episodes.size(), camera_, refs.size(), Ranges(missing));
+    spdlog::warn(
+        "{} of the {} episodes in meta/episodes.jsonl are absent (no parquet or {} "
+        "video), ingesting the {} present; absent: {}",
+        missing.size(), meta_.episodes.size(), camera_, refs.size(), Ranges(missing));
   }
   return refs;
 }
@@ -127,14 +131,16 @@ Episode LeRobotSource::Load(const EpisodeRef& ref) const {
   const std::vector<double> task = Numbers(file, mapping_.task_index, 1);
   if (t > 0) {
     const auto it = meta_.tasks.find(static_cast<int64_t>(task[0]));
-    Check(it != meta_.tasks.end(), "task_index " + std::to_string(task[0]) +
-                                       " is not in meta/tasks.jsonl", where);
+    Check(it != meta_.tasks.end(),
+          "task_index " + std::to_string(task[0]) + " is not in meta/tasks.jsonl", where);
     e.language_instruction = it->second;
   }
   for (const auto& listed : meta_.episodes) {
     if (listed.index != ref.record) continue;
-    Check(listed.length == t, "has " + std::to_string(t) + " rows, meta/episodes.jsonl says " +
-                                  std::to_string(listed.length), where);
+    Check(listed.length == t,
+          "has " + std::to_string(t) + " rows, meta/episodes.jsonl says " +
+              std::to_string(listed.length),
+          where);
   }
   if (mapping_.reward) {
     const std::vector<double> r = Numbers(file, *mapping_.reward, 1);
@@ -175,8 +181,10 @@ void LeRobotSource::ReadFrames(const EpisodeRef& ref, const std::vector<double>&
 }
 
 nlohmann::json LeRobotSource::Describe() const {
-  return {{"mapping", mapping_.ToJson()}, {"camera", camera_},
-          {"codebase_version", meta_.codebase_version}, {"fps", meta_.fps}};
+  return {{"mapping", mapping_.ToJson()},
+          {"camera", camera_},
+          {"codebase_version", meta_.codebase_version},
+          {"fps", meta_.fps}};
 }
 
 }  // namespace wm::ingest

@@ -13,8 +13,8 @@ namespace wm::ingest {
 class LeRobotSource : public EpisodeSource {
  public:
   // `root` holds meta/, data/ and videos/. `camera` (--camera) overrides the mapping's.
-  LeRobotSource(const std::string& root, const std::string& camera,
-                const std::string& mapping_file, const std::string& configs_dir);
+  LeRobotSource(const std::string& root, const std::string& camera, const std::string& mapping_file,
+                const std::string& configs_dir);
   std::string format() const override { return "lerobot"; }
   std::string dataset_name() const override { return name_; }
   // The episodes of meta/episodes.jsonl whose parquet and video files exist. Listed episodes

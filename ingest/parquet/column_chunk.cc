@@ -22,16 +22,17 @@ std::string Decompress(std::string_view bytes, int32_t codec, size_t expected) {
       return std::string(bytes);
     case Codec::kSnappy: {
       size_t length = 0;
-      Check(snappy::GetUncompressedLength(bytes.data(), bytes.size(), &length) &&
-                length == expected,
-            "snappy data does not decompress to the header's " + std::to_string(expected) +
-                " bytes");
+      Check(
+          snappy::GetUncompressedLength(bytes.data(), bytes.size(), &length) && length == expected,
+          "snappy data does not decompress to the header's " + std::to_string(expected) + " bytes");
       std::string out(length, '\0');
       Check(snappy::RawUncompress(bytes.data(), bytes.size(), out.data()), "corrupt snappy data");
       return out;
     }
-    case Codec::kZstd: return ZstdDecompress(bytes, expected);
-    default: break;
+    case Codec::kZstd:
+      return ZstdDecompress(bytes, expected);
+    default:
+      break;
   }
   throw Error("compression codec " + CodecName(codec) +
               " is not supported (UNCOMPRESSED, SNAPPY, ZSTD are)");
@@ -64,10 +65,12 @@ size_t ReadLevelsV1(std::string_view page, const LeafColumn& leaf, const PageHea
 }
 
 // Decodes `present` values of a page (PLAIN, dictionary indices, or RLE booleans).
-void DecodeValues(std::string_view data, const LeafColumn& leaf, int32_t encoding,
-                  int64_t present, const Values* dictionary, Values& out) {
+void DecodeValues(std::string_view data, const LeafColumn& leaf, int32_t encoding, int64_t present,
+                  const Values* dictionary, Values& out) {
   switch (static_cast<Encoding>(encoding)) {
-    case Encoding::kPlain: DecodePlain(data, leaf.type, present, out); return;
+    case Encoding::kPlain:
+      DecodePlain(data, leaf.type, present, out);
+      return;
     case Encoding::kPlainDictionary:
     case Encoding::kRleDictionary: {
       Check(dictionary != nullptr, "dictionary-encoded page without a dictionary page");
@@ -85,7 +88,8 @@ void DecodeValues(std::string_view data, const LeafColumn& leaf, int32_t encodin
       for (uint32_t v : DecodeRleHybrid(data.substr(4, length), 1, present)) out.ints.push_back(v);
       return;
     }
-    default: break;
+    default:
+      break;
   }
   throw Error("value encoding " + EncodingName(encoding) +
               " is not supported (PLAIN, PLAIN_DICTIONARY, RLE_DICTIONARY are)");
@@ -100,10 +104,10 @@ int64_t PresentValues(const Levels& levels, const LeafColumn& leaf, int64_t num_
     Check(def <= static_cast<uint32_t>(leaf.max_definition),
           "definition level " + std::to_string(def) + " above the column's maximum " +
               std::to_string(leaf.max_definition));
-    if (def == static_cast<uint32_t>(leaf.max_definition)) ++present;
+    if (def == static_cast<uint32_t>(leaf.max_definition))
+      ++present;
     else if (leaf.max_repetition > 0 && def >= static_cast<uint32_t>(leaf.element_definition)) {
-      throw Error("null element inside a list (entry " + std::to_string(i) +
-                  ") is not supported");
+      throw Error("null element inside a list (entry " + std::to_string(i) + ") is not supported");
     }
   }
   return present;
@@ -171,8 +175,8 @@ void ParquetFile::ReadChunk(const LeafColumn& leaf, size_t row_group, Column& ou
         raw = Decompress(payload, chunk.codec, h.uncompressed_size);
         values = std::string_view(raw).substr(ReadLevelsV1(raw, leaf, h, levels));
       } else {
-        Check(h.type == PageType::kDataV2, "unknown page type " +
-                                               std::to_string(static_cast<int>(h.type)));
+        Check(h.type == PageType::kDataV2,
+              "unknown page type " + std::to_string(static_cast<int>(h.type)));
         const size_t level_bytes =
             static_cast<size_t>(h.repetition_levels_length) + h.definition_levels_length;
         Check(level_bytes <= payload.size() && level_bytes <= size_t(h.uncompressed_size),

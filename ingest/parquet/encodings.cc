@@ -62,8 +62,8 @@ std::vector<uint32_t> DecodeRleHybrid(std::string_view bytes, int bit_width, int
       const size_t width_bytes = (bit_width + 7) / 8;
       Check(width_bytes <= bytes.size() - pos, "RLE run value runs past the page");
       uint32_t v = 0;
-      for (size_t b = 0; b < width_bytes; ++b) v |= static_cast<uint32_t>(
-          static_cast<uint8_t>(bytes[pos + b])) << (8 * b);
+      for (size_t b = 0; b < width_bytes; ++b)
+        v |= static_cast<uint32_t>(static_cast<uint8_t>(bytes[pos + b])) << (8 * b);
       pos += width_bytes;
       Check(repeats > 0, "RLE run of length 0");
       const uint64_t n = std::min<uint64_t>(repeats, static_cast<uint64_t>(count) - out.size());
@@ -73,15 +73,21 @@ std::vector<uint32_t> DecodeRleHybrid(std::string_view bytes, int bit_width, int
   return out;
 }
 
+// Appends `count` little-endian values stored as `Stored`; returns the bytes consumed.
+template <typename Stored, typename Dst>
+size_t AppendFixed(std::string_view bytes, PhysicalType type, int64_t count,
+                   std::vector<Dst>& out) {
+  Check(static_cast<uint64_t>(count) <= bytes.size() / sizeof(Stored),
+        std::to_string(count) + " PLAIN " + TypeName(type) + " values need " +
+            std::to_string(count * sizeof(Stored)) + " bytes, the page has " +
+            std::to_string(bytes.size()));
+  for (int64_t i = 0; i < count; ++i)
+    out.push_back(Load<Stored>(bytes.data() + sizeof(Stored) * i));
+  return static_cast<size_t>(count) * sizeof(Stored);
+}
+
 size_t DecodePlain(std::string_view bytes, PhysicalType type, int64_t count, Values& out) {
   Check(count >= 0, "negative value count");
-  auto need = [&](uint64_t width) {
-    Check(static_cast<uint64_t>(count) <= bytes.size() / width,
-          std::to_string(count) + " PLAIN " + TypeName(type) + " values need " +
-              std::to_string(count * width) + " bytes, the page has " +
-              std::to_string(bytes.size()));
-    return static_cast<size_t>(count * width);
-  };
   const char* p = bytes.data();
   switch (type) {
     case PhysicalType::kBoolean: {  // bit-packed, LSB first
@@ -89,41 +95,30 @@ size_t DecodePlain(std::string_view bytes, PhysicalType type, int64_t count, Val
       for (int64_t i = 0; i < count; ++i) out.ints.push_back((p[i >> 3] >> (i & 7)) & 1);
       return static_cast<size_t>((count + 7) / 8);
     }
-    case PhysicalType::kInt32: {
-      size_t n = need(4);
-      for (int64_t i = 0; i < count; ++i) out.ints.push_back(Load<int32_t>(p + 4 * i));
-      return n;
-    }
-    case PhysicalType::kInt64: {
-      size_t n = need(8);
-      for (int64_t i = 0; i < count; ++i) out.ints.push_back(Load<int64_t>(p + 8 * i));
-      return n;
-    }
-    case PhysicalType::kFloat: {
-      size_t n = need(4);
-      for (int64_t i = 0; i < count; ++i) out.reals.push_back(Load<float>(p + 4 * i));
-      return n;
-    }
-    case PhysicalType::kDouble: {
-      size_t n = need(8);
-      for (int64_t i = 0; i < count; ++i) out.reals.push_back(Load<double>(p + 8 * i));
-      return n;
-    }
+    case PhysicalType::kInt32:
+      return AppendFixed<int32_t>(bytes, type, count, out.ints);
+    case PhysicalType::kInt64:
+      return AppendFixed<int64_t>(bytes, type, count, out.ints);
+    case PhysicalType::kFloat:
+      return AppendFixed<float>(bytes, type, count, out.reals);
+    case PhysicalType::kDouble:
+      return AppendFixed<double>(bytes, type, count, out.reals);
     case PhysicalType::kByteArray: {  // u32 length + bytes, each
       size_t pos = 0;
       for (int64_t i = 0; i < count; ++i) {
-        Check(bytes.size() - pos >= 4, "PLAIN BYTE_ARRAY length truncated at value " +
-                                           std::to_string(i));
+        Check(bytes.size() - pos >= 4,
+              "PLAIN BYTE_ARRAY length truncated at value " + std::to_string(i));
         const uint32_t len = Load<uint32_t>(p + pos);
         pos += 4;
-        Check(len <= bytes.size() - pos, "PLAIN BYTE_ARRAY value " + std::to_string(i) +
-                                             " runs past the page");
+        Check(len <= bytes.size() - pos,
+              "PLAIN BYTE_ARRAY value " + std::to_string(i) + " runs past the page");
         out.strings.emplace_back(p + pos, len);
         pos += len;
       }
       return pos;
     }
-    default: break;
+    default:
+      break;
   }
   throw Error("physical type " + TypeName(type) + " is not supported");
 }
@@ -133,9 +128,12 @@ void AppendFromDictionary(const Values& dict, const std::vector<uint32_t>& indic
   for (uint32_t i : indices) {
     Check(i < n, "dictionary index " + std::to_string(i) + " past the dictionary's " +
                      std::to_string(n) + " entries");
-    if (!dict.ints.empty()) out.ints.push_back(dict.ints[i]);
-    else if (!dict.reals.empty()) out.reals.push_back(dict.reals[i]);
-    else out.strings.push_back(dict.strings[i]);
+    if (!dict.ints.empty())
+      out.ints.push_back(dict.ints[i]);
+    else if (!dict.reals.empty())
+      out.reals.push_back(dict.reals[i]);
+    else
+      out.strings.push_back(dict.strings[i]);
   }
 }
 

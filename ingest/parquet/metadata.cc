@@ -45,14 +45,29 @@ SchemaElement ReadSchemaElement(ThriftReader& r) {
 void ReadColumnMetaData(ThriftReader& r, ColumnChunk& c) {
   r.ReadStruct([&](int16_t id, T type) {
     switch (id) {
-      case 1: c.type = static_cast<PhysicalType>(ReadI32(r, type)); break;
-      case 3: ReadList(r, type, [&](T) { c.path.push_back(r.ReadBinary()); }); break;
-      case 4: c.codec = ReadI32(r, type); break;
-      case 5: c.num_values = r.ReadInt(type); break;
-      case 7: c.total_compressed_size = r.ReadInt(type); break;
-      case 9: c.data_page_offset = r.ReadInt(type); break;
-      case 11: c.dictionary_page_offset = r.ReadInt(type); break;
-      default: r.Skip(type);
+      case 1:
+        c.type = static_cast<PhysicalType>(ReadI32(r, type));
+        break;
+      case 3:
+        ReadList(r, type, [&](T) { c.path.push_back(r.ReadBinary()); });
+        break;
+      case 4:
+        c.codec = ReadI32(r, type);
+        break;
+      case 5:
+        c.num_values = r.ReadInt(type);
+        break;
+      case 7:
+        c.total_compressed_size = r.ReadInt(type);
+        break;
+      case 9:
+        c.data_page_offset = r.ReadInt(type);
+        break;
+      case 11:
+        c.dictionary_page_offset = r.ReadInt(type);
+        break;
+      default:
+        r.Skip(type);
     }
   });
 }
@@ -92,22 +107,23 @@ RowGroup ReadRowGroup(ThriftReader& r) {
 }  // namespace
 
 std::string TypeName(PhysicalType type) {
-  static const char* const kNames[] = {"BOOLEAN", "INT32", "INT64", "INT96",
-                                       "FLOAT", "DOUBLE", "BYTE_ARRAY", "FIXED_LEN_BYTE_ARRAY"};
+  static const char* const kNames[] = {"BOOLEAN", "INT32",  "INT64",      "INT96",
+                                       "FLOAT",   "DOUBLE", "BYTE_ARRAY", "FIXED_LEN_BYTE_ARRAY"};
   const auto i = static_cast<int32_t>(type);
   return i >= 0 && i < 8 ? kNames[i] : "type " + std::to_string(i);
 }
 
 std::string CodecName(int32_t codec) {
   static const char* const kNames[] = {"UNCOMPRESSED", "SNAPPY", "GZIP", "LZO",
-                                       "BROTLI", "LZ4", "ZSTD", "LZ4_RAW"};
+                                       "BROTLI",       "LZ4",    "ZSTD", "LZ4_RAW"};
   return codec >= 0 && codec < 8 ? kNames[codec] : "codec " + std::to_string(codec);
 }
 
 std::string EncodingName(int32_t encoding) {
   static const char* const kNames[] = {
-      "PLAIN", "GROUP_VAR_INT", "PLAIN_DICTIONARY", "RLE", "BIT_PACKED", "DELTA_BINARY_PACKED",
-      "DELTA_LENGTH_BYTE_ARRAY", "DELTA_BYTE_ARRAY", "RLE_DICTIONARY", "BYTE_STREAM_SPLIT"};
+      "PLAIN",          "GROUP_VAR_INT",       "PLAIN_DICTIONARY",        "RLE",
+      "BIT_PACKED",     "DELTA_BINARY_PACKED", "DELTA_LENGTH_BYTE_ARRAY", "DELTA_BYTE_ARRAY",
+      "RLE_DICTIONARY", "BYTE_STREAM_SPLIT"};
   return encoding >= 0 && encoding < 10 ? kNames[encoding] : "encoding " + std::to_string(encoding);
 }
 
@@ -116,11 +132,20 @@ FileMetaData ParseFileMetaData(std::string_view thrift) {
   FileMetaData m;
   r.ReadStruct([&](int16_t id, T type) {
     switch (id) {
-      case 2: ReadList(r, type, [&](T) { m.schema.push_back(ReadSchemaElement(r)); }); break;
-      case 3: m.num_rows = r.ReadInt(type); break;
-      case 4: ReadList(r, type, [&](T) { m.row_groups.push_back(ReadRowGroup(r)); }); break;
-      case 6: m.created_by = r.ReadBinary(); break;
-      default: r.Skip(type);
+      case 2:
+        ReadList(r, type, [&](T) { m.schema.push_back(ReadSchemaElement(r)); });
+        break;
+      case 3:
+        m.num_rows = r.ReadInt(type);
+        break;
+      case 4:
+        ReadList(r, type, [&](T) { m.row_groups.push_back(ReadRowGroup(r)); });
+        break;
+      case 6:
+        m.created_by = r.ReadBinary();
+        break;
+      default:
+        r.Skip(type);
     }
   });
   Check(!m.schema.empty(), "footer has no schema");
@@ -133,37 +158,73 @@ PageHeader ParsePageHeader(std::string_view bytes) {
   PageHeader h;
   auto data_page = [&](int16_t id, T type) {
     switch (id) {
-      case 1: h.num_values = ReadI32(r, type); break;
-      case 2: h.encoding = ReadI32(r, type); break;
-      case 3: h.definition_level_encoding = ReadI32(r, type); break;
-      case 4: h.repetition_level_encoding = ReadI32(r, type); break;
-      default: r.Skip(type);
+      case 1:
+        h.num_values = ReadI32(r, type);
+        break;
+      case 2:
+        h.encoding = ReadI32(r, type);
+        break;
+      case 3:
+        h.definition_level_encoding = ReadI32(r, type);
+        break;
+      case 4:
+        h.repetition_level_encoding = ReadI32(r, type);
+        break;
+      default:
+        r.Skip(type);
     }
   };
   auto dictionary_page = [&](int16_t id, T type) {
-    if (id == 1) h.num_values = ReadI32(r, type);
-    else if (id == 2) h.encoding = ReadI32(r, type);
-    else r.Skip(type);
+    if (id == 1)
+      h.num_values = ReadI32(r, type);
+    else if (id == 2)
+      h.encoding = ReadI32(r, type);
+    else
+      r.Skip(type);
   };
   auto data_page_v2 = [&](int16_t id, T type) {
     switch (id) {
-      case 1: h.num_values = ReadI32(r, type); break;
-      case 4: h.encoding = ReadI32(r, type); break;
-      case 5: h.definition_levels_length = ReadI32(r, type); break;
-      case 6: h.repetition_levels_length = ReadI32(r, type); break;
-      case 7: h.is_compressed = r.ReadBool(type); break;
-      default: r.Skip(type);
+      case 1:
+        h.num_values = ReadI32(r, type);
+        break;
+      case 4:
+        h.encoding = ReadI32(r, type);
+        break;
+      case 5:
+        h.definition_levels_length = ReadI32(r, type);
+        break;
+      case 6:
+        h.repetition_levels_length = ReadI32(r, type);
+        break;
+      case 7:
+        h.is_compressed = r.ReadBool(type);
+        break;
+      default:
+        r.Skip(type);
     }
   };
   r.ReadStruct([&](int16_t id, T type) {
     switch (id) {
-      case 1: h.type = static_cast<PageType>(ReadI32(r, type)); break;
-      case 2: h.uncompressed_size = ReadI32(r, type); break;
-      case 3: h.compressed_size = ReadI32(r, type); break;
-      case 5: r.ReadStruct(data_page); break;
-      case 7: r.ReadStruct(dictionary_page); break;
-      case 8: r.ReadStruct(data_page_v2); break;
-      default: r.Skip(type);
+      case 1:
+        h.type = static_cast<PageType>(ReadI32(r, type));
+        break;
+      case 2:
+        h.uncompressed_size = ReadI32(r, type);
+        break;
+      case 3:
+        h.compressed_size = ReadI32(r, type);
+        break;
+      case 5:
+        r.ReadStruct(data_page);
+        break;
+      case 7:
+        r.ReadStruct(dictionary_page);
+        break;
+      case 8:
+        r.ReadStruct(data_page_v2);
+        break;
+      default:
+        r.Skip(type);
     }
   });
   Check(h.uncompressed_size >= 0 && h.compressed_size >= 0 && h.num_values >= 0 &&

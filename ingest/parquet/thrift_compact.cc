@@ -40,8 +40,7 @@ void ThriftReader::ReadStruct(const std::function<void(int16_t, ThriftType)>& on
     ThriftType type = TypeOf(header & 0x0f);
     if (type == ThriftType::kStop) break;
     const int delta = header >> 4;
-    id = delta != 0 ? static_cast<int16_t>(id + delta)
-                    : static_cast<int16_t>(ZigZag(ReadVarint()));
+    id = delta != 0 ? static_cast<int16_t>(id + delta) : static_cast<int16_t>(ZigZag(ReadVarint()));
     on_field(id, type);
   }
   --depth_;
@@ -49,10 +48,12 @@ void ThriftReader::ReadStruct(const std::function<void(int16_t, ThriftType)>& on
 
 int64_t ThriftReader::ReadInt(ThriftType type) {
   switch (type) {
-    case ThriftType::kByte: return static_cast<int8_t>(ReadByte());
+    case ThriftType::kByte:
+      return static_cast<int8_t>(ReadByte());
     case ThriftType::kI16:
     case ThriftType::kI32:
-    case ThriftType::kI64: return ZigZag(ReadVarint());
+    case ThriftType::kI64:
+      return ZigZag(ReadVarint());
     default:
       throw Error("Thrift: expected an integer, found type " +
                   std::to_string(static_cast<int>(type)));
@@ -86,23 +87,32 @@ ThriftList ThriftReader::ReadListHeader() {
 
 void ThriftReader::SkipElement(ThriftType type) {
   // Inside lists and maps a bool is one byte, not a type nibble.
-  if (type == ThriftType::kTrue || type == ThriftType::kFalse) ReadByte();
-  else Skip(type);
+  if (type == ThriftType::kTrue || type == ThriftType::kFalse)
+    ReadByte();
+  else
+    Skip(type);
 }
 
 void ThriftReader::Skip(ThriftType type) {
   switch (type) {
     case ThriftType::kTrue:
-    case ThriftType::kFalse: return;  // the value was the field header's type nibble
-    case ThriftType::kByte: ReadByte(); return;
+    case ThriftType::kFalse:
+      return;  // the value was the field header's type nibble
+    case ThriftType::kByte:
+      ReadByte();
+      return;
     case ThriftType::kI16:
     case ThriftType::kI32:
-    case ThriftType::kI64: ReadVarint(); return;
+    case ThriftType::kI64:
+      ReadVarint();
+      return;
     case ThriftType::kDouble:
       Check(bytes_.size() - pos_ >= 8, "Thrift: truncated double");
       pos_ += 8;
       return;
-    case ThriftType::kBinary: ReadBinary(); return;
+    case ThriftType::kBinary:
+      ReadBinary();
+      return;
     case ThriftType::kList:
     case ThriftType::kSet: {
       Check(++depth_ <= kMaxDepth, "Thrift: lists nested too deep");
@@ -122,8 +132,11 @@ void ThriftReader::Skip(ThriftType type) {
       }
       return;
     }
-    case ThriftType::kStruct: ReadStruct([this](int16_t, ThriftType t) { Skip(t); }); return;
-    case ThriftType::kStop: break;
+    case ThriftType::kStruct:
+      ReadStruct([this](int16_t, ThriftType t) { Skip(t); });
+      return;
+    case ThriftType::kStop:
+      break;
   }
   throw Error("Thrift: cannot skip type " + std::to_string(static_cast<int>(type)));
 }

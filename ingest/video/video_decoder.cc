@@ -46,9 +46,9 @@ class RgbConverter {
     scale_.reset(sws_getCachedContext(scale_.release(), f.width, f.height,
                                       static_cast<AVPixelFormat>(f.format), f.width, f.height,
                                       AV_PIX_FMT_RGB24, SWS_BILINEAR, nullptr, nullptr, nullptr));
-    Check(scale_ != nullptr, "cannot convert pixel format " +
-                                 std::string(av_get_pix_fmt_name(static_cast<AVPixelFormat>(
-                                     f.format))) + " to RGB");
+    Check(scale_ != nullptr,
+          "cannot convert pixel format " +
+              std::string(av_get_pix_fmt_name(static_cast<AVPixelFormat>(f.format))) + " to RGB");
     rgb_.resize(static_cast<size_t>(f.width) * f.height * 3);
     uint8_t* dst[4] = {rgb_.data(), nullptr, nullptr, nullptr};
     int dst_stride[4] = {f.width * 3, 0, 0, 0};
@@ -88,8 +88,8 @@ VideoStreamInfo DecodeVideo(const std::string& path,
   rc = avcodec_open2(decoder.get(), codec, nullptr);
   Check(rc >= 0, std::string("cannot open decoder ") + codec->name + ": " + AvError(rc), where);
 
-  VideoStreamInfo info{avcodec_get_name(st->codecpar->codec_id), codec->name,
-                       st->codecpar->width, st->codecpar->height, 0};
+  VideoStreamInfo info{avcodec_get_name(st->codecpar->codec_id), codec->name, st->codecpar->width,
+                       st->codecpar->height, 0};
   const double time_base = av_q2d(st->time_base);
   std::unique_ptr<AVPacket, PacketFreer> packet(av_packet_alloc());
   std::unique_ptr<AVFrame, FrameFreer> frame(av_frame_alloc());
@@ -109,14 +109,17 @@ VideoStreamInfo DecodeVideo(const std::string& path,
   while ((rc = av_read_frame(format.get(), packet.get())) >= 0) {
     if (packet->stream_index == stream) {
       const int sent = avcodec_send_packet(decoder.get(), packet.get());
-      Check(sent >= 0, "packet after frame " + std::to_string(info.frames) +
-                           " does not decode: " + AvError(sent), where);
+      Check(sent >= 0,
+            "packet after frame " + std::to_string(info.frames) +
+                " does not decode: " + AvError(sent),
+            where);
       drain();
     }
     av_packet_unref(packet.get());
   }
-  Check(rc == AVERROR_EOF, "reading the video failed after frame " +
-                               std::to_string(info.frames) + ": " + AvError(rc), where);
+  Check(rc == AVERROR_EOF,
+        "reading the video failed after frame " + std::to_string(info.frames) + ": " + AvError(rc),
+        where);
   avcodec_send_packet(decoder.get(), nullptr);  // flush: frames the decoder still holds
   drain();
   return info;

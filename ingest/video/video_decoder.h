@@ -8,7 +8,7 @@
 namespace wm::ingest {
 
 struct VideoStreamInfo {
-  std::string codec;  // the stream's own codec ("av1", "h264", ...), whatever metadata claims
+  std::string codec;    // the stream's own codec ("av1", "h264", ...), whatever metadata claims
   std::string decoder;  // the libavcodec decoder used ("libdav1d", "h264", ...)
   int width = 0, height = 0;
   int64_t frames = 0;  // frames decoded

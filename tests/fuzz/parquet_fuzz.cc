@@ -9,7 +9,8 @@ using namespace wm;
 
 extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   fuzz::AcceptWmError([&] {
-    const parquet::ParquetFile file = parquet::ParquetFile::FromBytes(fuzz::Bytes(data, size), "in");
+    const parquet::ParquetFile file =
+        parquet::ParquetFile::FromBytes(std::string(fuzz::Bytes(data, size)), "in");
     for (const auto& leaf : file.leaves()) {
       fuzz::AcceptWmError([&] {
         const parquet::Column c = file.Read(leaf.path);

@@ -26,11 +26,14 @@ namespace fs = std::filesystem;
 using ::testing::HasSubstr;
 
 std::string SampleDir() {
+  // gtest_discover_tests passes only the first entry of WM_TEST_ENV (WM_SOURCE_DIR).
   const char* shared = std::getenv("WM_SHARED_DIR");
-  return (fs::path(shared ? shared : "../shared") / "samples/lerobot/unitree_g1_v21").string();
+  const char* source = std::getenv("WM_SOURCE_DIR");
+  const fs::path dir = shared ? fs::path(shared) : fs::path(source ? source : ".") / "../shared";
+  return (dir / "samples/lerobot/unitree_g1_v21").string();
 }
 
-#define REQUIRE_SAMPLE()                                                       \
+#define REQUIRE_SAMPLE() \
   if (!fs::exists(SampleDir() + "/meta/info.json")) GTEST_SKIP() << "no sample at " << SampleDir()
 
 std::string ConfigsDir() { return std::string(std::getenv("WM_SOURCE_DIR")) + "/configs"; }
@@ -127,8 +130,8 @@ TEST(FrameMatcher, PairsStepsWithTheNearestFrameWithinTolerance) {
   EXPECT_THAT(m.Offer(0.0), ::testing::ElementsAre(0u));
   EXPECT_TRUE(m.Offer(0.5 / 30).empty());  // between steps: nobody's frame
   EXPECT_THAT(m.Offer(1.0 / 30 + 5e-5), ::testing::ElementsAre(1u));
-  EXPECT_THAT(m.Offer(1.0 / 30), ::testing::ElementsAre(1u));  // nearer still: replaces
-  EXPECT_THROW(m.CheckAllMatched(), Error);                   // step 2 has none yet
+  EXPECT_THAT(m.Offer(1.0 / 30), ::testing::ElementsAre(1u));   // nearer still: replaces
+  EXPECT_THROW(m.CheckAllMatched(), Error);                     // step 2 has none yet
   EXPECT_THAT(m.Offer(2.0 / 30 + 2e-4), ::testing::IsEmpty());  // outside 1e-4
   EXPECT_THAT([&] { m.CheckAllMatched(); },
               ThrowsMessage<Error>(HasSubstr("step 2 (timestamp 0.066667 s) has no video frame "
@@ -154,10 +157,11 @@ TEST(LeRobotMapping, RefusesAnUnknownActionSpaceAndKey) {
 }
 
 TEST(LeRobotMeta, FormatsPathTemplates) {
-  EXPECT_EQ(FormatPathTemplate("videos/chunk-{episode_chunk:03d}/{video_key}/episode_"
-                               "{episode_index:06d}.mp4",
-                               {{"video_key", "cam"}}, {{"episode_chunk", 2}, {"episode_index", 2041}}),
-            "videos/chunk-002/cam/episode_002041.mp4");
+  EXPECT_EQ(
+      FormatPathTemplate("videos/chunk-{episode_chunk:03d}/{video_key}/episode_"
+                         "{episode_index:06d}.mp4",
+                         {{"video_key", "cam"}}, {{"episode_chunk", 2}, {"episode_index", 2041}}),
+      "videos/chunk-002/cam/episode_002041.mp4");
   EXPECT_THROW(FormatPathTemplate("{nope}", {}, {}), Error);
 }
 

@@ -34,7 +34,7 @@ TEST(RleHybrid, DecodesRleAndBitPackedRuns) {
   const std::string bytes = RleRun(5, 3, 3) + BitPackedRun({1, 2, 3, 4, 5, 6, 7, 0}, 3);
   EXPECT_THAT(DecodeRleHybrid(bytes, 3, 11), ElementsAre(5, 5, 5, 1, 2, 3, 4, 5, 6, 7, 0));
   EXPECT_THAT(DecodeRleHybrid(bytes, 3, 2), ElementsAre(5, 5));  // a run longer than asked
-  EXPECT_THROW(DecodeRleHybrid(bytes, 3, 12), Error);           // runs end early
+  EXPECT_THROW(DecodeRleHybrid(bytes, 3, 12), Error);            // runs end early
   EXPECT_EQ(BitWidth(0), 0);
   EXPECT_EQ(BitWidth(3), 2);
   EXPECT_EQ(BitWidth(4), 3);

@@ -18,8 +18,10 @@ class ThriftWriter {
   void End() { out_ += '\0', last_.pop_back(); }
   void BeginList(int16_t id, uint8_t element_type, size_t n) {
     Header(id, 9);
-    if (n < 15) out_ += static_cast<char>((n << 4) | element_type);
-    else out_ += static_cast<char>(0xf0 | element_type) + Varint(n);
+    if (n < 15)
+      out_ += static_cast<char>((n << 4) | element_type);
+    else
+      out_ += static_cast<char>(0xf0 | element_type) + Varint(n);
   }
   void ListStruct() { last_.push_back(0); }  // an element struct; close with End()
   void ListBinary(const std::string& s) { out_ += Varint(s.size()) + s; }
@@ -30,8 +32,10 @@ class ThriftWriter {
   static uint64_t ZigZag(int64_t v) { return (static_cast<uint64_t>(v) << 1) ^ (v >> 63); }
   void Header(int16_t id, uint8_t type) {
     const int delta = id - last_.back();
-    if (delta > 0 && delta <= 15) out_ += static_cast<char>((delta << 4) | type);
-    else out_ += static_cast<char>(type) + Varint(ZigZag(id));
+    if (delta > 0 && delta <= 15)
+      out_ += static_cast<char>((delta << 4) | type);
+    else
+      out_ += static_cast<char>(type) + Varint(ZigZag(id));
     last_.back() = id;
   }
   std::string out_;
@@ -193,14 +197,19 @@ std::string OptionalDictionaryFile() {
   const std::string dict = PlainDouble({1.5, 2.5});
   const std::string def = BitPackedRun({1, 0, 1, 1, 0, 1}, 1);
   const std::string indices = std::string(1, '\1') + BitPackedRun({0, 1, 0, 1}, 1);
-  const std::string page =
-      Page({.type = PageType::kDataV2, .num_values = 6, .encoding = Encoding::kRleDictionary,
-            .raw_size = static_cast<int32_t>(def.size() + indices.size()), .num_nulls = 2,
-            .num_rows = 6, .definition_bytes = static_cast<int32_t>(def.size())},
-           def + Snappy(indices));
-  ChunkSpec chunk{Page({.type = PageType::kDictionary, .num_values = 2,
+  const std::string page = Page({.type = PageType::kDataV2,
+                                 .num_values = 6,
+                                 .encoding = Encoding::kRleDictionary,
+                                 .raw_size = static_cast<int32_t>(def.size() + indices.size()),
+                                 .num_nulls = 2,
+                                 .num_rows = 6,
+                                 .definition_bytes = static_cast<int32_t>(def.size())},
+                                def + Snappy(indices));
+  ChunkSpec chunk{Page({.type = PageType::kDictionary,
+                        .num_values = 2,
                         .raw_size = static_cast<int32_t>(dict.size())},
-                       Snappy(dict)) + page,
+                       Snappy(dict)) +
+                      page,
                   6, /*codec=*/1, /*dictionary_first=*/true};
   return ParquetFileBytes({ScalarLeaf("reward", PhysicalType::kDouble, Repetition::kOptional)},
                           {{6, {chunk}}});
@@ -211,13 +220,15 @@ std::string OptionalDictionaryFile() {
 std::string ListColumnFile(bool null_element) {
   const std::string rep = WithLength(BitPackedRun({0, 1, 1, 0, 0, 0}, 1));
   const std::string def = WithLength(BitPackedRun({3, 3, null_element ? 2u : 3u, 1, 0, 3}, 2));
-  const std::string v0 = PlainFloat(null_element ? std::vector<float>{1, 2, 4}
-                                                 : std::vector<float>{1, 2, 3, 4});
+  const std::string v0 =
+      PlainFloat(null_element ? std::vector<float>{1, 2, 4} : std::vector<float>{1, 2, 3, 4});
   const std::string p0 = rep + def + v0;
-  ChunkSpec g0{Page({.num_values = 6, .raw_size = static_cast<int32_t>(p0.size())}, Snappy(p0)),
-               6, /*codec=*/1};
-  const std::string p1 = WithLength(RleRun(0, 1, 1)) + WithLength(RleRun(3, 1, 2)) + PlainFloat({5});
-  const std::string p2 = WithLength(RleRun(1, 1, 1)) + WithLength(RleRun(3, 1, 2)) + PlainFloat({6});
+  ChunkSpec g0{Page({.num_values = 6, .raw_size = static_cast<int32_t>(p0.size())}, Snappy(p0)), 6,
+               /*codec=*/1};
+  const std::string p1 =
+      WithLength(RleRun(0, 1, 1)) + WithLength(RleRun(3, 1, 2)) + PlainFloat({5});
+  const std::string p2 =
+      WithLength(RleRun(1, 1, 1)) + WithLength(RleRun(3, 1, 2)) + PlainFloat({6});
   ChunkSpec g1{Page({.num_values = 1, .raw_size = static_cast<int32_t>(p1.size())}, p1) +
                    Page({.num_values = 1, .raw_size = static_cast<int32_t>(p2.size())}, p2),
                2};

@@ -13,9 +13,9 @@ namespace wm::parquet::testing {
 
 // --- encodings
 std::string Varint(uint64_t v);
-std::string RleRun(uint32_t value, uint64_t count, int bit_width);      // one RLE run
+std::string RleRun(uint32_t value, uint64_t count, int bit_width);             // one RLE run
 std::string BitPackedRun(const std::vector<uint32_t>& values, int bit_width);  // padded to 8
-std::string LengthBytes(size_t size);                // little-endian u32
+std::string LengthBytes(size_t size);                                          // little-endian u32
 std::string WithLength(const std::string& bytes);  // u32 length prefix (v1 levels)
 std::string PlainInt64(const std::vector<int64_t>& v);
 std::string PlainFloat(const std::vector<float>& v);
@@ -41,14 +41,15 @@ struct LeafSpec {
   PhysicalType type;
 };
 struct ChunkSpec {
-  std::string pages;     // concatenated Page()s
+  std::string pages;  // concatenated Page()s
   int64_t num_values = 0;
   int32_t codec = 0;
   bool dictionary_first = false;  // the first page is a dictionary page
 };
 // One row group per entry of `row_groups` (each holds one chunk per leaf, in order).
-std::string ParquetFileBytes(const std::vector<LeafSpec>& leaves,
-                             const std::vector<std::pair<int64_t, std::vector<ChunkSpec>>>& row_groups);
+std::string ParquetFileBytes(
+    const std::vector<LeafSpec>& leaves,
+    const std::vector<std::pair<int64_t, std::vector<ChunkSpec>>>& row_groups);
 
 // Schema helpers: a scalar field, and pyarrow's 3-level list<element>.
 LeafSpec ScalarLeaf(const std::string& name, PhysicalType type, Repetition repetition);
