@@ -11,6 +11,7 @@ if(NOT WM_MODEL_ONLY)  # ingest's formats and OpenCV's codecs (WM_MODEL_ONLY: do
   find_package(OpenCV REQUIRED COMPONENTS core imgproc imgcodecs)
   find_package(Protobuf REQUIRED)
   find_package(HDF5 REQUIRED COMPONENTS C)
+  find_package(Snappy REQUIRED)  # Parquet pages (LeRobot)
   # One name for HDF5's C library, whichever form this CMake's FindHDF5 provides.
   add_library(wm_hdf5 INTERFACE)
   if(TARGET hdf5::hdf5)
@@ -35,3 +36,7 @@ endif()
 # The interpreter of the Python reference checks: Debian's, whose numpy/torch/skimage come from
 # apt. A GPU machine's PyTorch lives in another interpreter (scripts/gpu/run.sh sets it).
 set(WM_PYTHON /usr/bin/python3 CACHE FILEPATH "Python of the reference checks")
+# FFmpeg's libraries decode LeRobot's videos (AV1 through dav1d, H.264, HEVC, MPEG-4).
+if(NOT WM_MODEL_ONLY)
+  pkg_check_modules(LIBAV REQUIRED IMPORTED_TARGET GLOBAL libavformat libavcodec libavutil libswscale)
+endif()

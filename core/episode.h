@@ -13,6 +13,7 @@ namespace wm {
 inline constexpr int kActionDim = 7;  // Δx, Δy, Δz, Δroll, Δpitch, Δyaw, gripper
 inline constexpr std::array<const char*, kActionDim> kActionNames = {
     "dx", "dy", "dz", "droll", "dpitch", "dyaw", "gripper"};
+inline constexpr int kMaxActionDim = 4096;  // a bound for damaged input, far above real robots
 
 struct EncodedFrames {
   std::string encoding;              // "jpeg" or "png"
@@ -30,7 +31,11 @@ struct Episode {
   std::optional<int64_t> episode_seed;
 
   int64_t num_steps = 0;             // T
-  std::vector<float> actions;        // [T, 7]
+  // D, values per action: 7 (kActionNames) for the canonical end-effector delta that RLDS, HDF5
+  // and folder sources produce; a joint-space LeRobot dataset keeps its own width (G1: 26).
+  int64_t action_dim = kActionDim;
+  std::string action_space = "eef_delta";  // "eef_delta", "joint_position" or "other"
+  std::vector<float> actions;        // [T, D]
   std::vector<float> rewards;        // [T]
   std::vector<float> discounts;      // [T], 1 when the source has none
   std::vector<uint8_t> is_first, is_last, is_terminal;  // [T], 0/1

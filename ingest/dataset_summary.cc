@@ -17,12 +17,16 @@ std::string FormatSummary(const shard::DatasetIndex& x) {
     out += fmt::format("stream    {:<13} {} {} {}\n", name, f.value("encoding", ""),
                        f.value("dtype", ""), f.value("shape", nlohmann::json()).dump());
   }
-  out += fmt::format("{:<9} {:>9} {:>9} {:>9} {:>9} {:>9} {:>9}\n", "action", "mean", "std",
-                     "min", "q01", "q99", "max");
+  const nlohmann::json action = x.features.value("action", nlohmann::json::object());
+  out += fmt::format("{:<9} {:>9} {:>9} {:>9} {:>9} {:>9} {:>9}   ({}-dim {})\n", "action", "mean",
+                     "std", "min", "q01", "q99", "max", shard::ActionDimOf(x.features),
+                     action.value("space", "eef_delta"));
   const auto& s = x.action_stats;
-  for (int d = 0; d < kActionDim; ++d) {
+  const auto names = action.value("names", std::vector<std::string>());
+  for (size_t d = 0; d < s.mean.size(); ++d) {
     out += fmt::format("  {:<7} {:>9.4f} {:>9.4f} {:>9.4f} {:>9.4f} {:>9.4f} {:>9.4f}\n",
-                       kActionNames[d], s.mean[d], s.std[d], s.min[d], s.q01[d], s.q99[d], s.max[d]);
+                       d < names.size() ? names[d] : std::to_string(d), s.mean[d], s.std[d],
+                       s.min[d], s.q01[d], s.q99[d], s.max[d]);
   }
   out += fmt::format("skipped   {}\n", x.skipped.size());
   for (const auto& k : x.skipped) out += fmt::format("  {} #{}: {}\n", k.file, k.record, k.reason);

@@ -8,8 +8,8 @@ nlohmann::json EpisodeToJson(const Episode& e) {
   using nlohmann::json;
   json actions = json::array();
   for (int64_t t = 0; t < e.num_steps; ++t) {
-    auto row = e.actions.begin() + t * kActionDim;
-    actions.push_back(std::vector<double>(row, row + kActionDim));
+    auto row = e.actions.begin() + t * e.action_dim;
+    actions.push_back(std::vector<double>(row, row + e.action_dim));
   }
   const EncodedFrames& image = e.images.at("image");
   json hashes = json::array(), num_frames = json::object();

@@ -26,12 +26,15 @@ void SetBoundaryFlags(Episode& episode, bool terminal);
 class EpisodeSource {
  public:
   virtual ~EpisodeSource() = default;
-  virtual std::string format() const = 0;        // "rlds", "hdf5", "folder"
+  virtual std::string format() const = 0;        // "rlds", "hdf5", "folder", "lerobot"
   virtual std::string dataset_name() const = 0;  // used when --dataset is not given
   // Every episode in a deterministic order. A damaged container (e.g. a truncated TFRecord
   // file) throws wm::Error, unless `damaged` is given: then what can be read is listed and the
   // damage is appended there (for --on-error skip).
   virtual std::vector<EpisodeRef> ListEpisodes(std::vector<shard::SkippedEpisode>* damaged) = 0;
+  // Episodes the input's own metadata lists whose files are not there (a partial download);
+  // recorded in index.json's `skipped` in every --on-error mode. Valid after ListEpisodes.
+  virtual std::vector<shard::SkippedEpisode> Absent() const { return {}; }
   // Loads one episode; thread-safe. Throws wm::Error naming file, record and key.
   virtual Episode Load(const EpisodeRef& ref) const = 0;
   // The source's settings that shape the output (mapping etc.), for the config hash.

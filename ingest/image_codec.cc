@@ -84,14 +84,15 @@ void ResizeFrames(EncodedFrames& frames, int width, int height, bool nearest) {
   frames.height = height;
 }
 
-std::string EncodePngRgb(const uint8_t* pixels, int height, int width, int channels) {
+std::string EncodeRgb(const uint8_t* pixels, int height, int width, int channels,
+                      const std::string& encoding) {
   cv::Mat rgb(height, width, CV_8UC(channels), const_cast<uint8_t*>(pixels)), bgr;
   if (channels == 3) {
     cv::cvtColor(rgb, bgr, cv::COLOR_RGB2BGR);
   } else {
     bgr = rgb;
   }
-  return Encode(bgr, "png");
+  return Encode(bgr, encoding);
 }
 
 }  // namespace wm::ingest

@@ -26,7 +26,12 @@ void CheckFrames(EncodedFrames& frames, bool full);
 // depth streams (`nearest`), same encoding (JPEG quality 95 / PNG).
 void ResizeFrames(EncodedFrames& frames, int width, int height, bool nearest);
 
-// Encodes raw pixels (HxWxC, uint8, RGB order) as PNG; used by sources that store raw arrays.
-std::string EncodePngRgb(const uint8_t* pixels, int height, int width, int channels);
+// Encodes raw pixels (HxWxC, uint8, RGB order) as "png" or "jpeg" (quality 95, as --resize);
+// used by sources that hold raw arrays (HDF5: PNG) or decoded video frames (LeRobot: JPEG).
+std::string EncodeRgb(const uint8_t* pixels, int height, int width, int channels,
+                      const std::string& encoding);
+inline std::string EncodePngRgb(const uint8_t* pixels, int height, int width, int channels) {
+  return EncodeRgb(pixels, height, width, channels, "png");
+}
 
 }  // namespace wm::ingest

@@ -9,14 +9,18 @@
 namespace wm::ingest {
 
 struct IngestOptions {
-  std::string format;            // "rlds", "hdf5" or "folder"
+  std::string format;            // "rlds", "hdf5", "folder" or "lerobot"
   std::string input;             // dataset directory / file / folder
   std::string output;            // dataset directory to write
   std::string dataset;           // name recorded in index.json; default: the source's own name
   std::string split = "train";   // RLDS split to read; recorded in index.json for every format
-  std::string mapping;           // RLDS: mapping YAML (default configs/datasets/<name>.yaml)
+  // RLDS: mapping YAML (default configs/datasets/<name>.yaml); LeRobot: configs/lerobot/
+  // <dataset dir name>.yaml, else configs/lerobot/default.yaml
+  std::string mapping;
   std::string configs_dir;       // where configs/datasets lives (default: wm::DefaultConfigsDir)
-  std::string camera;            // HDF5: obs/<camera> key (default: first RGB camera found)
+  // HDF5: obs/<camera> key (default: first RGB camera found); LeRobot: video feature key
+  // (default: the mapping's, else the only video feature)
+  std::string camera;
   bool hdf5_depth = true;        // HDF5: also read obs/<camera>_depth (uint16) when present
   // HDF5: limits of the child process that reads each file listing / demo (hdf5_source.h); they
   // do not shape the output, so they stay out of ToConfig().

@@ -47,7 +47,7 @@ shard::DatasetIndex MergeDatasets(const std::vector<std::string>& parts, const s
     part_hashes.push_back(x.provenance.value("config_hash", ""));
   }
   merged.source["inputs"] = inputs;
-  merged.action_stats = shard::ComputeActionStats(actions);
+  merged.action_stats = shard::ComputeActionStats(actions, shard::ActionDimOf(merged.features));
   merged.provenance = MakeProvenance("wm-shard merge", {{"parts", part_hashes}});
   shard::WriteIndex(output, merged);
   return merged;

@@ -4,6 +4,7 @@
 #include "core/paths.h"
 #include "ingest/folder/folder_source.h"
 #include "ingest/hdf5/hdf5_source.h"
+#include "ingest/lerobot/lerobot_source.h"
 #include "ingest/rlds/rlds_source.h"
 
 namespace wm::ingest {
@@ -18,7 +19,11 @@ std::unique_ptr<EpisodeSource> OpenSource(const IngestOptions& o) {
                                         Hdf5Isolation{.limits = o.hdf5_limits});
   }
   if (o.format == "folder") return std::make_unique<FolderSource>(o.input);
-  throw Error("unknown --format '" + o.format + "' (expected rlds, hdf5 or folder)");
+  if (o.format == "lerobot") {
+    return std::make_unique<LeRobotSource>(
+        o.input, o.camera, o.mapping, o.configs_dir.empty() ? DefaultConfigsDir() : o.configs_dir);
+  }
+  throw Error("unknown --format '" + o.format + "' (expected rlds, hdf5, folder or lerobot)");
 }
 
 }  // namespace wm::ingest

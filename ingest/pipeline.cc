@@ -171,6 +171,9 @@ IngestSummary RunIngest(const IngestOptions& o) {
   index.split = o.split;
   index.source = {{"format", source->format()}, {"inputs", HashInputs(refs)}};
   index.skipped = damaged;
+  if (o.shard_index == 0) {  // once over all jobs of a sharded ingest
+    for (auto& absent : source->Absent()) index.skipped.push_back(std::move(absent));
+  }
   index.provenance = MakeProvenance("wm-ingest", config, {{"opencv", CV_VERSION}});
   index = writer.Finish(index);
   summary.episodes = index.num_episodes;

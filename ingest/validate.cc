@@ -29,13 +29,16 @@ void CheckLength(size_t size, int64_t t, int width, const std::string& key) {
 void ValidateEpisode(Episode& e, bool full_image_check) {
   const int64_t t = e.num_steps;
   Check(t > 0, "episode has no steps");
-  CheckLength(e.actions.size(), t, kActionDim, "action");
+  Check(e.action_dim >= 1 && e.action_dim <= kMaxActionDim,
+        "action width " + std::to_string(e.action_dim) + " is out of range", {.key = "action"});
+  const int width = static_cast<int>(e.action_dim);
+  CheckLength(e.actions.size(), t, width, "action");
   CheckLength(e.rewards.size(), t, 1, "reward");
   CheckLength(e.discounts.size(), t, 1, "discount");
   CheckLength(e.is_first.size(), t, 1, "is_first");
   CheckLength(e.is_last.size(), t, 1, "is_last");
   CheckLength(e.is_terminal.size(), t, 1, "is_terminal");
-  CheckFinite(e.actions, kActionDim, "action");
+  CheckFinite(e.actions, width, "action");
   CheckFinite(e.rewards, 1, "reward");
   CheckFinite(e.discounts, 1, "discount");
   Check(e.images.count("image") == 1, "episode has no camera image stream");

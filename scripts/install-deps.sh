@@ -9,6 +9,7 @@ PACKAGES=(
   # libraries
   libopencv-dev libeigen3-dev libpcl-dev libceres-dev libtorch-dev
   libprotobuf-dev protobuf-compiler libzstd-dev libhdf5-dev libssl-dev libpng-dev libjpeg-dev
+  libsnappy-dev libavformat-dev libavcodec-dev libavutil-dev libswscale-dev libdav1d-dev
   libcli11-dev libspdlog-dev libfmt-dev nlohmann-json3-dev libyaml-cpp-dev
   libgtest-dev libgmock-dev libbenchmark-dev
   # Python reference checks (run with /usr/bin/python3)

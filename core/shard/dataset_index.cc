@@ -35,6 +35,9 @@ ActionStats StatsFromJson(const json& j) {
   s.max = j.at("max").get<ActionStats::Vec>();
   s.q01 = j.at("q01").get<ActionStats::Vec>();
   s.q99 = j.at("q99").get<ActionStats::Vec>();
+  for (const auto* v : {&s.std, &s.min, &s.max, &s.q01, &s.q99}) {
+    Check(v->size() == s.mean.size(), "action_stats vectors differ in length");
+  }
   return s;
 }
 
@@ -49,7 +52,8 @@ json IndexToJson(const DatasetIndex& x) {
     skipped.push_back({{"file", s.file}, {"record", s.record}, {"reason", s.reason}});
   }
   return {{"format", kFormatName},
-          {"format_version", kFormatVersion},
+          {"format_version", IsCanonicalAction(x.features) ? kFormatVersion
+                                                           : kIndexVersionAnyAction},
           {"dataset", x.dataset},
           {"split", x.split},
           {"source", x.source},
@@ -68,9 +72,11 @@ DatasetIndex IndexFromJson(const json& j, const std::string& file) {
         std::string("not a wmkit shard index (format must be \"") + kFormatName + "\")",
         {.file = file, .key = "format"});
   const json& version = j.contains("format_version") ? j["format_version"] : json();
-  if (!version.is_number_unsigned() || version.get<uint32_t>() != kFormatVersion) {
-    throw Error("unknown format_version " + version.dump() + " (this build reads version " +
-                    std::to_string(kFormatVersion) + ")",
+  if (!version.is_number_unsigned() || (version.get<uint32_t>() != kFormatVersion &&
+                                         version.get<uint32_t>() != kIndexVersionAnyAction)) {
+    throw Error("unknown format_version " + version.dump() + " (this build reads versions " +
+                    std::to_string(kFormatVersion) + " and " +
+                    std::to_string(kIndexVersionAnyAction) + ")",
                 {.file = file, .key = "format_version"});
   }
   DatasetIndex x;
@@ -129,14 +135,16 @@ void WriteIndex(const std::string& dir, const DatasetIndex& index) {
                       IndexToJson(index).dump(2) + "\n");
 }
 
-ActionStats ComputeActionStats(const std::vector<float>& actions) {
+ActionStats ComputeActionStats(const std::vector<float>& actions, int64_t dim) {
   ActionStats s;
-  const size_t n = actions.size() / kActionDim;
+  const auto width = static_cast<size_t>(dim);
+  for (auto* v : {&s.mean, &s.std, &s.min, &s.max, &s.q01, &s.q99}) v->assign(width, 0.0);
+  const size_t n = actions.size() / width;
   if (n == 0) return s;
   std::vector<double> column(n);
-  for (int d = 0; d < kActionDim; ++d) {
+  for (size_t d = 0; d < width; ++d) {
     double sum = 0;
-    for (size_t i = 0; i < n; ++i) sum += column[i] = actions[i * kActionDim + d];
+    for (size_t i = 0; i < n; ++i) sum += column[i] = actions[i * width + d];
     double mean = sum / static_cast<double>(n), sq = 0;
     for (double v : column) sq += (v - mean) * (v - mean);
     std::sort(column.begin(), column.end());
@@ -150,8 +158,27 @@ ActionStats ComputeActionStats(const std::vector<float>& actions) {
   return s;
 }
 
+int64_t ActionDimOf(const json& features) {
+  const json& a = features.contains("action") ? features["action"] : json();
+  return a.is_object() && a.contains("dim") ? JsonInt<int64_t>(a["dim"]) : kActionDim;
+}
+
+bool IsCanonicalAction(const json& features) {
+  const json& a = features.contains("action") ? features["action"] : json();
+  return ActionDimOf(features) == kActionDim && !(a.is_object() && a.contains("space") &&
+                                                  a["space"] != "eef_delta");
+}
+
 json FeaturesOf(const Episode& e) {
-  json f = {{"action", {{"dim", kActionDim}, {"names", kActionNames}}}};
+  json action;
+  if (e.action_dim == kActionDim && e.action_space == "eef_delta") {
+    action = {{"dim", kActionDim}, {"names", kActionNames}};  // the version-1 form, unchanged
+  } else {
+    std::vector<std::string> names;
+    for (int64_t d = 0; d < e.action_dim; ++d) names.push_back("a" + std::to_string(d));
+    action = {{"dim", e.action_dim}, {"names", names}, {"space", e.action_space}};
+  }
+  json f = {{"action", action}};
   for (const auto& [name, frames] : e.images) {
     f[name] = {{"encoding", frames.encoding},
                {"dtype", frames.dtype},

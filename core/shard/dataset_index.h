@@ -26,8 +26,9 @@ struct SkippedEpisode {
 
 // Per action dimension, over every step of every episode; computed in float64.
 struct ActionStats {
-  using Vec = std::array<double, kActionDim>;
-  Vec mean{}, std{}, min{}, max{}, q01{}, q99{};
+  using Vec = std::vector<double>;  // features.action.dim entries (default: 7 zeros)
+  Vec mean = Vec(kActionDim), std = Vec(kActionDim), min = Vec(kActionDim),
+      max = Vec(kActionDim), q01 = Vec(kActionDim), q99 = Vec(kActionDim);
 };
 
 struct DatasetIndex {
@@ -41,7 +42,7 @@ struct DatasetIndex {
   nlohmann::json provenance = nlohmann::json::object();
 };
 
-// {"mean", "std", "min", "max", "q01", "q99"}, each a 7-vector; FromJson throws json errors.
+// {"mean", "std", "min", "max", "q01", "q99"}, each a D-vector; FromJson throws json errors.
 nlohmann::json StatsToJson(const ActionStats& stats);
 ActionStats StatsFromJson(const nlohmann::json& j);
 
@@ -52,8 +53,12 @@ DatasetIndex IndexFromJson(const nlohmann::json& j, const std::string& file);
 DatasetIndex ReadIndex(const std::string& dir);
 void WriteIndex(const std::string& dir, const DatasetIndex& index);  // atomic
 
-// `actions` is [N, 7] row-major. Quantiles interpolate linearly (numpy's default).
-ActionStats ComputeActionStats(const std::vector<float>& actions);
+// `actions` is [N, dim] row-major. Quantiles interpolate linearly (numpy's default).
+ActionStats ComputeActionStats(const std::vector<float>& actions, int64_t dim = kActionDim);
+// features.action.dim (7 for indexes that predate other widths).
+int64_t ActionDimOf(const nlohmann::json& features);
+// Whether the dataset's action is the canonical 7-dim eef_delta one (index.json version 1).
+bool IsCanonicalAction(const nlohmann::json& features);
 
 // The `features` block describing an episode's streams (action layout, image shapes).
 nlohmann::json FeaturesOf(const Episode& episode);

@@ -114,7 +114,7 @@ DatasetIndex DatasetWriter::Finish(DatasetIndex index) {
   // Damage found while listing inputs (from the caller) comes before per-episode skips.
   index.skipped.insert(index.skipped.end(), skipped_.begin(), skipped_.end());
   index.features = features_;
-  index.action_stats = ComputeActionStats(actions);
+  index.action_stats = ComputeActionStats(actions, ActionDimOf(features_));
   WriteIndex(options_.dir, index);
   fs::remove(PathOf(kStateFileName));
   return index;

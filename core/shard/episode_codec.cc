@@ -72,6 +72,15 @@ std::vector<T> ReadArray(const json& s, std::string_view body, int64_t rows, int
   return out;
 }
 
+// The action section's row width D (shape [T, D]), bounded so damage cannot ask for anything.
+int64_t ActionWidth(const json& s) {
+  const auto shape = JsonInts<int64_t>(s.at("shape"));
+  Check(shape.size() == 2 && shape[1] >= 1 && shape[1] <= kMaxActionDim,
+        "action shape must be [T, D] with 1 <= D <= " + std::to_string(kMaxActionDim) + ", got " +
+            s.at("shape").dump());
+  return shape[1];
+}
+
 EncodedFrames ReadBlobs(const json& s, std::string_view body, int64_t count) {
   Check(s.at("kind") == "blobs", "expected a blobs section");
   Check(JsonInt<int64_t>(s.at("count")) == count, "blob count " + s.at("count").dump() +
@@ -103,7 +112,7 @@ EncodedRecord EncodeEpisode(const Episode& e, int level) {
   const int64_t t = e.num_steps;
   std::string body;
   json sections = json::array();
-  sections.push_back(AppendArray(body, "action", e.actions, t, kActionDim, level));
+  sections.push_back(AppendArray(body, "action", e.actions, t, e.action_dim, level));
   sections.push_back(AppendArray(body, "reward", e.rewards, t, 0, level));
   sections.push_back(AppendArray(body, "discount", e.discounts, t, 0, level));
   sections.push_back(AppendArray(body, "is_first", e.is_first, t, 0, level));
@@ -117,6 +126,8 @@ EncodedRecord EncodeEpisode(const Episode& e, int level) {
                {"policy_id", e.policy_id},
                {"episode_seed", e.episode_seed ? json(*e.episode_seed) : json(nullptr)},
                {"sections", sections}};
+  // Only written when not the canonical space, so canonical records keep their version-1 bytes.
+  if (e.action_space != "eef_delta") meta["action_space"] = e.action_space;
   return {meta.dump(), std::move(body)};
 }
 
@@ -135,10 +146,14 @@ Episode DecodeEpisode(std::string_view meta_text, std::string_view body, bool wi
     if (!meta.at("episode_seed").is_null()) {
       e.episode_seed = JsonInt<int64_t>(meta["episode_seed"]);
     }
+    e.action_space = meta.value("action_space", std::string("eef_delta"));
     const int64_t t = e.num_steps;
     for (const auto& s : meta.at("sections")) {
       current_key = s.at("name").get<std::string>();
-      if (current_key == "action") e.actions = ReadArray<float>(s, body, t, kActionDim);
+      if (current_key == "action") {
+        e.action_dim = ActionWidth(s);
+        e.actions = ReadArray<float>(s, body, t, e.action_dim);
+      }
       else if (current_key == "reward") e.rewards = ReadArray<float>(s, body, t, 0);
       else if (current_key == "discount") e.discounts = ReadArray<float>(s, body, t, 0);
       else if (current_key == "is_first") e.is_first = ReadArray<uint8_t>(s, body, t, 0);
@@ -152,7 +167,7 @@ Episode DecodeEpisode(std::string_view meta_text, std::string_view body, bool wi
     throw ex.WithKey(current_key);
   }
   const auto t = static_cast<size_t>(e.num_steps);
-  Check(e.actions.size() == t * kActionDim && e.rewards.size() == t && e.discounts.size() == t &&
+  Check(e.actions.size() == t * static_cast<size_t>(e.action_dim) && e.rewards.size() == t && e.discounts.size() == t &&
             e.is_first.size() == t && e.is_last.size() == t && e.is_terminal.size() == t,
         "record lacks one of the sections action, reward, discount, is_first, is_last, "
         "is_terminal");

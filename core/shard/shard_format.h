@@ -7,7 +7,11 @@
 
 namespace wm::shard {
 
+// Shard files, and index.json of datasets with the canonical 7-dim eef_delta action.
 inline constexpr uint32_t kFormatVersion = 1;
+// index.json of a dataset whose action has another width or space (features.action.dim/space):
+// readers of version 1 assume 7 Δ-pose dimensions, so such an index must stop them.
+inline constexpr uint32_t kIndexVersionAnyAction = 2;
 inline constexpr char kFileMagic[8] = {'W', 'M', 'K', 'S', 'H', 'A', 'R', 'D'};
 inline constexpr char kTrailerMagic[8] = {'W', 'M', 'K', 'S', 'H', 'E', 'N', 'D'};
 inline constexpr char kRecordMagic[4] = {'W', 'M', 'E', 'R'};

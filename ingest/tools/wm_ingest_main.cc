@@ -1,4 +1,4 @@
-// wm-ingest: raw robot episodes (RLDS / HDF5 / image folders) -> a checksummed shard dataset.
+// wm-ingest: raw robot episodes (RLDS / HDF5 / image folders / LeRobot) -> a checksummed shard dataset.
 #include <spdlog/spdlog.h>
 
 #include <CLI/CLI.hpp>
@@ -18,10 +18,11 @@ Example:
   wm-ingest --format rlds --input data/raw/wm_tabletop/1.0.0 --split train --output data/shards/train
   wm-ingest --format rlds --input D --output OUT/part-3 --shard-index 3 --num-shards 8  # Slurm array
   wm-shard merge --output OUT/all OUT/part-*
+  wm-ingest --format lerobot --input ../shared/samples/lerobot/unitree_g1_v21 --output data/g1
 
 A killed run resumes when started again with the same options; the output appears complete or
 not at all (index.json is written last). Formats: docs/shard-format.md, docs/folder-format.md,
-docs/hdf5-layout.md, docs/dataset-mapping.md.
+docs/hdf5-layout.md, docs/dataset-mapping.md, docs/lerobot-mapping.md, docs/parquet.md.
 Exit codes: 0 success, 1 bad input or I/O error (message names file, record and key), 2 usage.)";
 
 bool ParseSize(const std::string& s, int& w, int& h) {
@@ -39,19 +40,23 @@ int main(int argc, char** argv) {
   app.set_version_flag("--version", wm::VersionString("wm-ingest"));
   app.add_option("--format", o.format, "Input format")
       ->required()
-      ->check(CLI::IsMember({"rlds", "hdf5", "folder"}));
+      ->check(CLI::IsMember({"rlds", "hdf5", "folder", "lerobot"}));
   app.add_option("--input", o.input,
-                 "RLDS dataset dir (<name>/<version>), HDF5 file/dir, or episode folder root")
+                 "RLDS dataset dir (<name>/<version>), HDF5 file/dir, episode folder root, or "
+                 "LeRobot dataset dir (holding meta/info.json)")
       ->required();
   app.add_option("--output", o.output, "Dataset directory to write")->required();
   app.add_option("--dataset", o.dataset,
                  "Dataset name recorded in index.json (default: the source's)");
   app.add_option("--split", o.split, "Split to read (RLDS) and record")->capture_default_str();
   app.add_option("--mapping", o.mapping,
-                 "RLDS feature mapping YAML (default: configs/datasets/<name>.yaml)");
+                 "RLDS feature mapping YAML (default: configs/datasets/<name>.yaml); LeRobot "
+                 "mapping (default: configs/lerobot/<dir name>.yaml, else default.yaml)");
   app.add_option("--configs", o.configs_dir,
                  "Configs directory (default: $WMKIT_CONFIGS or the repo's configs/)");
-  app.add_option("--camera", o.camera, "HDF5 camera key under obs/ (default: first RGB camera)");
+  app.add_option("--camera", o.camera,
+                 "HDF5: camera key under obs/ (default: first RGB camera); LeRobot: video "
+                 "feature, e.g. observation.images.top (default: the mapping's, else the only one)");
   bool no_depth = false;
   app.add_flag("--hdf5-no-depth", no_depth, "HDF5: ignore obs/<camera>_depth (e.g. float depth)");
   app.add_option("--hdf5-memory-limit-mb", o.hdf5_limits.memory_mb,

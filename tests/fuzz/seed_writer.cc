@@ -16,6 +16,7 @@
 #include "ingest/rlds/example.h"
 #include "ingest/rlds/tfrecord.h"
 #include "tests/core/test_util.h"
+#include "tests/ingest/parquet_writer.h"
 
 namespace {
 namespace fs = std::filesystem;
@@ -129,13 +130,17 @@ int main(int argc, char** argv) {
   }
   try {
     const fs::path out = argv[1];
-    for (const char* target : {"tfrecord", "example", "shard", "tokens", "hdf5"}) {
+    for (const char* target : {"tfrecord", "example", "shard", "tokens", "hdf5", "parquet"}) {
       fs::create_directories(out / target);
     }
     WriteRlds(out);
     WriteShard(out);
     WriteTokens(out);
     WriteHdf5(out);
+    WriteFileAtomically((out / "parquet/list_two_row_groups.parquet").string(),
+                        parquet::testing::ListColumnFile());
+    WriteFileAtomically((out / "parquet/dictionary_page_v2.parquet").string(),
+                        parquet::testing::OptionalDictionaryFile());
   } catch (const wm::Error& e) {
     std::fprintf(stderr, "fuzz_seed_writer: %s\n", e.what());
     return 1;

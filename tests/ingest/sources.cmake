@@ -4,3 +4,10 @@ wm_add_test(hdf5_source_test SOURCES hdf5_source_test.cc
   LIBS wm_ingest wm_test_util wm_hdf5 opencv_core opencv_imgproc opencv_imgcodecs)
 wm_add_test(folder_source_test SOURCES folder_source_test.cc
   LIBS wm_ingest wm_test_util opencv_core opencv_imgcodecs)
+# The Parquet reader on files written by a small test writer (also used for the fuzz seeds).
+add_library(wm_parquet_test_writer STATIC parquet_writer.cc)
+target_link_libraries(wm_parquet_test_writer PUBLIC wm_parquet PRIVATE Snappy::snappy wm_warnings)
+target_include_directories(wm_parquet_test_writer PUBLIC ${PROJECT_SOURCE_DIR})
+wm_add_test(parquet_test SOURCES parquet_test.cc LIBS wm_parquet wm_parquet_test_writer)
+# The LeRobot reader on the real v2.1 sample in ../shared (skipped where it is absent).
+wm_add_test(lerobot_test SOURCES lerobot_test.cc LIBS wm_ingest wm_parquet)

@@ -40,5 +40,25 @@ class DatasetMappingSchema(unittest.TestCase):
                 jsonschema.validate(bad, self.schema)
 
 
+class LeRobotMappingSchema(unittest.TestCase):
+    """configs/lerobot/*.yaml against schemas/lerobot-mapping.schema.json."""
+
+    def setUp(self):
+        with open(os.path.join(SRC, "schemas", "lerobot-mapping.schema.json")) as f:
+            self.schema = json.load(f)
+
+    def test_every_shipped_mapping_is_valid(self):
+        files = sorted(glob.glob(os.path.join(SRC, "configs", "lerobot", "*.yaml")))
+        self.assertGreaterEqual(len(files), 2)
+        for path in files:
+            with open(path) as f:
+                jsonschema.validate(yaml.safe_load(f), self.schema)
+
+    def test_rejects_typos_and_unknown_spaces(self):
+        for bad in ({"acton": "action"}, {"action_space": "joints"}, {"tolerance_s": 0}):
+            with self.assertRaises(jsonschema.ValidationError, msg=str(bad)):
+                jsonschema.validate(bad, self.schema)
+
+
 if __name__ == "__main__":
     unittest.main(verbosity=2)
