@@ -23,6 +23,9 @@ import numpy as np
 import zstandard
 
 VERSION = 1
+# index.json versions: 2 marks actions other than the canonical 7-dim eef_delta
+# (docs/shard-format.md, "Action width"); shard files stay version 1.
+INDEX_VERSIONS = (1, 2)
 HEADER = struct.Struct("<8sII")  # magic, version, CRC32C of bytes 0..11
 RECORD = struct.Struct("<4sIQQ")  # magic, CRC32C of bytes 8..end, meta_length, body_length
 ENTRY = struct.Struct("<QQII")  # record offset, record length, num_steps, reserved
@@ -32,7 +35,8 @@ ARRAY_DTYPES = {"float32": np.dtype("<f4"), "uint8": np.dtype("u1")}
 BLOB_DTYPES = ("uint8", "uint16")
 BLOB_MAGIC = {"png": b"\x89PNG\r\n\x1a\n", "jpeg": b"\xff\xd8"}
 # Sections every record has: name -> (dtype, shape after the leading num_steps).
-REQUIRED = {"action": ("float32", [7]), "reward": ("float32", []), "discount": ("float32", []),
+# The action's width is the dataset's (features.action.dim: 7 in version 1, any in version 2).
+REQUIRED = {"action": ("float32", None), "reward": ("float32", []), "discount": ("float32", []),
             "is_first": ("uint8", []), "is_last": ("uint8", []), "is_terminal": ("uint8", [])}
 META_TYPES = {"episode_key": str, "source": dict, "num_steps": int, "language_instruction": str,
               "policy_id": str, "sections": list}
@@ -185,9 +189,13 @@ def check_meta(meta, where, body_len):
         seen[name] = s
     for name, (dtype, tail) in REQUIRED.items():
         s = seen.get(name, {})
-        if s.get("kind") != "array" or s["dtype"] != dtype or s["shape"] != [T] + tail:
+        ok = s.get("kind") == "array" and s["dtype"] == dtype and (
+            s["shape"] == [T] + tail if tail is not None else
+            len(s["shape"]) == 2 and s["shape"][0] == T and s["shape"][1] >= 1)
+        if not ok:
+            want = [T] + tail if tail is not None else [T, "D"]
             fail(where, f"required section {name!r} missing or not a {dtype} array of shape "
-                 f"{[T] + tail}")
+                 f"{want}")
     if seen.get("image", {}).get("kind") != "blobs":
         fail(where, "required section 'image' missing or not of kind 'blobs'")
 
@@ -238,9 +246,9 @@ class Dataset:
             fail(where, f"not UTF-8 JSON: {e}")
         if not isinstance(idx, dict) or idx.get("format") != "wmkit-shard":
             fail(where, "not a JSON object with format 'wmkit-shard'")
-        if idx.get("format_version") != VERSION:
+        if idx.get("format_version") not in INDEX_VERSIONS:
             fail(where, f"unknown format_version {idx.get('format_version')!r}, this reader "
-                 f"supports {VERSION}")
+                 f"supports {INDEX_VERSIONS}")
         for j, e in enumerate(idx.get("shards") if isinstance(idx.get("shards"), list) else [None]):
             if not (isinstance(e, dict) and re.fullmatch(r"shard-[0-9]{5}\.wms", str(e.get("file")))
                     and all(is_int(e.get(k)) for k in ("bytes", "num_episodes", "num_steps"))
@@ -296,8 +304,7 @@ def verify(ds):
     if [k for k in INDEX_KEYS if k not in idx]:
         fail(where, f"missing required keys {[k for k in INDEX_KEYS if k not in idx]}")
     features, actions, k, total_steps = idx["features"], [], 0, 0
-    if not isinstance(features, dict) or (features.get("action") or {}).get("dim") != 7:
-        fail(where, "features.action.dim must be 7")
+    dim = action_dim(idx, where)
     for j, entry in enumerate(idx["shards"]):
         path = os.path.join(ds.dir, entry["file"])
         size = os.path.getsize(path) if os.path.isfile(path) else "missing, 0"
@@ -313,7 +320,11 @@ def verify(ds):
                 feat = features.get(s["name"]) if isinstance(features.get(s["name"]), dict) else {}
                 if {key: feat.get(key) for key in want} != want:
                     fail(rw, f"section {s['name']!r} is {want}, index.json features say {feat}")
-            actions.append(np.asarray(ep["actions"], dtype=np.float64).reshape(-1, 7))
+            a = np.asarray(ep["actions"], dtype=np.float64)
+            if a.ndim != 2 or a.shape[1] != dim:
+                fail(rw, f"action section is {list(a.shape)}, index.json features.action.dim "
+                     f"is {dim}")
+            actions.append(a)
             steps, k = steps + ep["num_steps"], k + 1
         if steps != entry["num_steps"]:
             fail(path, f"records hold {steps} steps, index.json says num_steps "
@@ -325,7 +336,7 @@ def verify(ds):
     if (k, total_steps) != (idx["num_episodes"], idx["num_steps"]):
         fail(where, f"shards hold {k} episodes / {total_steps} steps, index.json says "
              f"num_episodes {idx['num_episodes']} / num_steps {idx['num_steps']}")
-    check_stats(idx["action_stats"], np.concatenate(actions or [np.zeros((0, 7))]), where)
+    check_stats(idx["action_stats"], np.concatenate(actions or [np.zeros((0, dim))]), where)
     prov = idx["provenance"] if isinstance(idx["provenance"], dict) else {}
     config = json.dumps(prov.get("config"), separators=(",", ":"), sort_keys=True,
                         ensure_ascii=False)
@@ -339,6 +350,21 @@ def verify(ds):
     return k
 
 
+def action_dim(idx, where):
+    """features.action.dim: 7 in version 1; in version 2 any positive width, with a space."""
+    action = (idx["features"] if isinstance(idx["features"], dict) else {}).get("action") or {}
+    dim = action.get("dim")
+    if idx["format_version"] == 1 and dim != 7:
+        fail(where, f"features.action.dim is {dim!r}: format_version 1 means the 7-dim action")
+    if not is_int(dim) or dim < 1:
+        fail(where, f"features.action.dim is {dim!r}, expected a positive integer")
+    if idx["format_version"] == 2 and action.get("space") not in ("eef_delta", "joint_position",
+                                                                  "other"):
+        fail(where, f"features.action.space is {action.get('space')!r}, expected eef_delta, "
+             "joint_position or other")
+    return dim
+
+
 def check_stats(stats, a, where):
     """Recompute action_stats in float64 (population std, numpy's linear quantiles); the
     tolerance absorbs float32 accumulation in other writers."""
@@ -348,7 +374,7 @@ def check_stats(stats, a, where):
                 "q01": np.quantile(a, 0.01, axis=0), "q99": np.quantile(a, 0.99, axis=0)}
     for key, want in computed.items():
         got = stats.get(key) if isinstance(stats, dict) else None
-        if not (isinstance(got, list) and len(got) == 7
+        if not (isinstance(got, list) and len(got) == a.shape[1]
                 and all(isinstance(x, (int, float)) for x in got)
                 and np.allclose(got, want, rtol=1e-4, atol=1e-6)):
             fail(where, f"action_stats.{key} is {got}, recomputed from the shards {want.tolist()}")

@@ -39,9 +39,10 @@ def step1_psnr(report):
 
 
 def summary_means(report):
-    """{(rollout, metric): mean} from summary.csv."""
+    """{(rollout, metric): mean} from summary.csv (metrics without a value left out)."""
     with open(os.path.join(report, "summary.csv"), newline="", encoding="utf-8") as f:
-        return {(r["rollout"], r["metric"]): float(r["mean"]) for r in csv.DictReader(f)}
+        return {(r["rollout"], r["metric"]): float(r["mean"]) for r in csv.DictReader(f)
+                if r["mean"]}
 
 
 def mean(values):

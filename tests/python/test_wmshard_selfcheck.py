@@ -226,7 +226,7 @@ class WmshardSelfCheck(unittest.TestCase):
         index_v.validate(self.index)
         for meta, _, _ in self.episodes:
             meta_v.validate(meta)
-        bad_index = [("format_version", 2), ("num_steps", -1),
+        bad_index = [("format_version", 3), ("num_steps", -1),
                      ("shards", [dict(self.index["shards"][0], file="a.wms")])]
         for key, value in bad_index:
             self.assertFalse(index_v.is_valid(dict(self.index, **{key: value})), key)
@@ -283,9 +283,14 @@ class WmshardSelfCheck(unittest.TestCase):
         self.assertFails([self.dir, "--episode", 0, "--json"], "file header", "truncated")
 
     def test_index_format_version(self):
-        (self.dir / "index.json").write_text(json.dumps(dict(self.index, format_version=2)))
+        (self.dir / "index.json").write_text(json.dumps(dict(self.index, format_version=3)))
         for args in ([self.dir, "--verify"], [self.dir, "--info"], [self.dir, "--episode", 0]):
-            self.assertFails(args, "index.json", "format_version 2", "supports 1")
+            self.assertFails(args, "index.json", "format_version 3", "supports (1, 2)")
+
+    def test_index_version_2_needs_an_action_space(self):
+        # Version 2 is the any-width action (docs/shard-format.md, "Action width").
+        (self.dir / "index.json").write_text(json.dumps(dict(self.index, format_version=2)))
+        self.assertFails([self.dir, "--verify"], "index.json", "features.action.space")
 
     def test_file_header_version(self):
         path = self.dir / "shard-00000.wms"
