@@ -21,7 +21,8 @@ namespace wm::tokenize {
 namespace fs = std::filesystem;
 namespace {
 
-tokens::TokenIndex BaseIndex(const Tokenizer& tok, const shard::DatasetIndex& source) {
+tokens::TokenIndex BaseIndex(const Tokenizer& tok, const shard::DatasetIndex& source,
+                             double hysteresis) {
   tokens::TokenIndex x;
   x.dataset = source.dataset;
   x.split = source.split;
@@ -43,7 +44,8 @@ tokens::TokenIndex BaseIndex(const Tokenizer& tok, const shard::DatasetIndex& so
   x.action_stats = source.action_stats;
   // The same for every part job, so whichever job finishes last writes the same index.json.
   x.provenance =
-      MakeProvenance("wm-tokenize encode", {{"tokenizer_sha256", tok.checkpoint_sha256()}},
+      MakeProvenance("wm-tokenize encode",
+                     {{"tokenizer_sha256", tok.checkpoint_sha256()}, {"hysteresis", hysteresis}},
                      {{"libtorch", TorchVersion()}});
   return x;
 }
@@ -84,7 +86,7 @@ EncodeSummary EncodeDataset(const EncodeOptions& o) {
   Tokenizer tok(o.checkpoint, o.device);
   shard::DatasetReader reader(o.data_dir);
   fs::create_directories(o.out_dir);
-  const tokens::TokenIndex base = BaseIndex(tok, reader.index());
+  const tokens::TokenIndex base = BaseIndex(tok, reader.index(), o.hysteresis);
   EncodeSummary summary;
   if (PartAlreadyDone(o, base)) {
     summary.skipped = true;
@@ -110,7 +112,7 @@ EncodeSummary EncodeDataset(const EncodeOptions& o) {
       if (k + 1 < last) pending = std::async(std::launch::async, load, k + 1);
       const int64_t n =
           static_cast<int64_t>(frames.size()) / (3 * tok.image_size() * tok.image_size());
-      std::vector<uint32_t> codes = tok.Encode(frames.data(), n);  // AddEpisode checks n = T
+      std::vector<uint32_t> codes = tok.EncodeEpisode(frames.data(), n, o.hysteresis);  // n = T
       writer.AddEpisode({.num_frames = episode.num_steps,
                          .source_episode = k,
                          .episode_key = episode.episode_key,

@@ -14,6 +14,7 @@ struct EncodeOptions {
   int num_shards = 1;
   std::string device = "cpu";
   int threads = 1;  // LibTorch intra-op threads
+  double hysteresis = 0;  // code hysteresis margin (Tokenizer::EncodeEpisode); 0 = none
   bool show_progress = true;
 };
 

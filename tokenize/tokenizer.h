@@ -40,6 +40,9 @@ class Tokenizer {
 
   // frames: [n, 3, S, S] planar RGB floats in [-1, 1] (tokenize::DecodeFrame's layout).
   std::vector<uint32_t> Encode(const float* frames, int64_t n) const;  // -> [n, g, g]
+  // The n frames of one episode, in order, with code hysteresis `margin`
+  // (VectorQuantizer::StickyIndices; 0 = Encode): what `wm-tokenize encode --hysteresis` stores.
+  std::vector<uint32_t> EncodeEpisode(const float* frames, int64_t n, double margin) const;
   // -> [n, 3, S, S]. `anchors`: [n, 3, S, S] like frames, one per decoded frame, or null (no
   // anchor: what an anchored tokenizer's tokens say alone). Ignored unless anchored().
   std::vector<float> Decode(const uint32_t* codes, int64_t n,

@@ -67,6 +67,29 @@ QuantizerOutput VectorQuantizerImpl::forward(const torch::Tensor& z_e) {
   return out;
 }
 
+torch::Tensor VectorQuantizerImpl::StickyIndices(const torch::Tensor& z_e, double margin) {
+  torch::NoGradGuard no_grad;
+  const int64_t T = z_e.size(0), D = z_e.size(1), h = z_e.size(2), w = z_e.size(3);
+  torch::Tensor flat = z_e.permute({0, 2, 3, 1}).reshape({T, h * w, D});
+  torch::Tensor codes = codebook;
+  if (options.l2_normalize) {
+    flat = F::normalize(flat, F::NormalizeFuncOptions().dim(2));
+    codes = F::normalize(codes, F::NormalizeFuncOptions().dim(1));
+  }
+  // The same distance expression as forward(), per frame: [T, hw, K].
+  torch::Tensor dist = flat.pow(2).sum(2, true) - 2 * flat.matmul(codes.t()) +
+                       codes.pow(2).sum(1).view({1, 1, -1});
+  torch::Tensor best = dist.argmin(2);  // [T, hw]
+  std::vector<torch::Tensor> kept = {best[0]};
+  for (int64_t t = 1; t < T; ++t) {
+    const torch::Tensor& prev = kept.back();
+    torch::Tensor d_prev = dist[t].gather(1, prev.unsqueeze(1)).squeeze(1);
+    torch::Tensor d_best = dist[t].gather(1, best[t].unsqueeze(1)).squeeze(1);
+    kept.push_back(torch::where(d_prev <= d_best + margin, prev, best[t]));
+  }
+  return torch::stack(kept).view({T, h, w});
+}
+
 torch::Tensor VectorQuantizerImpl::Lookup(const torch::Tensor& indices) {
   torch::Tensor codes = codebook;
   if (options.l2_normalize) codes = F::normalize(codes, F::NormalizeFuncOptions().dim(1));

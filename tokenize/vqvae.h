@@ -31,6 +31,11 @@ struct VectorQuantizerImpl : torch::nn::Module {
   explicit VectorQuantizerImpl(QuantizerOptions options);
   QuantizerOutput forward(const torch::Tensor& z_e);   // z_e: [B, D, h, w]
   torch::Tensor Lookup(const torch::Tensor& indices);  // [B, h, w] -> [B, D, h, w]
+  // Codes of consecutive frames z_e [T, D, h, w] with hysteresis: a cell keeps the previous
+  // frame's code while that code is within `margin` of the nearest one (in the lookup's squared
+  // distance; cosine lookup: 2 - 2 cos), so near-synonym codes stop flipping on unchanged
+  // cells. margin 0 = forward()'s indices. -> [T, h, w] int64.
+  torch::Tensor StickyIndices(const torch::Tensor& z_e, double margin);
 
   // Dead-code handling: codes not chosen for `dead_after` consecutive steps are replaced by
   // latents drawn (with `rng`) from this batch. Returns how many codes were re-seeded.

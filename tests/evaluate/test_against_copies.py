@@ -86,10 +86,12 @@ class AgainstCopies(unittest.TestCase):
                  self.regions["copy_last", region] for region in ("mse_arm", "mse_object")}
         print(f"8 steps, tokenizer_recon / copy_last region MSE: arm {ratio['mse_arm']:.2f}, "
               f"block {ratio['mse_object']:.2f}")
-        # Measured 0.22 / 0.45 on the demo's data (200 episodes, 2400 tokenizer steps); the old
-        # 8x8 tokenizer without anchor was at about 0.23 / 1.95 (it erased the block).
-        self.assertLess(ratio["mse_arm"], 0.4)
-        self.assertLess(ratio["mse_object"], 0.75)
+        # Measured here 0.31 / 0.64 (80 episodes, 1200 tokenizer steps); in the demo 0.36 / 0.54
+        # and 0.22 / 0.45 for two initialisations. Without the anchor the same 8x8 tokens give
+        # about 0.22 / 2.6 (the block erased); at anchor dropout 0 the codes collapse (0.96 /
+        # 1.0). The bounds leave room for another CPU's rounding, which acts like another seed.
+        self.assertLess(ratio["mse_arm"], 0.5)
+        self.assertLess(ratio["mse_object"], 0.9)
 
     def test_trained_model_is_no_worse_than_copy_last(self):
         model, copy = self.final["plain"], self.final["copy_last"]

@@ -188,21 +188,27 @@ def train_twin(label, run_dir, shards):
 
 
 def check_encode_cli(label, run_dir, shards, tmp, model):
-    """wm-tokenize encode (C++ JPEG decode + Tokenizer) stores the twin's codes."""
+    """wm-tokenize encode (C++ JPEG decode + Tokenizer) stores the twin's codes, without and with
+    code hysteresis (--hysteresis: fewer code changes, the twin's sticky codes)."""
     sys.path.insert(0, os.path.join(SOURCE, "scripts"))
     import wmshard
-    out = os.path.join(tmp, "tokens")
-    shutil.rmtree(out, ignore_errors=True)
-    run([os.path.join(BIN, "wm-tokenize"), "encode", "--checkpoint", run_dir, "--data", shards,
-         "--out", out])
-    tokens, sampler = wmshard.TokenDataset(out), twin.FrameSampler([shards], "image", 32, 0)
-    ok = True
-    for k in range(tokens.num_episodes):
-        stored = np.array(tokens.episode(k)["tokens"])
-        ok &= np.array_equal(stored, twin.encode(model, torch.from_numpy(sampler.frames(0, k)))
-                             .numpy().reshape(stored.shape))
-    check(ok, f"{label}: wm-tokenize encode stores the twin's codes ({tokens.num_episodes} "
-          "episodes)")
+    changes = {}
+    for margin in (0.0, 0.002):
+        out = os.path.join(tmp, f"tokens{margin}")
+        shutil.rmtree(out, ignore_errors=True)
+        run([os.path.join(BIN, "wm-tokenize"), "encode", "--checkpoint", run_dir, "--data",
+             shards, "--out", out, "--hysteresis", margin])
+        tokens, sampler = wmshard.TokenDataset(out), twin.FrameSampler([shards], "image", 32, 0)
+        ok, changes[margin] = True, 0
+        for k in range(tokens.num_episodes):
+            stored = np.array(tokens.episode(k)["tokens"])
+            ours = twin.encode_episode(model, torch.from_numpy(sampler.frames(0, k)), margin)
+            ok &= np.array_equal(stored, ours.numpy().reshape(stored.shape))
+            changes[margin] += int((ours[1:] != ours[:-1]).sum())
+        check(ok, f"{label}: wm-tokenize encode --hysteresis {margin} stores the twin's codes "
+              f"({tokens.num_episodes} episodes, {changes[margin]} code changes)")
+    check(0 < changes[0.002] < changes[0.0], f"{label}: hysteresis lowers the code changes, "
+          "and some remain")
 
 
 def check_errors(run_dir, frames_path, tmp):

@@ -256,6 +256,30 @@ def decode(model, codes, anchors=None):  # [n, g, g] -> [n, 3, S, S], clamped li
                       for i in range(0, len(codes), CHUNK)])
 
 
+@torch.no_grad()
+def encode_episode(model, frames, margin):
+    """Tokenizer::EncodeEpisode: consecutive frames' codes with hysteresis `margin`
+    (VectorQuantizer::StickyIndices: keep the previous frame's code while its distance is within
+    `margin` of the nearest code's)."""
+    if margin <= 0:
+        return encode(model, frames)
+    z = torch.cat([model.encoder(frames[i:i + CHUNK]) for i in range(0, len(frames), CHUNK)])
+    T, D, h, w = z.shape
+    flat, codes = z.permute(0, 2, 3, 1).reshape(T, h * w, D), model.quantizer.codebook
+    if model.quantizer.l2_normalize:
+        flat, codes = F.normalize(flat, dim=2), F.normalize(codes, dim=1)
+    dist = flat.pow(2).sum(2, True) - 2 * flat.matmul(codes.t()) + codes.pow(2).sum(1).view(1, 1, -1)
+    best, kept = dist.argmin(2), []
+    for t in range(T):
+        if t == 0:
+            kept.append(best[0])
+            continue
+        d_prev = dist[t].gather(1, kept[-1].unsqueeze(1)).squeeze(1)
+        d_best = dist[t].gather(1, best[t].unsqueeze(1)).squeeze(1)
+        kept.append(torch.where(d_prev <= d_best + margin, kept[-1], best[t]))
+    return torch.stack(kept).view(T, h, w)
+
+
 def reconstruct(model, frames, anchors=None):
     return decode(model, encode(model, frames), anchors)
 

@@ -103,6 +103,12 @@ void AddEncode(CLI::App& app, wm::tokenize::EncodeOptions& o) {
   encode->add_option("--num-shards", o.num_shards, "Number of parts")->capture_default_str();
   encode->add_option("--device", o.device, "cpu, cuda or cuda:N")->capture_default_str();
   encode->add_option("--threads", o.threads, "LibTorch intra-op threads")->capture_default_str();
+  encode
+      ->add_option("--hysteresis", o.hysteresis,
+                   "Keep a cell's previous code while it is within this distance of the nearest "
+                   "(cosine lookup: 2 - 2 cos); 0 = none")
+      ->check(CLI::NonNegativeNumber)
+      ->capture_default_str();
 }
 
 int RunEncode(const wm::tokenize::EncodeOptions& o) {
