@@ -73,14 +73,13 @@ int64_t DecodeEpisode(const DecodeOptions& o) {
       DecodeFrame(frames[t], tok.image_size(), planar.data() + t * floats);
     }
   }
-  // An anchored tokenizer decodes every frame after the first with the first original as its
-  // anchor, as a rollout from that frame would; frame 0 (and every frame without --originals)
-  // from its tokens alone.
+  // An anchored tokenizer decodes every frame with the first original as its anchor, as
+  // wm-eval decodes a rollout from that frame (its copy_last_tokens is frame 0 decoded so);
+  // without --originals, from the tokens alone.
   std::vector<float> anchors;
   if (tok.anchored() && !planar.empty()) {
-    anchors.assign(planar.size(), 0.f);
-    for (int64_t t = 1; t < e.num_frames; ++t) {
-      std::copy(planar.begin(), planar.begin() + floats, anchors.begin() + t * floats);
+    for (int64_t t = 0; t < e.num_frames; ++t) {
+      anchors.insert(anchors.end(), planar.begin(), planar.begin() + floats);
     }
   }
   std::vector<cv::Mat> decoded = ToBgr(

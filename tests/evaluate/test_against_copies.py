@@ -21,10 +21,11 @@ import tempfile
 import unittest
 
 sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), ".."))
-from tiny_pipeline import CONFIGS, TinyPipeline, run_ok  # noqa: E402
+from tiny_pipeline import CONFIGS, SRC, TinyPipeline, argv, run_ok  # noqa: E402
 
 DYNAMICS_STEPS = 300
 VAL_EPISODES = 16
+DECODED_EPISODES = 4  # cross-checked against wm-tokenize decode
 
 
 def step1_psnr(report):
@@ -35,6 +36,30 @@ def step1_psnr(report):
         for row in csv.DictReader(f):
             if row["metric"] == "psnr":
                 out.setdefault(row["rollout"], {})[int(row["episode"])] = float(row["value"])
+    return out
+
+
+def decoded_step1_psnr(p, episodes):
+    """{rollout: {episode: PSNR at step 1}} for tokenizer_recon and copy_last_tokens, from
+    `wm-tokenize decode --originals` (every frame decoded with the first original as anchor, its
+    own code path) and the real frames read with wmshard.py: what wm-eval must report."""
+    sys.path.insert(0, os.path.join(SRC, "scripts"))
+    import cv2
+    import numpy as np
+    import wmshard
+    tokens, shards = wmshard.TokenDataset(p.tokens("val")), wmshard.Dataset(p.shards("val"))
+    out = {"tokenizer_recon": {}, "copy_last_tokens": {}}
+    for k in range(episodes):
+        d = p.path("decoded", str(k))
+        run_ok(argv("wm-tokenize", "decode", "--checkpoint", p.tokenizer(), "--tokens",
+                    p.tokens("val"), "--originals", p.shards("val"), "--episode", k, "--out", d))
+        frame = lambda t: cv2.imread(os.path.join(d, f"frame_{t:04d}.png")).astype(np.float64)
+        source = tokens.index["episodes"][k]["source_episode"]
+        real = cv2.imdecode(np.frombuffer(shards.episode(source)[2]["image"][1], np.uint8),
+                            cv2.IMREAD_COLOR).astype(np.float64)  # 64x64: no resize
+        for rollout, t in (("tokenizer_recon", 1), ("copy_last_tokens", 0)):
+            mse = ((real - frame(t)) ** 2).mean()
+            out[rollout][k] = 10 * np.log10(255.0 ** 2 / mse)
     return out
 
 
@@ -72,6 +97,7 @@ class AgainstCopies(unittest.TestCase):
                            os.path.join(CONFIGS, "segmentation", "tabletop.yaml"),
                            checkpoints=[final]))
         cls.regions = summary_means(os.path.join(regions, "final"))
+        cls.decoded = decoded_step1_psnr(p, DECODED_EPISODES)
 
     @classmethod
     def tearDownClass(cls):
@@ -80,6 +106,12 @@ class AgainstCopies(unittest.TestCase):
     def test_every_val_episode_is_scored(self):
         for rollout in ("plain", "copy_last", "copy_last_tokens", "tokenizer_recon"):
             self.assertEqual(sorted(self.final[rollout]), list(range(VAL_EPISODES)), rollout)
+
+    def test_wm_eval_decodes_with_the_first_frame_as_anchor(self):
+        for rollout, decoded in self.decoded.items():
+            for k, psnr in decoded.items():
+                self.assertAlmostEqual(self.final[rollout][k], psnr, delta=1e-3,
+                                       msg=f"{rollout} episode {k}")
 
     def test_tokenizer_keeps_the_arm_and_the_block(self):
         ratio = {region: self.regions["tokenizer_recon", region] /
