@@ -13,7 +13,7 @@ What this does not show: motion. With the anchor decoder copy_last_tokens decode
 copy_last itself, and the model scores the same as both: it still copies (issue 20, goal 2);
 the strips of `make demo` show it. The margin over copy_last that an earlier test asserted came
 from the old tokenizer's smoothing, not from motion, and is gone.
-Sized for CI: about 3 min on 2 cores (PROCESSORS 2 in CMakeLists.txt)."""
+Sized for CI: about 2.7 min on 2 cores (PROCESSORS 2 in CMakeLists.txt)."""
 import csv
 import os
 import sys

@@ -220,6 +220,13 @@ TEST_F(Hdf5SourceTest, DirectoryInputIsSearchedRecursively) {
 }
 
 TEST_F(Hdf5SourceTest, ConcurrentLoadsAgree) {
+#if defined(__SANITIZE_ADDRESS__)
+  // Each load forks an isolated reader. GCC 12's ASan allocator takes no lock around fork(), so
+  // a fork while another thread is inside malloc leaves the child waiting forever on the
+  // allocator's lock (seen in CI: the child hung in H5C_protect -> malloc). Production builds use
+  // glibc malloc, whose fork handlers prevent this; the test runs there.
+  GTEST_SKIP() << "fork() from concurrent threads can deadlock under GCC 12's ASan allocator";
+#endif
   Hdf5Source source(path_);
   Episode expected = source.Load({path_, "x", 10});
   std::vector<std::thread> threads;
