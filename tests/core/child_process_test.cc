@@ -166,6 +166,12 @@ TEST(ChildProcess, ChildSeesParentStateButItsChangesStayInTheChild) {
 // sibling's write end would keep that sibling from reading EOF until it ends, and one that
 // inherited a read end could steal the sibling's bytes.
 TEST(ChildProcess, ConcurrentCallersEachGetTheirOwnOutput) {
+#ifdef WM_TEST_ASAN
+  // GCC 12's ASan allocator takes no lock around fork(): a child forked while another thread is
+  // inside malloc waits forever on the allocator's lock (seen hanging CI's sanitize run, as in
+  // Hdf5SourceTest.ConcurrentLoadsAgree). glibc's malloc, in every other build, is fork-safe.
+  GTEST_SKIP() << "fork() from concurrent threads can deadlock under GCC 12's ASan allocator";
+#endif
   constexpr int kThreads = 4, kFastCalls = 5;
   std::latch start(kThreads);
   std::vector<std::vector<std::string>> outputs(kThreads);
