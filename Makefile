@@ -63,7 +63,8 @@ test: build
 test-sanitize: deps
 	@cmake -S . -B $(SANITIZE_BUILD) $(HARDENING_CONFIG) -DWM_SANITIZE=ON > /dev/null
 	@cmake --build $(SANITIZE_BUILD) -j $(JOBS)
-	@cd $(SANITIZE_BUILD) && ctest --output-on-failure -j $(JOBS)
+	@# --timeout: a hung test (e.g. a forked child deadlocked in ASan's allocator) fails by name
+	@cd $(SANITIZE_BUILD) && ctest --output-on-failure -j $(JOBS) --timeout 600
 
 test-model-only: deps
 	@cmake -S . -B $(MODEL_BUILD) -DCMAKE_BUILD_TYPE=Release -DWM_MODEL_ONLY=ON -DWM_BUILD_BENCH=OFF > /dev/null
