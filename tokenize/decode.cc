@@ -82,9 +82,9 @@ int64_t DecodeEpisode(const DecodeOptions& o) {
       anchors.insert(anchors.end(), planar.begin(), planar.begin() + floats);
     }
   }
-  std::vector<cv::Mat> decoded = ToBgr(
-      tok.Decode(codes.data(), e.num_frames, anchors.empty() ? nullptr : anchors.data()),
-      tok.image_size());
+  std::vector<cv::Mat> decoded =
+      ToBgr(tok.Decode(codes.data(), e.num_frames, anchors.empty() ? nullptr : anchors.data()),
+            tok.image_size());
   std::vector<cv::Mat> originals;
   if (!planar.empty()) originals = ToBgr(planar, tok.image_size());
 

@@ -81,8 +81,8 @@ std::vector<uint32_t> Tokenizer::EncodeEpisode(const float* frames, int64_t n,
   const int64_t floats = 3 * int64_t{image_size()} * image_size();
   std::vector<torch::Tensor> latents;
   for (int64_t i = 0; i < n; i += kChunk) {
-    latents.push_back(state_->model->Encode(state_->Frames(frames + i * floats,
-                                                           std::min(kChunk, n - i))));
+    latents.push_back(
+        state_->model->Encode(state_->Frames(frames + i * floats, std::min(kChunk, n - i))));
   }
   torch::Tensor idx = state_->model->quantizer->StickyIndices(torch::cat(latents), margin)
                           .to(torch::kCPU)
@@ -91,8 +91,7 @@ std::vector<uint32_t> Tokenizer::EncodeEpisode(const float* frames, int64_t n,
   return std::vector<uint32_t>(p, p + idx.numel());
 }
 
-std::vector<float> Tokenizer::Decode(const uint32_t* codes, int64_t n,
-                                     const float* anchors) const {
+std::vector<float> Tokenizer::Decode(const uint32_t* codes, int64_t n, const float* anchors) const {
   torch::NoGradGuard no_grad;
   const int g = grid();
   const int64_t per_frame = tokens_per_frame(), floats = 3 * int64_t{image_size()} * image_size();

@@ -165,8 +165,8 @@ class Validation {
     score.flicker = flicker.flicker();
     score.token_change_rate = flicker.change_rate();
     std::ofstream out(path_, std::ios::app);
-    out << step << ',' << score.psnr << ',' << score.ssim << ',' << score.l1 << ','
-        << score.flicker << ',' << score.token_change_rate << '\n';
+    out << step << ',' << score.psnr << ',' << score.ssim << ',' << score.l1 << ',' << score.flicker
+        << ',' << score.token_change_rate << '\n';
     out.flush();
     Check(out.good(), "cannot append a row (disk full?)", {.file = path_});
     return score;
@@ -283,7 +283,8 @@ TrainSummary TrainTokenizer(const TrainOptions& o) {
     torch::Tensor images = torch::from_blob(batch.data(), {B, 3, S, S}).to(device, true, true);
     torch::Tensor anchors;
     if (anchored) {
-      anchors = torch::from_blob(batch.data() + images.numel(), {B, 3, S, S}).to(device, true, true);
+      anchors =
+          torch::from_blob(batch.data() + images.numel(), {B, 3, S, S}).to(device, true, true);
     }
     const double lr = LearningRateAt(cfg.train, s.step);
     s.optimizer->set_lr(lr);

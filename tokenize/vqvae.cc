@@ -40,17 +40,23 @@ VectorQuantizerImpl::VectorQuantizerImpl(QuantizerOptions options) : options(opt
       register_buffer("steps_since_used", torch::zeros({options.num_codes}, torch::kInt64));
 }
 
+torch::Tensor VectorQuantizerImpl::Unit(const torch::Tensor& x) const {
+  return options.l2_normalize ? F::normalize(x, F::NormalizeFuncOptions().dim(-1)) : x;
+}
+
+torch::Tensor VectorQuantizerImpl::Codes() const { return Unit(codebook); }
+
+torch::Tensor VectorQuantizerImpl::Distances(const torch::Tensor& flat,
+                                             const torch::Tensor& codes) {
+  // ||z||^2 - 2 z.e + ||e||^2, without materialising [..., K, D].
+  return flat.pow(2).sum(-1, true) - 2 * flat.matmul(codes.t()) + codes.pow(2).sum(1);
+}
+
 QuantizerOutput VectorQuantizerImpl::forward(const torch::Tensor& z_e) {
   const int64_t B = z_e.size(0), D = z_e.size(1), h = z_e.size(2), w = z_e.size(3);
-  torch::Tensor flat = z_e.permute({0, 2, 3, 1}).reshape({-1, D});  // [N, D], N = B*h*w
-  torch::Tensor codes = codebook;                                   // [K, D]
-  if (options.l2_normalize) {
-    flat = F::normalize(flat, F::NormalizeFuncOptions().dim(1));
-    codes = F::normalize(codes, F::NormalizeFuncOptions().dim(1));
-  }
-  // ||z||^2 - 2 z.e + ||e||^2, without materialising [N, K, D].
-  torch::Tensor dist = flat.pow(2).sum(1, true) - 2 * flat.mm(codes.t()) +
-                       codes.pow(2).sum(1).unsqueeze(0);  // [N, K]
+  const torch::Tensor flat = Unit(z_e.permute({0, 2, 3, 1}).reshape({-1, D}));  // [N, D]
+  const torch::Tensor codes = Codes();                                          // [K, D]
+  const torch::Tensor dist = Distances(flat, codes);                            // [N, K]
   QuantizerOutput out;
   torch::Tensor idx = dist.argmin(1);                 // [N]
   torch::Tensor q = codes.index_select(0, idx);       // [N, D]
@@ -70,16 +76,9 @@ QuantizerOutput VectorQuantizerImpl::forward(const torch::Tensor& z_e) {
 torch::Tensor VectorQuantizerImpl::StickyIndices(const torch::Tensor& z_e, double margin) {
   torch::NoGradGuard no_grad;
   const int64_t T = z_e.size(0), D = z_e.size(1), h = z_e.size(2), w = z_e.size(3);
-  torch::Tensor flat = z_e.permute({0, 2, 3, 1}).reshape({T, h * w, D});
-  torch::Tensor codes = codebook;
-  if (options.l2_normalize) {
-    flat = F::normalize(flat, F::NormalizeFuncOptions().dim(2));
-    codes = F::normalize(codes, F::NormalizeFuncOptions().dim(1));
-  }
-  // The same distance expression as forward(), per frame: [T, hw, K].
-  torch::Tensor dist = flat.pow(2).sum(2, true) - 2 * flat.matmul(codes.t()) +
-                       codes.pow(2).sum(1).view({1, 1, -1});
-  torch::Tensor best = dist.argmin(2);  // [T, hw]
+  const torch::Tensor flat = Unit(z_e.permute({0, 2, 3, 1}).reshape({T, h * w, D}));
+  const torch::Tensor dist = Distances(flat, Codes());  // forward()'s, per frame: [T, hw, K]
+  torch::Tensor best = dist.argmin(2);                  // [T, hw]
   std::vector<torch::Tensor> kept = {best[0]};
   for (int64_t t = 1; t < T; ++t) {
     const torch::Tensor& prev = kept.back();
@@ -91,9 +90,8 @@ torch::Tensor VectorQuantizerImpl::StickyIndices(const torch::Tensor& z_e, doubl
 }
 
 torch::Tensor VectorQuantizerImpl::Lookup(const torch::Tensor& indices) {
-  torch::Tensor codes = codebook;
-  if (options.l2_normalize) codes = F::normalize(codes, F::NormalizeFuncOptions().dim(1));
-  return codes.index_select(0, indices.flatten())
+  return Codes()
+      .index_select(0, indices.flatten())
       .view({indices.size(0), indices.size(1), indices.size(2), options.dim})
       .permute({0, 3, 1, 2})
       .contiguous();  // [B, D, h, w]
@@ -101,8 +99,7 @@ torch::Tensor VectorQuantizerImpl::Lookup(const torch::Tensor& indices) {
 
 void VectorQuantizerImpl::SeedFromLatents(const torch::Tensor& z_e, std::mt19937_64& rng) {
   torch::NoGradGuard no_grad;
-  torch::Tensor flat = z_e.permute({0, 2, 3, 1}).reshape({-1, options.dim});  // [N, D]
-  if (options.l2_normalize) flat = F::normalize(flat, F::NormalizeFuncOptions().dim(1));
+  const torch::Tensor flat = Unit(z_e.permute({0, 2, 3, 1}).reshape({-1, options.dim}));
   std::vector<int64_t> src(static_cast<size_t>(options.num_codes));
   for (auto& s : src) s = static_cast<int64_t>(rng() % static_cast<uint64_t>(flat.size(0)));
   torch::Tensor src_t = torch::tensor(src, torch::kInt64).to(codebook.device());
@@ -192,10 +189,10 @@ VqVaeImpl::VqVaeImpl(const ModelConfig& c) : config(c) {
     head = torch::nn::Sequential();
     pixel_head(head);
     // Zero-initialised correction: at step 0 every decoded frame is its anchor.
-    auto& last = head->ptr(1)->as<torch::nn::Conv2dImpl>()->weight;
+    auto* last = head->ptr(1)->as<torch::nn::Conv2dImpl>();
     torch::NoGradGuard no_grad;
-    last.zero_();
-    head->ptr(1)->as<torch::nn::Conv2dImpl>()->bias.zero_();
+    last->weight.zero_();
+    last->bias.zero_();
     register_module("anchor_stem", anchor_stem);
     register_module("merge", merge);
     register_module("head", head);
@@ -214,7 +211,8 @@ torch::Tensor VqVaeImpl::Decode(const torch::Tensor& z_q, const torch::Tensor& a
   const int64_t f = config.stem_factor, S = config.image_size;
   torch::Tensor anchor =
       anchors.defined() ? anchors : torch::zeros({z_q.size(0), 3, S, S}, z_q.options());
-  torch::Tensor h = merge->forward(torch::cat({decoder->forward(z_q), anchor_stem->forward(anchor)}, 1));
+  torch::Tensor h =
+      merge->forward(torch::cat({decoder->forward(z_q), anchor_stem->forward(anchor)}, 1));
   torch::Tensor base = f > 1 ? F::pixel_unshuffle(anchor, F::PixelUnshuffleFuncOptions(f)) : anchor;
   torch::Tensor y = head->forward(h) + base;  // [B, 3f^2, H/f, W/f]
   return f > 1 ? F::pixel_shuffle(y, F::PixelShuffleFuncOptions(f)) : y;
@@ -222,7 +220,7 @@ torch::Tensor VqVaeImpl::Decode(const torch::Tensor& z_q, const torch::Tensor& a
 
 VqVaeOutput VqVaeImpl::forward(const torch::Tensor& images, const torch::Tensor& anchors) {
   VqVaeOutput out;
-  out.quant = quantizer->forward(Encode(images));      // z_q: [B, D, h, w]
+  out.quant = quantizer->forward(Encode(images));       // z_q: [B, D, h, w]
   out.reconstruction = Decode(out.quant.z_q, anchors);  // [B, 3, H, W]
   torch::Tensor error = (out.reconstruction - images).abs();
   out.recon_l1 = error.mean();

@@ -46,6 +46,12 @@ struct VectorQuantizerImpl : torch::nn::Module {
   // collapsing onto a few codes for the first hundred steps.
   void SeedFromLatents(const torch::Tensor& z_e, std::mt19937_64& rng);
 
+  // `x` [..., D] as the lookup compares it: unit vectors with l2_normalize, else unchanged.
+  torch::Tensor Unit(const torch::Tensor& x) const;
+  torch::Tensor Codes() const;  // Unit(codebook)
+  // Squared distances [..., K] from latents `flat` [..., D] to `codes` [K, D].
+  static torch::Tensor Distances(const torch::Tensor& flat, const torch::Tensor& codes);
+
   QuantizerOptions options;
   torch::Tensor codebook;          // [K, D] parameter
   torch::Tensor steps_since_used;  // [K] int64 buffer (checkpointed)
@@ -55,9 +61,9 @@ TORCH_MODULE(VectorQuantizer);
 struct VqVaeOutput {
   torch::Tensor reconstruction;  // [B, 3, H, W] in [-1, 1] (not clamped)
   QuantizerOutput quant;
-  torch::Tensor recon_l1;        // mean |recon - image| (unweighted: what metrics.csv logs)
-  torch::Tensor loss;            // recon + codebook + beta * commitment, recon = recon_l1 or,
-                                 // with model.detail_weight, the detail-weighted L1
+  torch::Tensor recon_l1;  // mean |recon - image| (unweighted: what metrics.csv logs)
+  torch::Tensor loss;      // recon + codebook + beta * commitment, recon = recon_l1 or,
+                           // with model.detail_weight, the detail-weighted L1
 };
 
 // Per-pixel reconstruction weight [B, 1, H, W] for model.detail_weight = alpha > 0:

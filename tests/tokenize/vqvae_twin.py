@@ -81,6 +81,12 @@ class ResBlock(nn.Module):
         return x + self.conv2(torch.relu(self.conv1(torch.relu(x))))
 
 
+def distances(flat, codes):
+    """VectorQuantizerImpl::Distances: ||z||^2 - 2 z.e + ||e||^2, [..., K], the same expression
+    (and kernels) as the C++."""
+    return flat.pow(2).sum(-1, True) - 2 * flat.matmul(codes.t()) + codes.pow(2).sum(1)
+
+
 class VectorQuantizer(nn.Module):
     def __init__(self, num_codes, dim, l2_normalize):
         super().__init__()
@@ -99,8 +105,7 @@ class VectorQuantizer(nn.Module):
         codes = self.codebook
         if self.l2_normalize:
             flat, codes = F.normalize(flat, dim=1), F.normalize(codes, dim=1)
-        # ||z||^2 - 2 z.e + ||e||^2, the same expression (and kernels) as the C++.
-        dist = flat.pow(2).sum(1, True) - 2 * flat.mm(codes.t()) + codes.pow(2).sum(1).unsqueeze(0)
+        dist = distances(flat, codes)
         idx = dist.argmin(1)  # [N]
         q = codes.index_select(0, idx)  # [N, D]
         st = flat + (q - flat).detach()  # straight-through: forward = code, grad -> z_e
@@ -265,10 +270,10 @@ def encode_episode(model, frames, margin):
         return encode(model, frames)
     z = torch.cat([model.encoder(frames[i:i + CHUNK]) for i in range(0, len(frames), CHUNK)])
     T, D, h, w = z.shape
-    flat, codes = z.permute(0, 2, 3, 1).reshape(T, h * w, D), model.quantizer.codebook
+    flat = z.permute(0, 2, 3, 1).reshape(T, h * w, D)
     if model.quantizer.l2_normalize:
-        flat, codes = F.normalize(flat, dim=2), F.normalize(codes, dim=1)
-    dist = flat.pow(2).sum(2, True) - 2 * flat.matmul(codes.t()) + codes.pow(2).sum(1).view(1, 1, -1)
+        flat = F.normalize(flat, dim=2)
+    dist = distances(flat, model.quantizer.codes())
     best, kept = dist.argmin(2), []
     for t in range(T):
         if t == 0:
