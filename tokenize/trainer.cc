@@ -56,6 +56,25 @@ struct TrainState {
   int64_t step = 0;
 };
 
+// Frame sampling is a pure function of (seed, step); only the dead-code draws carry state.
+nlohmann::json RngJson(const TrainState& s) {
+  return {{"reseed_mt19937_64", RngText(s.reseed_rng)}};
+}
+
+// checkpoint.json describes checkpoint.wmt and is written after it. A kill between the two
+// renames leaves it describing the previous checkpoint, so resuming rewrites it from the archive.
+void WriteManifest(const TrainOptions& o, const TrainState& s) {
+  const std::string path = (fs::path(o.out_dir) / kCheckpointFile).string();
+  nlohmann::json manifest =
+      MakeProvenance("wm-tokenize train", ConfigToJson(o.config), {{"libtorch", TorchVersion()}});
+  manifest["step"] = s.step;
+  manifest["checkpoint"] = {
+      {"file", kCheckpointFile}, {"sha256", Sha256File(path)}, {"format", kTensorArchiveFormat}};
+  manifest["data"] = s.sampler->DataProvenance();
+  manifest["rng"] = RngJson(s);
+  WriteFileAtomically((fs::path(o.out_dir) / kManifest).string(), manifest.dump(2) + "\n");
+}
+
 void SaveCheckpoint(const TrainOptions& o, TrainState& s, const std::string& config_hash) {
   TensorArchiveWriter w;
   AddModule(w, "model/", *s.model);
@@ -64,24 +83,13 @@ void SaveCheckpoint(const TrainOptions& o, TrainState& s, const std::string& con
     AddTensor(w, "adamw/exp_avg/" + params[i].first, s.optimizer->exp_avg()[i]);
     AddTensor(w, "adamw/exp_avg_sq/" + params[i].first, s.optimizer->exp_avg_sq()[i]);
   }
-  // Frame sampling is a pure function of (seed, step); only the dead-code draws carry state.
-  const nlohmann::json rng = {{"reseed_mt19937_64", RngText(s.reseed_rng)}};
   w.SetMeta({{"step", s.step},
              {"adamw_step", s.optimizer->step_count()},
              {"config", ConfigToJson(o.config)},  // makes the archive loadable on its own
              {"config_hash", config_hash},
-             {"rng", rng}});
-  const std::string path = (fs::path(o.out_dir) / kCheckpointFile).string();
-  w.Write(path);  // atomic
-
-  nlohmann::json manifest =
-      MakeProvenance("wm-tokenize train", ConfigToJson(o.config), {{"libtorch", TorchVersion()}});
-  manifest["step"] = s.step;
-  manifest["checkpoint"] = {
-      {"file", kCheckpointFile}, {"sha256", Sha256File(path)}, {"format", kTensorArchiveFormat}};
-  manifest["data"] = s.sampler->DataProvenance();
-  manifest["rng"] = rng;
-  WriteFileAtomically((fs::path(o.out_dir) / kManifest).string(), manifest.dump(2) + "\n");
+             {"rng", RngJson(s)}});
+  w.Write((fs::path(o.out_dir) / kCheckpointFile).string());  // atomic
+  WriteManifest(o, s);
 }
 
 void LoadCheckpoint(const std::string& path, const nlohmann::json& config, TrainState& s) {
@@ -245,6 +253,7 @@ TrainSummary TrainTokenizer(const TrainOptions& o) {
   if (o.resume && fs::exists(ckpt)) {
     LoadCheckpoint(ckpt, config_json, s);
     LogInfo("resuming " + ckpt + " at step " + std::to_string(s.step));
+    WriteManifest(o, s);
   }
   TruncateStepLog(metrics_path, kMetricsHeader, s.step);
   std::ofstream metrics(metrics_path, std::ios::app);

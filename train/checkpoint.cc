@@ -52,9 +52,13 @@ void SaveCheckpoint(const std::string& run_dir, WorldModel& model, tokenize::Ada
     tokenize::AddTensor(w, "adamw/exp_avg_sq/" + params[i].first, adamw.exp_avg_sq()[i]);
   }
   w.SetMeta(MetaToJson(meta));
-  const std::string path = (fs::path(run_dir) / kCheckpointFile).string();
-  w.Write(path);  // atomic
+  w.Write((fs::path(run_dir) / kCheckpointFile).string());  // atomic
+  WriteManifest(run_dir, meta, data);
+}
 
+void WriteManifest(const std::string& run_dir, const CheckpointMeta& meta,
+                   const nlohmann::json& data) {
+  const std::string path = (fs::path(run_dir) / kCheckpointFile).string();
   nlohmann::json manifest =
       MakeProvenance("wm-train", meta.config, {{"libtorch", tokenize::TorchVersion()}});
   manifest["step"] = meta.step;

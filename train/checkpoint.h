@@ -33,6 +33,12 @@ CheckpointMeta MetaFromJson(const nlohmann::json& j, const std::string& file);
 void SaveCheckpoint(const std::string& run_dir, WorldModel& model, tokenize::AdamW& adamw,
                     const CheckpointMeta& meta, const nlohmann::json& data);
 
+// Writes checkpoint.json for the checkpoint.wmt in `run_dir`, whose meta is `meta`. It is written
+// after the archive, so a kill between the two leaves it describing the previous checkpoint:
+// resuming calls this again to make it describe the archive it resumed from.
+void WriteManifest(const std::string& run_dir, const CheckpointMeta& meta,
+                   const nlohmann::json& data);
+
 // Restores model, AdamW moments (when `adamw` is given) and returns the meta. With
 // `expected_config` (resuming) refuses a checkpoint trained with another config, naming the keys
 // that differ.

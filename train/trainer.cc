@@ -166,8 +166,13 @@ TrainSummary TrainDynamics(const TrainOptions& o) {
               {"seed", tc.seed}};
   int64_t step = 0;
   if (o.resume && fs::exists(ckpt)) {
-    step = LoadCheckpoint(ckpt, model, &adamw, &config_json).step;
-    if (writer) LogInfo("resuming " + ckpt + " at step " + std::to_string(step));
+    const CheckpointMeta loaded = LoadCheckpoint(ckpt, model, &adamw, &config_json);
+    step = meta.step = loaded.step;
+    meta.adamw_step = loaded.adamw_step;
+    if (writer) {
+      LogInfo("resuming " + ckpt + " at step " + std::to_string(step));
+      WriteManifest(o.out_dir, meta, sampler.DataProvenance());  // may describe an older archive
+    }
   }
   GradientReducer reducer({o.rank, o.world_size, o.master_addr, o.master_port}, device);
   if (o.world_size > 1 && writer) {

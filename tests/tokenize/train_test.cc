@@ -118,6 +118,22 @@ TEST_F(TrainTest, ResumeEqualsUninterruptedRun) {
   EXPECT_EQ(Read("full", "checkpoint.json"), Read("split", "checkpoint.json"));
 }
 
+// A kill between the archive's rename and the manifest's leaves checkpoint.json describing the
+// previous checkpoint; resuming from the final archive must still end with the right manifest.
+TEST_F(TrainTest, ResumeRewritesAManifestLeftBehindByAKill) {
+  TrainOptions first = Options("run", 10);
+  first.max_steps_this_run = 5;
+  TrainTokenizer(first);
+  const std::string stale = ReadFile(dir_ / "run/checkpoint.json");
+  TrainOptions rest = Options("run", 10);
+  rest.resume = true;
+  TrainTokenizer(rest);
+  const std::string good = Read("run", "checkpoint.json");
+  WriteFileAtomically(dir_ / "run/checkpoint.json", stale);
+  EXPECT_EQ(TrainTokenizer(rest).end_step, 10);
+  EXPECT_EQ(Read("run", "checkpoint.json"), good);
+}
+
 TEST_F(TrainTest, RefusesToOverwriteOrResumeWithAnotherConfig) {
   TrainTokenizer(Options("run", 5));
   EXPECT_NE(test::ErrorText([&] { TrainTokenizer(Options("run", 5)); }).find("--resume"),

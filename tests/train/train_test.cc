@@ -102,6 +102,22 @@ TEST_F(DynamicsTrainTest, ResumeAfterStopEqualsUninterruptedRun) {
   EXPECT_EQ(Hash("full", "checkpoint.json"), Hash("split", "checkpoint.json"));
 }
 
+// A kill between the archive's rename and the manifest's leaves checkpoint.json describing the
+// previous checkpoint; resuming from the final archive must still end with the right manifest.
+TEST_F(DynamicsTrainTest, ResumeRewritesAManifestLeftBehindByAKill) {
+  TrainOptions first = Options("run", 10);
+  first.max_steps_this_run = 5;
+  TrainDynamics(first);
+  const std::string stale = ReadFile(dir_ / "run/checkpoint.json");
+  TrainOptions rest = Options("run", 10);
+  rest.resume = true;
+  TrainDynamics(rest);
+  const std::string good = Hash("run", "checkpoint.json");
+  WriteFileAtomically(dir_ / "run/checkpoint.json", stale);
+  TrainDynamics(rest);
+  EXPECT_EQ(Hash("run", "checkpoint.json"), good);
+}
+
 TEST_F(DynamicsTrainTest, NextFrameCopyPriorRunsAreReproducibleAndResume) {
   auto options = [&](const std::string& run) {
     TrainOptions o = Options(run, 20);
