@@ -5,6 +5,8 @@ BUILD ?= build
 JOBS ?= $(shell nproc)
 BIN := $(BUILD)/bin
 DEMO_DIR ?= data/demo
+# make wpe [WPE_DIR=data/wpe]: policy evaluation in the world model, end to end (scripts/wpe.sh)
+WPE_DIR ?= data/wpe
 # make tokenize|train SHARDS=<train shards> VAL=<val shards> [RUN=runs/main]
 #   [TOKENIZER_CONFIG=...] [DYNAMICS_CONFIG=...]
 SHARDS ?=
@@ -44,7 +46,7 @@ MODEL_ONLY_TESTS ?= ImageCodec|TrainTest|EncodeTest|Overfit|FrameScores
 # ccache keys on relative paths below the checkout, so other clones and worktrees share hits.
 export CCACHE_BASEDIR ?= $(CURDIR)
 
-.PHONY: all deps configure build test test-sanitize test-model-only fuzz demo ingest tokenize train eval report ablation bench format lint clean
+.PHONY: all deps configure build test test-sanitize test-model-only fuzz demo wpe ingest tokenize train eval report ablation bench format lint clean
 
 all: build
 
@@ -80,6 +82,9 @@ fuzz:
 
 demo: build
 	@bash scripts/demo.sh $(BIN) $(DEMO_DIR)
+
+wpe: build
+	@bash scripts/wpe.sh $(BIN) $(WPE_DIR)
 
 ingest: build
 	@if [ -z "$(RAW)" ] || [ -z "$(OUT)" ]; then \

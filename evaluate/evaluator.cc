@@ -13,6 +13,7 @@
 #include "core/shard/dataset_reader.h"
 #include "core/tokens/token_dataset.h"
 #include "evaluate/aggregate.h"
+#include "evaluate/clip_decode.h"
 #include "evaluate/clip_video.h"
 #include "evaluate/episode_record.h"
 #include "evaluate/episode_strip.h"
@@ -24,48 +25,12 @@
 #include "metrics/lpips/lpips.h"
 #include "metrics/value/correlation.h"
 #include "metrics/value/value_metrics.h"
-#include "tokenize/frame_sampler.h"
 #include "tokenize/tokenizer.h"
 #include "train/dynamics_model.h"
 
 namespace wm::evaluate {
 namespace fs = std::filesystem;
 namespace {
-
-// The three inputs must describe the same episodes and the same tokenizer.
-void CheckInputsBelongTogether(const tokens::TokenDataset& tokens, const tokenize::Tokenizer& tok,
-                               const shard::DatasetReader& shards) {
-  const std::string index = (fs::path(tokens.dir()) / "index.json").string();
-  Check(tokens.index().tokenizer.checkpoint_sha256 == tok.checkpoint_sha256(),
-        "the token dataset was written by another tokenizer than --tokenizer",
-        {.file = index, .key = "tokenizer.checkpoint_sha256"});
-  nlohmann::json shard_hashes = nlohmann::json::array();
-  for (const auto& s : shards.index().shards) {
-    shard_hashes.push_back({{"file", s.file}, {"sha256", s.sha256}});
-  }
-  Check(tokens.index().source.value("shards", nlohmann::json()) == shard_hashes,
-        "the token dataset was encoded from other shards than --data " + shards.dir(),
-        {.file = index, .key = "source.shards"});
-}
-
-Clip RealClip(const Episode& ep, const std::string& image_key, int size, int64_t frames) {
-  Clip clip{frames, size, std::vector<float>(static_cast<size_t>(frames) * 3 * size * size)};
-  for (int64_t t = 0; t < frames; ++t) {
-    tokenize::DecodeFrame(ep.images.at(image_key).frames.at(t), size,
-                          clip.pixels.data() + t * 3 * size * size);
-  }
-  return clip;
-}
-
-// Frames first..first+count-1 of `tokens`, decoded. An anchored tokenizer decodes them all with
-// `given`, the episode's last real frame the rollout started from: what a user of the model has.
-Clip DecodeClip(const tokenize::Tokenizer& tok, const std::vector<int64_t>& tokens, int64_t first,
-                int64_t count, const Clip& given) {
-  const int64_t n = tok.tokens_per_frame();
-  std::vector<uint32_t> codes(tokens.begin() + first * n, tokens.begin() + (first + count) * n);
-  const Clip anchors = RepeatFrame(given, given.frames - 1, count);
-  return {count, tok.image_size(), tok.Decode(codes.data(), count, anchors.pixels.data())};
-}
 
 double FiniteMean(const std::vector<double>& v) {
   double s = 0;
@@ -112,12 +77,6 @@ std::string AddValues(ScoreTable& t, const std::string& checkpoint, const std::s
             Cell(p.value_gap.value) + "\n";
   }
   return rows;
-}
-
-std::string DefaultName(const std::string& checkpoint) {
-  fs::path p(checkpoint);
-  if (p.extension() == ".wmt") p = p.parent_path();
-  return p.filename().string();
 }
 
 // Rolls out and scores `episodes` (positions `positions` in the whole evaluated list, for
@@ -372,7 +331,7 @@ std::vector<std::string> EvaluateCheckpoints(const EvalOptions& o) {
   if (!o.lpips_weights.empty()) lpips.emplace(o.lpips_weights, o.device);
   std::vector<std::string> written;
   for (size_t c = 0; c < o.checkpoints.size(); ++c) {
-    const std::string name = c < o.names.size() ? o.names[c] : DefaultName(o.checkpoints[c]);
+    const std::string name = ReportName(o, c);
     const std::string dir = (fs::path(o.out_dir) / name).string();
     fs::create_directories(dir);
     // manifest.json is written last and marks a complete report: a killed run leaves none, so

@@ -7,6 +7,7 @@
 #include <vector>
 
 #include "evaluate/controllability.h"
+#include "evaluate/policy_eval.h"
 #include "evaluate/region_masks.h"
 #include "evaluate/rollout.h"
 
@@ -39,6 +40,9 @@ struct EvalOptions {
   // writes REPORT_DIR/<name>/parts/part-<i>-of-<n>.json, and the job that completes the set
   // writes the report, identical to a single job's. A part already there is not redone.
   int shard_index = 0, num_shards = 1;
+  // Closed-loop policy evaluation (wm-eval --policy) instead of open-loop rollouts when it names
+  // policies; `rollout` gives its context, seed, temperature and decode steps.
+  PolicyEvalOptions policy_eval;
 };
 
 // Returns the report directories written (one per checkpoint; none from a shard job that leaves

@@ -3,6 +3,7 @@
 #include <filesystem>
 
 #include "core/atomic_file.h"
+#include "core/error.h"
 #include "core/provenance.h"
 #include "core/sha256.h"
 #include "core/shard/dataset_reader.h"
@@ -14,10 +15,49 @@
 namespace wm::evaluate {
 namespace fs = std::filesystem;
 
+void CheckInputsBelongTogether(const tokens::TokenDataset& tokens, const tokenize::Tokenizer& tok,
+                               const shard::DatasetReader& shards) {
+  const std::string index = (fs::path(tokens.dir()) / "index.json").string();
+  Check(tokens.index().tokenizer.checkpoint_sha256 == tok.checkpoint_sha256(),
+        "the token dataset was written by another tokenizer than --tokenizer",
+        {.file = index, .key = "tokenizer.checkpoint_sha256"});
+  nlohmann::json shard_hashes = nlohmann::json::array();
+  for (const auto& s : shards.index().shards) {
+    shard_hashes.push_back({{"file", s.file}, {"sha256", s.sha256}});
+  }
+  Check(tokens.index().source.value("shards", nlohmann::json()) == shard_hashes,
+        "the token dataset was encoded from other shards than --data " + shards.dir(),
+        {.file = index, .key = "source.shards"});
+}
+
+std::string ReportName(const EvalOptions& o, size_t c) {
+  if (c < o.names.size()) return o.names[c];
+  fs::path p(o.checkpoints.at(c));
+  if (p.extension() == ".wmt") p = p.parent_path();
+  return p.filename().string();
+}
+
+// wm-eval --policy's settings: the policies by name and command, the closed loop's rules and the
+// true values it is compared with.
+nlohmann::json PolicyEvalConfigJson(const PolicyEvalOptions& p) {
+  nlohmann::json policies = nlohmann::json::array();
+  for (const auto& s : p.policies) {
+    policies.push_back(
+        {{"name", s.name}, {"command", s.command}, {"in_distribution", s.in_distribution}});
+  }
+  return {{"policies", policies},
+          {"horizon", p.loop.horizon},
+          {"rollouts", p.loop.rollouts},
+          {"clamp_actions", p.loop.clamp_tabletop ? "tabletop" : "none"},
+          {"success_threshold", p.loop.success_threshold},
+          {"terminal_threshold", p.loop.terminal_threshold},
+          {"true_values_sha256", p.true_values.empty() ? "" : Sha256File(p.true_values)}};
+}
+
 nlohmann::json EvalConfigJson(const EvalOptions& o) {
   nlohmann::json modes = nlohmann::json::array();
   for (RolloutMode m : o.modes) modes.push_back(RolloutName(m));
-  return {{"rollouts", modes},
+  nlohmann::json config = {{"rollouts", modes},
           {"horizon", o.rollout.horizon},
           {"context", o.rollout.context},
           {"samples", o.rollout.samples},
@@ -32,6 +72,9 @@ nlohmann::json EvalConfigJson(const EvalOptions& o) {
           {"seg_config_sha256", o.masks.seg_config.empty() ? "" : Sha256File(o.masks.seg_config)},
           {"intrinsics", o.masks.intrinsics},
           {"lpips_weights_sha256", o.lpips_weights.empty() ? "" : Sha256File(o.lpips_weights)}};
+  // Only in policy mode, so an open-loop report's config hash is what it always was.
+  if (!o.policy_eval.policies.empty()) config["policy_eval"] = PolicyEvalConfigJson(o.policy_eval);
+  return config;
 }
 
 void WriteEvalManifest(const std::string& dir, const std::string& name,

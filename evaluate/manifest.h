@@ -20,6 +20,14 @@ class DynamicsModel;
 
 namespace wm::evaluate {
 
+// Throws wm::Error naming the file unless the token dataset was written by `tok` from exactly
+// the shards of `shards`: the three inputs must describe the same episodes.
+void CheckInputsBelongTogether(const tokens::TokenDataset& tokens, const tokenize::Tokenizer& tok,
+                               const shard::DatasetReader& shards);
+
+// The report name of checkpoint `c`: --name's entry, else the run directory's name.
+std::string ReportName(const EvalOptions& options, size_t c);
+
 // The eval settings that shape the numbers (hashed into config_hash).
 nlohmann::json EvalConfigJson(const EvalOptions& options);
 

@@ -18,12 +18,6 @@ uint64_t MixSeed(uint64_t seed, int64_t counter) {
 
 namespace {
 
-// One sampling seed per (run seed, episode, sample, step): an episode's imagination does not
-// depend on which other episodes share its batch or shard.
-uint64_t RowSeed(uint64_t seed, int64_t episode, int sample, int64_t step) {
-  return MixSeed(MixSeed(MixSeed(seed, episode), sample), step);
-}
-
 // z of each episode from the prior over its first real frames and actions; empty without
 // policy conditioning.
 std::vector<std::vector<float>> PolicyEmbeddings(const train::DynamicsModel& model,
@@ -46,6 +40,51 @@ std::vector<std::vector<float>> PolicyEmbeddings(const train::DynamicsModel& mod
 
 }  // namespace
 
+uint64_t ImaginationSeed(uint64_t seed, int64_t episode, int sample, int64_t step) {
+  return MixSeed(MixSeed(MixSeed(seed, episode), sample), step);
+}
+
+int64_t ContextFrames(const train::DynamicsModel& model, int64_t requested) {
+  return requested > 0 ? std::min(requested, model.max_context_frames())
+                       : model.max_context_frames();
+}
+
+ImaginedFrame ImagineNextFrame(const train::DynamicsModel& model,
+                               const std::vector<int64_t>& frames,
+                               const std::vector<ContextSlot>& slots,
+                               const std::vector<float>& policy_z, uint64_t row_seed,
+                               const RolloutOptions& o) {
+  const int64_t n = model.tokens_per_frame();
+  train::FrameContext c{.batch = 1, .frames = static_cast<int64_t>(slots.size())};
+  for (const ContextSlot& slot : slots) {
+    c.tokens.insert(c.tokens.end(), frames.begin() + slot.frame * n,
+                    frames.begin() + (slot.frame + 1) * n);
+    c.actions.insert(c.actions.end(), slot.action.begin(), slot.action.end());
+  }
+  c.policy_z = policy_z;
+  c.row_seeds = {row_seed};
+  ImaginedFrame out;
+  out.tokens = model.PredictNextFrame(c, 0, o.decode_steps, o.temperature);  // [N]
+  // The reward of step t -> t+1 from the context extended by the new frame.
+  c.frames += 1;
+  c.tokens.insert(c.tokens.end(), out.tokens.begin(), out.tokens.end());
+  c.actions.insert(c.actions.end(), kActionDim, 0.f);  // unused last action
+  const train::RewardPrediction r = model.PredictRewards(c);
+  out.reward = r.reward.back();
+  out.terminal_prob = r.terminal_prob.back();
+  return out;
+}
+
+void CheckModelFitsTokens(const train::DynamicsModel& model, const tokens::TokenDataset& data) {
+  const int64_t n = data.tokens_per_frame();
+  Check(n == model.tokens_per_frame() &&
+            data.index().tokenizer.num_codes == model.config().model.num_codes,
+        "the model was trained on " + std::to_string(model.tokens_per_frame()) + " tokens of " +
+            std::to_string(model.config().model.num_codes) + " codes per frame; this data has " +
+            std::to_string(n) + " of " + std::to_string(data.index().tokenizer.num_codes),
+        {.file = data.dir()});
+}
+
 const char* RolloutName(RolloutMode mode) {
   return mode == RolloutMode::kPlain ? "plain" : "retrace";
 }
@@ -55,15 +94,9 @@ std::vector<EpisodeRollout> Rollout(const train::DynamicsModel& model,
                                     const std::vector<int64_t>& episodes, RolloutMode mode,
                                     const RolloutOptions& o,
                                     const std::vector<std::vector<float>>* actions_given) {
+  CheckModelFitsTokens(model, data);
   const int64_t n = data.tokens_per_frame();
-  Check(n == model.tokens_per_frame() &&
-            data.index().tokenizer.num_codes == model.config().model.num_codes,
-        "the model was trained on " + std::to_string(model.tokens_per_frame()) + " tokens of " +
-            std::to_string(model.config().model.num_codes) + " codes per frame; this data has " +
-            std::to_string(n) + " of " + std::to_string(data.index().tokenizer.num_codes),
-        {.file = data.dir()});
-  const int64_t context =
-      o.context > 0 ? std::min(o.context, model.max_context_frames()) : model.max_context_frames();
+  const int64_t context = ContextFrames(model, o.context);
   const auto z = PolicyEmbeddings(model, data, episodes, o.policy_prefix);
   std::vector<EpisodeRollout> out;
   for (int64_t k : episodes) {
@@ -87,22 +120,10 @@ std::vector<EpisodeRollout> Rollout(const train::DynamicsModel& model,
         auto slots = mode == RolloutMode::kPlain ? PlainContext(actions, t, context)
                                                  : RetraceContext(actions, t, context);
         if (s == 0) r.contexts.push_back(slots);
-        train::FrameContext c{.batch = 1, .frames = static_cast<int64_t>(slots.size())};
-        for (const ContextSlot& slot : slots) {
-          c.tokens.insert(c.tokens.end(), frames.begin() + slot.frame * n,
-                          frames.begin() + (slot.frame + 1) * n);
-          c.actions.insert(c.actions.end(), slot.action.begin(), slot.action.end());
-        }
-        c.policy_z = policy_z;
-        c.row_seeds = {RowSeed(o.seed, r.episode, s, t)};
-        const std::vector<int64_t> next =
-            model.PredictNextFrame(c, 0, o.decode_steps, o.temperature);  // [N]
-        // The reward of step t -> t+1 from the context extended by the new frame.
-        c.frames += 1;
-        c.tokens.insert(c.tokens.end(), next.begin(), next.end());
-        c.actions.insert(c.actions.end(), kActionDim, 0.f);  // unused last action
-        r.rewards[s].push_back(model.PredictRewards(c).reward.back());
-        frames.insert(frames.end(), next.begin(), next.end());
+        const ImaginedFrame next = ImagineNextFrame(
+            model, frames, slots, policy_z, ImaginationSeed(o.seed, r.episode, s, t), o);
+        r.rewards[s].push_back(next.reward);
+        frames.insert(frames.end(), next.tokens.begin(), next.tokens.end());
       }
     }
   }

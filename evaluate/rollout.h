@@ -51,7 +51,35 @@ std::vector<EpisodeRollout> Rollout(const train::DynamicsModel& model,
                                     const RolloutOptions& options,
                                     const std::vector<std::vector<float>>* actions = nullptr);
 
+// Throws wm::Error naming the token dataset when the model and the token data disagree on grid
+// or codebook.
+void CheckModelFitsTokens(const train::DynamicsModel& model, const tokens::TokenDataset& data);
+
 // SplitMix64 finaliser: a seed derived from (seed, counter), for independent random streams.
 uint64_t MixSeed(uint64_t seed, int64_t counter);
+
+// The MaskGIT sampling seed of one imagined frame: one per (run seed, episode, sample, step), so
+// an episode's imagination does not depend on which other episodes share its batch or shard.
+uint64_t ImaginationSeed(uint64_t seed, int64_t episode, int sample, int64_t step);
+
+// The context frames the model is given: `requested` (0 = the model's maximum), at most that.
+int64_t ContextFrames(const train::DynamicsModel& model, int64_t requested);
+
+// One imagined frame and the reward head's view of the step that led to it.
+struct ImaginedFrame {
+  std::vector<int64_t> tokens;  // [N]
+  float reward = 0;             // r_t of step t -> t+1, t = the last slot's frame
+  float terminal_prob = 0;      // P(is_terminal_t)
+};
+
+// Imagines the frame after the context `slots` (PlainContext / RetraceContext) of the rollout's
+// frames so far (`frames`: [(t + 1) * N] tokens) with one model call for the frame and one for
+// its reward. `policy_z` may be empty (the prior infers z from the context). Deterministic on CPU
+// for a given `row_seed`.
+ImaginedFrame ImagineNextFrame(const train::DynamicsModel& model,
+                               const std::vector<int64_t>& frames,
+                               const std::vector<ContextSlot>& slots,
+                               const std::vector<float>& policy_z, uint64_t row_seed,
+                               const RolloutOptions& options);
 
 }  // namespace wm::evaluate

@@ -64,4 +64,29 @@ std::vector<PolicySpec> LoadPolicyList(const std::string& path) {
   return out;
 }
 
+std::vector<PolicySpec> CollectPolicies(const std::string& list,
+                                        const std::vector<std::string>& specs,
+                                        const std::vector<std::string>& in_distribution) {
+  std::vector<PolicySpec> out;
+  if (!list.empty()) out = LoadPolicyList(list);
+  for (const std::string& s : specs) {
+    const bool is_list = s.find('=') == std::string::npos &&
+                         (s.ends_with(".yaml") || s.ends_with(".yml"));
+    if (!is_list) {
+      out.push_back(ParsePolicySpec(s));
+      continue;
+    }
+    for (PolicySpec& p : LoadPolicyList(s)) out.push_back(std::move(p));
+  }
+  Check(!out.empty(), "no policy given (--policy NAME=COMMAND or a policy list)",
+        {.key = "--policy"});
+  for (const std::string& name : in_distribution) {
+    bool found = false;
+    for (PolicySpec& p : out) found |= p.name == name && (p.in_distribution = true);
+    Check(found, "no policy is named '" + name + "'", {.key = "--in-distribution"});
+  }
+  CheckPolicyNames(out);
+  return out;
+}
+
 }  // namespace wm::policy

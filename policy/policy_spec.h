@@ -25,6 +25,14 @@ PolicySpec ParsePolicySpec(const std::string& text);
 // wm::Error naming the file and the field; names must be unique.
 std::vector<PolicySpec> LoadPolicyList(const std::string& path);
 
+// The policies a command line names: those of the policy list `list` (empty: none), then one per
+// entry of `specs` ("NAME=COMMAND", or the path of a .yaml / .yml policy list), with the names in
+// `in_distribution` marked in-distribution. Throws wm::Error naming the option for a name in
+// `in_distribution` that no policy has, for duplicate names, and when no policy is given.
+std::vector<PolicySpec> CollectPolicies(const std::string& list,
+                                        const std::vector<std::string>& specs,
+                                        const std::vector<std::string>& in_distribution);
+
 // Throws wm::Error(key "--policy") unless `name` is a valid, unique policy name.
 void CheckPolicyNames(const std::vector<PolicySpec>& policies);
 

@@ -10,6 +10,7 @@
 #include "core/malloc_tuning.h"
 #include "core/provenance.h"
 #include "evaluate/evaluator.h"
+#include "policy/policy_spec.h"
 
 namespace {
 constexpr const char* kFooter = R"(
@@ -28,10 +29,61 @@ reversed (--controllability shuffled: seeded shuffle; off: skip) and scored as m
 delta_tpsnr = PSNR minus the perturbed rollout's PSNR (Genie's ΔtPSNR; 0 for a model that
 ignores its actions, and for the copies).
 Compare checkpoints with `wm-report compare`.
+Closed loop (--policy / --policies; docs/reports.md, "Policy evaluation in the world model"): each
+policy (a process speaking docs/policy-protocol.md) acts on the imagined frames from the real first
+frame of each of the first --episodes held-out episodes, for --policy-horizon steps or until the
+reward head says success (reward > 0.5) or the terminal head says done; --policy-rollouts per
+start. Writes wm_values.csv (success rate, Wilson 95%), wm_episodes.csv, strips/episode_K.png and,
+with --true-values (wm-sim-policy's policy_values.json), wpe.csv and wpe_summary.json; no
+open-loop scores. Example:
+  wm-eval --checkpoint runs/dyn-tiny --tokenizer runs/tok-tiny --data data/tabletop/val \
+    --tokens data/tabletop-tokens/val --out reports/ --episodes 16 \
+    --policies configs/policies/tabletop.yaml --true-values truth/policy_values.json
 Sharded (e.g. a Slurm array): --shard-index $SLURM_ARRAY_TASK_ID --num-shards N in every job;
 each writes REPORT_DIR/<name>/parts/, and the job that completes the set writes the report,
 byte-identical to a single job's. Rerunning a job whose part exists only retries the report.
 Exit codes: 0 success, 1 error (one line naming the file), 2 bad command line.)";
+
+struct PolicyArgs {
+  std::vector<std::string> specs, in_distribution;
+  std::string list, clamp = "tabletop";
+};
+
+void AddPolicyOptions(CLI::App& app, PolicyArgs& a, wm::evaluate::PolicyEvalOptions& p) {
+  app.add_option("--policy", a.specs,
+                 "Closed loop: NAME=COMMAND or a policy list .yaml (repeatable)");
+  app.add_option("--policies", a.list, "Closed loop: a policy list (configs/policies/*.yaml)")
+      ->check(CLI::ExistingFile);
+  app.add_option("--in-distribution", a.in_distribution,
+                 "Names of --policy policies close to the training data's policies")
+      ->delimiter(',');
+  app.add_option("--policy-horizon", p.loop.horizon,
+                 "Policy steps per closed-loop episode at most (wm-sim-policy --max-steps)")
+      ->capture_default_str();
+  app.add_option("--policy-rollouts", p.loop.rollouts, "Closed-loop rollouts per start")
+      ->capture_default_str();
+  app.add_option("--clamp-actions", a.clamp, "tabletop (the simulator's limits) or none")
+      ->check(CLI::IsMember({"tabletop", "none"}))
+      ->capture_default_str();
+  app.add_option("--true-values", p.true_values,
+                 "wm-sim-policy's policy_values.json: writes wpe.csv and wpe_summary.json")
+      ->check(CLI::ExistingFile);
+  app.add_option("--policy-timeout", p.step_timeout_s, "Seconds a policy may take per answer")
+      ->capture_default_str();
+  app.add_option("--policy-start-timeout", p.start_timeout_s,
+                 "Seconds a policy may take to start (its hello)")
+      ->capture_default_str();
+}
+
+// Open loop, or closed loop when policies are named; the report directories written.
+std::vector<std::string> Evaluate(wm::evaluate::EvalOptions& o, const PolicyArgs& a) {
+  if (a.specs.empty() && a.list.empty()) return wm::evaluate::EvaluateCheckpoints(o);
+  o.policy_eval.policies = wm::policy::CollectPolicies(a.list, a.specs, a.in_distribution);
+  o.policy_eval.loop.clamp_tabletop = a.clamp == "tabletop";
+  o.policy_eval.loop.imagination = o.rollout;
+  return wm::evaluate::EvaluatePolicies(o);
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -105,6 +157,8 @@ int main(int argc, char** argv) {
   app.add_option("--num-shards", o.num_shards, "Jobs sharing the episodes")
       ->check(CLI::PositiveNumber)
       ->capture_default_str();
+  PolicyArgs policy_args;
+  AddPolicyOptions(app, policy_args, o.policy_eval);
   if (const int rc = wm::ParseCommandLine(app, argc, argv); rc >= 0) return rc;
   wm::InitLogging();
   using wm::evaluate::RolloutMode;
@@ -112,7 +166,7 @@ int main(int argc, char** argv) {
   if (rollout == "retrace") o.modes = {RolloutMode::kRetrace};
   o.controllability = wm::evaluate::ParsePerturbation(controllability);
   try {
-    for (const auto& dir : wm::evaluate::EvaluateCheckpoints(o)) {
+    for (const auto& dir : Evaluate(o, policy_args)) {
       spdlog::info("wrote {}", dir);
     }
   } catch (const std::exception& e) {

@@ -7,15 +7,9 @@
 #include <numbers>
 #include <random>
 
-namespace wm::tabletop {
+#include "core/mix_bits.h"
 
-// SplitMix64 finalizer: decorrelates nearby inputs (seed 0 vs 1, episode 7 vs 8).
-inline uint64_t MixBits(uint64_t x) {
-  x += 0x9e3779b97f4a7c15ULL;
-  x = (x ^ (x >> 30)) * 0xbf58476d1ce4e5b9ULL;
-  x = (x ^ (x >> 27)) * 0x94d049bb133111ebULL;
-  return x ^ (x >> 31);
-}
+namespace wm::tabletop {
 
 class Rng {
  public:

@@ -118,11 +118,7 @@ Scene SampleScene(Rng& rng, LookVariation variation) {
 }
 
 Action ClampAction(Action a) {
-  for (int i = 0; i < 3; ++i) {
-    a[i] = static_cast<float>(Clamp(a[i], -kMaxTranslationStep, kMaxTranslationStep));
-    a[i + 3] = static_cast<float>(Clamp(a[i + 3], -kMaxRotationStep, kMaxRotationStep));
-  }
-  a[6] = static_cast<float>(Clamp(a[6], 0, 1));
+  policy::ClampTabletopAction(a.data());
   return a;
 }
 

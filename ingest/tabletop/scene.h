@@ -7,6 +7,7 @@
 
 #include "ingest/tabletop/geometry.h"
 #include "ingest/tabletop/rng.h"
+#include "policy/action_limits.h"
 
 namespace wm::tabletop {
 
@@ -14,9 +15,10 @@ namespace wm::tabletop {
 // command in [0, 1] (1 = closed). ClampAction limits it to what StepScene applies.
 using Action = std::array<float, 7>;
 
-// Per-step action limits: |Δx|, |Δy|, |Δz| <= 4 cm, |Δroll|, |Δpitch|, |Δyaw| <= 0.25 rad.
-inline constexpr double kMaxTranslationStep = 0.04;
-inline constexpr double kMaxRotationStep = 0.25;
+// Per-step action limits: |Δx|, |Δy|, |Δz| <= 4 cm, |Δroll|, |Δpitch|, |Δyaw| <= 0.25 rad; in
+// policy/ because wm-eval --policy clamps a policy's actions exactly as StepScene does.
+inline constexpr double kMaxTranslationStep = policy::kTabletopMaxTranslationStep;
+inline constexpr double kMaxRotationStep = policy::kTabletopMaxRotationStep;
 
 // End-effector workspace (tool point = centre between the fingertips), metres.
 inline constexpr Vec3 kEeMin = {-0.25, -0.10, 0.005};

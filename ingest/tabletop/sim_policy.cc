@@ -17,6 +17,7 @@
 #include "ingest/tabletop/tabletop_writer.h"
 #include "ingest/tabletop/tfds_features.h"
 #include "policy/policy_process.h"
+#include "policy/policy_seed.h"
 #include "policy/policy_value.h"
 
 namespace wm::tabletop {
@@ -36,10 +37,6 @@ struct EpisodeResult {
   double episode_return = 0;
   int steps = 0;
 };
-
-// The seed a policy gets at reset: derived from the episode's, so that a policy's noise is
-// reproducible but not the draws that made the scene.
-uint64_t PolicySeed(uint64_t episode_seed) { return MixBits(episode_seed ^ 0x706f6c696379ULL) >> 1; }
 
 std::string Number(double v) {
   std::ostringstream s;
@@ -68,7 +65,7 @@ std::vector<EpisodeResult> RunPolicy(const SimPolicyOptions& o, const policy::Po
     bool reset = false;
     const ClosedLoopEpisode episode =
         RollOutClosedLoop(seed, o.max_steps, o.look, o.size, [&](const ImageObservation& obs) {
-          if (!reset) process.Reset(i, PolicySeed(seed), obs.instruction), reset = true;
+          if (!reset) process.Reset(i, policy::PolicySeed(seed), obs.instruction), reset = true;
           const std::vector<float> a =
               process.Act({obs.rgb.data(), obs.size, obs.size, obs.instruction, i, obs.step});
           Action action;

@@ -65,13 +65,7 @@ int main(int argc, char** argv) {
   if (const int code = wm::ParseCommandLine(app, argc, argv); code >= 0) return code;
   wm::InitLogging("info");
   try {
-    if (!list.empty()) o.policies = wm::policy::LoadPolicyList(list);
-    for (const std::string& s : specs) o.policies.push_back(wm::policy::ParsePolicySpec(s));
-    for (const std::string& name : in_distribution) {
-      bool found = false;
-      for (auto& p : o.policies) found |= p.name == name && (p.in_distribution = true);
-      wm::Check(found, "no policy is named '" + name + "'", {.key = "--in-distribution"});
-    }
+    o.policies = wm::policy::CollectPolicies(list, specs, in_distribution);
     if (look == "plain") o.look = wm::tabletop::LookVariation::kPlain;
     const auto truths = wm::tabletop::RunSimPolicies(o);
     spdlog::info("wrote the true values of {} policies to {}/policy_values.json", truths.size(),

@@ -1,0 +1,71 @@
+#pragma once
+// A policy rolled out inside the world model (WPE, wpe-policy-evaluation.txt Sec. 3): from a
+// held-out episode's real first frame, the policy sees each imagined frame, decoded as a user of
+// the model sees it, and its action drives the next imagined frame; the model's reward and
+// terminal heads score the episode. One episode at a time; every step is one model call per
+// start, so batching starts (issue 21 item 7) can later stack the calls of several rollouts.
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include "evaluate/frame_scores.h"
+#include "evaluate/rollout.h"
+
+namespace wm::policy {
+class PolicyProcess;
+}
+namespace wm::tokenize {
+class Tokenizer;
+}
+
+namespace wm::evaluate {
+
+struct ClosedLoopOptions {
+  // Policy steps (actions) per episode at most, as wm-sim-policy --max-steps: the reward head's
+  // predictions for steps 0..horizon-1 cover the observations the simulator scores.
+  int64_t horizon = 40;
+  int rollouts = 1;            // rollouts per start, with distinct policy and sampling seeds
+  bool clamp_tabletop = true;  // clamp actions to the tabletop world's limits, as the simulator
+  // A step whose predicted reward exceeds this is a success and ends the episode (the tabletop
+  // dataset logs reward 1 on reaching the goal, else 0); a predicted terminal probability above
+  // terminal_threshold ends it without success.
+  double success_threshold = 0.5;
+  double terminal_threshold = 0.5;
+  // Context length, sampling seed, temperature and MaskGIT rounds (horizon and samples unused).
+  RolloutOptions imagination;
+};
+
+// Where a closed-loop episode starts: a held-out episode's real first frame.
+struct ClosedLoopStart {
+  int64_t episode = 0;       // index in the token dataset; the protocol's episode id
+  uint64_t episode_seed = 0;  // the policy's reset seed is derived from it (policy_seed.h)
+  std::string instruction;
+  std::vector<int64_t> first_tokens;  // [N]: the frame's tokens from the token dataset
+  Clip first_frame;  // [1, 3, S, S]: the real frame, step 0's observation and the decode anchor
+};
+
+struct ClosedLoopRollout {
+  int64_t episode = 0;
+  int rollout = 0;
+  uint64_t episode_seed = 0, policy_seed = 0;
+  int64_t steps = 0;            // actions taken = imagined frames
+  std::vector<int64_t> tokens;  // [(steps + 1) * N]; frame 0 is the real one
+  std::vector<float> actions;   // [steps, 7], as the model got them (clamped)
+  std::vector<float> rewards, terminal_probs;  // [steps]: the heads' view of each step
+  Clip frames;                  // frame 0 (real) and the imagined frames 1..steps, decoded
+  bool success = false;         // some step's reward > success_threshold
+  double episode_return = 0;    // sum of the predicted rewards
+  std::string end;              // "success", "terminal" or "horizon"
+};
+
+// Rolls out `policy` from `start` (rollout `rollout` of it). The policy is reset with
+// RolloutPolicySeed(start.episode_seed, rollout) and asked at steps 0..; step 0 shows the real
+// first frame, step t > 0 imagined frame t decoded with the real first frame as anchor. Sampling
+// seeds are ImaginationSeed(seed, episode, rollout, step): byte-reproducible on CPU. A policy
+// failure throws the policy's wm::Error (naming policy, episode and step).
+ClosedLoopRollout ImagineClosedLoop(const train::DynamicsModel& model,
+                                    const tokenize::Tokenizer& tok,
+                                    policy::PolicyProcess& policy, const ClosedLoopStart& start,
+                                    int rollout, const ClosedLoopOptions& options);
+
+}  // namespace wm::evaluate
