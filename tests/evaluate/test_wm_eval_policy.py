@@ -60,6 +60,11 @@ def read_rows(path):
         return list(csv.DictReader(f))
 
 
+def read_json(path):
+    with open(path, encoding="utf-8") as f:
+        return json.load(f)
+
+
 def strip_cell(strip, row, column):
     """Frame (row, column) of a strip, back at 64 px, RGB."""
     cell = SIZE * STRIP_SCALE
@@ -116,8 +121,8 @@ class WmEvalPolicy(unittest.TestCase):
     def recorders(cls, seen):
         plus = ",".join(["0.04"] * 6 + ["1"])
         minus = ",".join(["-0.04"] * 6 + ["0"])
-        return ["--policy", f"plus={RECORDER} --out {seen}/plus --action {plus}",
-                "--policy", f"minus={RECORDER} --out {seen}/minus --action {minus}",
+        return ["--policy", f"plus={RECORDER} --out {seen}/plus --action={plus}",
+                "--policy", f"minus={RECORDER} --out {seen}/minus --action={minus}",
                 "--in-distribution", "plus"]
 
     def test_rerun_gives_identical_bytes(self):
@@ -142,7 +147,7 @@ class WmEvalPolicy(unittest.TestCase):
             seen = self.path("run_seen", "plus")
             np.testing.assert_array_equal(np.load(os.path.join(seen, f"{k}_0.npy")), real)
             steps = int(episodes[k]["steps"])
-            self.assertGreaterEqual(steps, 1)
+            self.assertGreaterEqual(steps, 2)  # at least one imagined frame shown
             for t in range(1, steps):  # strip rows: real (logged), minus, plus (name order)
                 np.testing.assert_array_equal(np.load(os.path.join(seen, f"{k}_{t}.npy")),
                                               strip_cell(strip, 2, t), f"episode {k} step {t}")
@@ -165,7 +170,7 @@ class WmEvalPolicy(unittest.TestCase):
             self.assertNotEqual(returns[("plus", str(k))], returns[("minus", str(k))])
 
     def test_wpe_outputs(self):
-        summary = json.load(open(os.path.join(self.report, "wpe_summary.json"), encoding="utf-8"))
+        summary = read_json(os.path.join(self.report, "wpe_summary.json"))
         with open(os.path.join(SRC, "schemas", "wpe-summary.schema.json"), encoding="utf-8") as f:
             jsonschema.validate(summary, json.load(f))
         self.assertEqual(summary["policies"], ["plus", "minus"])
@@ -177,7 +182,7 @@ class WmEvalPolicy(unittest.TestCase):
             self.assertAlmostEqual(float(r["gap"]), float(r["wm_value"]) - float(r["true_value"]))
         self.assertEqual([r["true_value"] for r in rows], ["0.7", "0.2"])
         self.assertEqual([r["wm_episodes"] for r in rows], [str(EPISODES)] * 2)
-        manifest = json.load(open(os.path.join(self.report, "manifest.json"), encoding="utf-8"))
+        manifest = read_json(os.path.join(self.report, "manifest.json"))
         self.assertEqual(manifest["config"]["policy_eval"]["horizon"], HORIZON)
 
     def test_failing_policy_names_policy_episode_step_and_leaves_no_report(self):
