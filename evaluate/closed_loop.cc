@@ -12,9 +12,9 @@
 namespace wm::evaluate {
 
 ClosedLoopRollout ImagineClosedLoop(const train::DynamicsModel& model,
-                                    const tokenize::Tokenizer& tok,
-                                    policy::PolicyProcess& policy, const ClosedLoopStart& start,
-                                    int rollout, const ClosedLoopOptions& o) {
+                                    const tokenize::Tokenizer& tok, policy::PolicyProcess& policy,
+                                    const ClosedLoopStart& start, int rollout,
+                                    const ClosedLoopOptions& o) {
   const int size = start.first_frame.size;
   const int64_t context = ContextFrames(model, o.imagination.context);
   ClosedLoopRollout r{.episode = start.episode,

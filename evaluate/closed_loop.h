@@ -37,7 +37,7 @@ struct ClosedLoopOptions {
 
 // Where a closed-loop episode starts: a held-out episode's real first frame.
 struct ClosedLoopStart {
-  int64_t episode = 0;       // index in the token dataset; the protocol's episode id
+  int64_t episode = 0;        // index in the token dataset; the protocol's episode id
   uint64_t episode_seed = 0;  // the policy's reset seed is derived from it (policy_seed.h)
   std::string instruction;
   std::vector<int64_t> first_tokens;  // [N]: the frame's tokens from the token dataset
@@ -48,14 +48,14 @@ struct ClosedLoopRollout {
   int64_t episode = 0;
   int rollout = 0;
   uint64_t episode_seed = 0, policy_seed = 0;
-  int64_t steps = 0;            // actions taken = imagined frames
-  std::vector<int64_t> tokens;  // [(steps + 1) * N]; frame 0 is the real one
-  std::vector<float> actions;   // [steps, 7], as the model got them (clamped)
+  int64_t steps = 0;                           // actions taken = imagined frames
+  std::vector<int64_t> tokens;                 // [(steps + 1) * N]; frame 0 is the real one
+  std::vector<float> actions;                  // [steps, 7], as the model got them (clamped)
   std::vector<float> rewards, terminal_probs;  // [steps]: the heads' view of each step
-  Clip frames;                  // frame 0 (real) and the imagined frames 1..steps, decoded
-  bool success = false;         // some step's reward > success_threshold
-  double episode_return = 0;    // sum of the predicted rewards
-  std::string end;              // "success", "terminal" or "horizon"
+  Clip frames;                // frame 0 (real) and the imagined frames 1..steps, decoded
+  bool success = false;       // some step's reward > success_threshold
+  double episode_return = 0;  // sum of the predicted rewards
+  std::string end;            // "success", "terminal" or "horizon"
 };
 
 // Rolls out `policy` from `start` (rollout `rollout` of it). The policy is reset with
@@ -64,8 +64,8 @@ struct ClosedLoopRollout {
 // seeds are ImaginationSeed(seed, episode, rollout, step): byte-reproducible on CPU. A policy
 // failure throws the policy's wm::Error (naming policy, episode and step).
 ClosedLoopRollout ImagineClosedLoop(const train::DynamicsModel& model,
-                                    const tokenize::Tokenizer& tok,
-                                    policy::PolicyProcess& policy, const ClosedLoopStart& start,
-                                    int rollout, const ClosedLoopOptions& options);
+                                    const tokenize::Tokenizer& tok, policy::PolicyProcess& policy,
+                                    const ClosedLoopStart& start, int rollout,
+                                    const ClosedLoopOptions& options);
 
 }  // namespace wm::evaluate

@@ -57,21 +57,22 @@ nlohmann::json PolicyEvalConfigJson(const PolicyEvalOptions& p) {
 nlohmann::json EvalConfigJson(const EvalOptions& o) {
   nlohmann::json modes = nlohmann::json::array();
   for (RolloutMode m : o.modes) modes.push_back(RolloutName(m));
-  nlohmann::json config = {{"rollouts", modes},
-          {"horizon", o.rollout.horizon},
-          {"context", o.rollout.context},
-          {"samples", o.rollout.samples},
-          {"seed", o.rollout.seed},
-          {"temperature", o.rollout.temperature},
-          {"decode_steps", o.rollout.decode_steps},
-          {"policy_prefix", o.rollout.policy_prefix},
-          {"controllability", PerturbationName(o.controllability)},
-          {"max_episodes", o.max_episodes},
-          {"resamples", o.resamples},
-          {"masks", o.masks.source},
-          {"seg_config_sha256", o.masks.seg_config.empty() ? "" : Sha256File(o.masks.seg_config)},
-          {"intrinsics", o.masks.intrinsics},
-          {"lpips_weights_sha256", o.lpips_weights.empty() ? "" : Sha256File(o.lpips_weights)}};
+  nlohmann::json config = {
+      {"rollouts", modes},
+      {"horizon", o.rollout.horizon},
+      {"context", o.rollout.context},
+      {"samples", o.rollout.samples},
+      {"seed", o.rollout.seed},
+      {"temperature", o.rollout.temperature},
+      {"decode_steps", o.rollout.decode_steps},
+      {"policy_prefix", o.rollout.policy_prefix},
+      {"controllability", PerturbationName(o.controllability)},
+      {"max_episodes", o.max_episodes},
+      {"resamples", o.resamples},
+      {"masks", o.masks.source},
+      {"seg_config_sha256", o.masks.seg_config.empty() ? "" : Sha256File(o.masks.seg_config)},
+      {"intrinsics", o.masks.intrinsics},
+      {"lpips_weights_sha256", o.lpips_weights.empty() ? "" : Sha256File(o.lpips_weights)}};
   // Only in policy mode, so an open-loop report's config hash is what it always was.
   if (!o.policy_eval.policies.empty()) config["policy_eval"] = PolicyEvalConfigJson(o.policy_eval);
   return config;

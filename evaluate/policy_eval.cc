@@ -130,8 +130,8 @@ std::string ValuesCsv(const std::vector<PolicyRun>& runs) {
     const double n = static_cast<double>(e.episodes);
     csv += e.policy + "," + (e.in_distribution ? "true" : "false") + "," +
            std::to_string(e.episodes) + "," + std::to_string(std::lround(e.value * n)) + "," +
-           Cell(e.value) + "," + Cell(e.ci_low) + "," + Cell(e.ci_high) + "," +
-           Cell(returns / n) + "," + Cell(steps / n) + "\n";
+           Cell(e.value) + "," + Cell(e.ci_low) + "," + Cell(e.ci_high) + "," + Cell(returns / n) +
+           "," + Cell(steps / n) + "\n";
   }
   return csv;
 }
@@ -167,16 +167,17 @@ void WriteWpe(const EvalOptions& o, const std::string& dir, const std::string& c
               const std::vector<PolicyRun>& runs) {
   std::vector<PolicyEstimate> model;
   for (const PolicyRun& run : runs) model.push_back(Estimate(run));
-  const std::vector<WpeRow> rows = PairWithTruth(
-      model, ReadTrueValues(o.policy_eval.true_values), o.policy_eval.true_values);
+  const std::vector<WpeRow> rows =
+      PairWithTruth(model, ReadTrueValues(o.policy_eval.true_values), o.policy_eval.true_values);
   nlohmann::json provenance = MakeProvenance("wm-eval", EvalConfigJson(o));
   provenance["inputs"] = {{"checkpoint_sha256", Sha256File(checkpoint_file)},
                           {"true_values_sha256", Sha256File(o.policy_eval.true_values)}};
   const WpeSummary s = SummarizeWpe(rows);
   WriteWpeReport(dir, rows, s, provenance);
-  spdlog::info("WPE over {} policies: Spearman {:.3f}, Kendall {:.3f}, pairwise accuracy {:.3f}, "
-               "mean |gap| {:.3f}", s.num_policies, s.spearman, s.kendall, s.pairwise_accuracy,
-               s.mean_abs_gap);
+  spdlog::info(
+      "WPE over {} policies: Spearman {:.3f}, Kendall {:.3f}, pairwise accuracy {:.3f}, "
+      "mean |gap| {:.3f}",
+      s.num_policies, s.spearman, s.kendall, s.pairwise_accuracy, s.mean_abs_gap);
 }
 
 }  // namespace

@@ -19,7 +19,7 @@ struct EvalOptions;
 struct PolicyEvalOptions {
   std::vector<policy::PolicySpec> policies;  // empty: wm-eval's open-loop evaluation
   ClosedLoopOptions loop;
-  std::string true_values;  // wm-sim-policy's policy_values.json; empty: no WPE report
+  std::string true_values;      // wm-sim-policy's policy_values.json; empty: no WPE report
   double step_timeout_s = 30;   // per policy answer
   double start_timeout_s = 60;  // for the policy's hello
 };

@@ -120,8 +120,8 @@ std::vector<EpisodeRollout> Rollout(const train::DynamicsModel& model,
         auto slots = mode == RolloutMode::kPlain ? PlainContext(actions, t, context)
                                                  : RetraceContext(actions, t, context);
         if (s == 0) r.contexts.push_back(slots);
-        const ImaginedFrame next = ImagineNextFrame(
-            model, frames, slots, policy_z, ImaginationSeed(o.seed, r.episode, s, t), o);
+        const ImaginedFrame next = ImagineNextFrame(model, frames, slots, policy_z,
+                                                    ImaginationSeed(o.seed, r.episode, s, t), o);
         r.rewards[s].push_back(next.reward);
         frames.insert(frames.end(), next.tokens.begin(), next.tokens.end());
       }

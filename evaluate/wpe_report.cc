@@ -78,8 +78,8 @@ WpeSummary SummarizeWpe(const std::vector<WpeRow>& rows) {
   return s;
 }
 
-void WriteWpeReport(const std::string& dir, const std::vector<WpeRow>& rows,
-                    const WpeSummary& s, const json& provenance) {
+void WriteWpeReport(const std::string& dir, const std::vector<WpeRow>& rows, const WpeSummary& s,
+                    const json& provenance) {
   std::string csv =
       "policy,in_distribution,true_value,true_ci_low,true_ci_high,true_episodes,wm_value,"
       "wm_ci_low,wm_ci_high,wm_episodes,gap,abs_gap\n";

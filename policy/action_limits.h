@@ -13,8 +13,8 @@ inline constexpr double kTabletopMaxRotationStep = 0.25;
 // Clamps the 7 values at `action` ([dx, dy, dz, droll, dpitch, dyaw, gripper]) in place.
 inline void ClampTabletopAction(float* action) {
   for (int i = 0; i < 3; ++i) {
-    action[i] = static_cast<float>(std::clamp<double>(action[i], -kTabletopMaxTranslationStep,
-                                                      kTabletopMaxTranslationStep));
+    action[i] = static_cast<float>(
+        std::clamp<double>(action[i], -kTabletopMaxTranslationStep, kTabletopMaxTranslationStep));
     action[i + 3] = static_cast<float>(
         std::clamp<double>(action[i + 3], -kTabletopMaxRotationStep, kTabletopMaxRotationStep));
   }

@@ -39,13 +39,12 @@ std::vector<PolicySpec> LoadPolicyList(const std::string& path) {
           {.file = path, .key = "policies"});
     for (size_t i = 0; i < list.size(); ++i) {
       const YAML::Node& n = list[i];
-      const ErrorContext at{.file = path, .record = static_cast<int64_t>(i),
-                            .record_label = "policy"};
+      const ErrorContext at{
+          .file = path, .record = static_cast<int64_t>(i), .record_label = "policy"};
       Check(n.IsMap(), "each policy is a map with name and command", at);
       for (const auto& field : n) {
         const std::string key = field.first.as<std::string>();
-        Check(key == "name" || key == "command" || key == "in_distribution" ||
-                  key == "description",
+        Check(key == "name" || key == "command" || key == "in_distribution" || key == "description",
               "unknown field '" + key + "' (name, command, in_distribution, description)", at);
       }
       Check(n["name"] && n["command"], "a policy needs 'name' and 'command'", at);
@@ -70,8 +69,8 @@ std::vector<PolicySpec> CollectPolicies(const std::string& list,
   std::vector<PolicySpec> out;
   if (!list.empty()) out = LoadPolicyList(list);
   for (const std::string& s : specs) {
-    const bool is_list = s.find('=') == std::string::npos &&
-                         (s.ends_with(".yaml") || s.ends_with(".yml"));
+    const bool is_list =
+        s.find('=') == std::string::npos && (s.ends_with(".yaml") || s.ends_with(".yml"));
     if (!is_list) {
       out.push_back(ParsePolicySpec(s));
       continue;
