@@ -14,4 +14,6 @@ void InitLogging(const std::string& level) {
 
 void LogInfo(const std::string& message) { spdlog::info("{}", message); }
 
+void LogWarn(const std::string& message) { spdlog::warn("{}", message); }
+
 }  // namespace wm

@@ -9,7 +9,8 @@ namespace wm {
 // Sets the global level ("info" default; "debug" with --verbose) and the line format.
 void InitLogging(const std::string& level = "info");
 
-// One line at info level (spdlog::info, for files that include torch).
+// One line at info / warn level (spdlog, for files that include torch).
 void LogInfo(const std::string& message);
+void LogWarn(const std::string& message);
 
 }  // namespace wm

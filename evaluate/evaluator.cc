@@ -139,7 +139,8 @@ std::vector<EpisodeRecord> ScoreEpisodes(const EvalOptions& o, const std::string
       const auto& psnr = rec.scores[copy].at("psnr");
       if (!perturbed.empty()) rec.scores[copy]["delta_tpsnr"] = DeltaPsnr(psnr, psnr);
     }
-    for (int64_t s = 0; s < h; ++s) rec.real_return += ep.rewards.at(s);
+    // Imagined frames are 1..h; each carries its step's reward, as the logged frames do.
+    for (int64_t s = 1; s <= h; ++s) rec.real_return += ep.rewards.at(s);
     std::map<std::string, Clip> first_samples;
     for (RolloutMode mode : o.modes) {
       const std::string kind = RolloutName(mode);

@@ -65,7 +65,7 @@ ImaginedFrame ImagineNextFrame(const train::DynamicsModel& model,
   c.row_seeds = {row_seed};
   ImaginedFrame out;
   out.tokens = model.PredictNextFrame(c, 0, o.decode_steps, o.temperature);  // [N]
-  // The reward of step t -> t+1 from the context extended by the new frame.
+  // The reward and terminal flag of the new frame's step, from the context extended by it.
   c.frames += 1;
   c.tokens.insert(c.tokens.end(), out.tokens.begin(), out.tokens.end());
   c.actions.insert(c.actions.end(), kActionDim, 0.f);  // unused last action

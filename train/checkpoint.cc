@@ -21,6 +21,7 @@ nlohmann::json MetaToJson(const CheckpointMeta& m) {
           {"action_norms", m.action_norms},
           {"tokenizer", m.tokenizer},
           {"rng", m.rng},
+          {"reward_target", m.reward_target},
           {"model", "wm-dynamics"}};
 }
 
@@ -36,6 +37,7 @@ CheckpointMeta MetaFromJson(const nlohmann::json& j, const std::string& file) {
     m.action_norms = j.at("action_norms");
     m.tokenizer = j.at("tokenizer");
     m.rng = j.at("rng");
+    m.reward_target = j.value("reward_target", "previous_step");
     return m;
   } catch (const nlohmann::json::exception& e) {
     throw Error("bad checkpoint meta: " + std::string(e.what()), {.file = file});
@@ -68,6 +70,7 @@ void WriteManifest(const std::string& run_dir, const CheckpointMeta& meta,
   manifest["tokenizer"] = meta.tokenizer;
   manifest["action_norms"] = meta.action_norms;
   manifest["rng"] = meta.rng;
+  manifest["reward_target"] = meta.reward_target;
   WriteFileAtomically((fs::path(run_dir) / kManifestFile).string(), manifest.dump(2) + "\n");
 }
 

@@ -13,6 +13,7 @@
 namespace wm::train {
 
 inline constexpr const char* kManifestFile = "checkpoint.json";
+inline constexpr const char* kRewardTargetFrame = "frame";
 
 // What the archive's meta holds besides the tensors. The config and action statistics make the
 // archive self-contained for the public model API (train/dynamics_model.h).
@@ -23,6 +24,9 @@ struct CheckpointMeta {
   nlohmann::json action_norms;  // {dataset: {mean, std}}
   nlohmann::json tokenizer;     // {checkpoint_sha256, config_hash, num_codes, grid_h, grid_w}
   nlohmann::json rng;           // counter-based: {"scheme", "seed"}
+  // Which step the reward head of position j predicts: "frame" = step j (RLDS's reward logged
+  // with frame j). Checkpoints without the key predicted step j-1 and never saw a final reward.
+  std::string reward_target = kRewardTargetFrame;
 };
 
 nlohmann::json MetaToJson(const CheckpointMeta& meta);

@@ -4,6 +4,7 @@
 
 
 #include "core/error.h"
+#include "core/log.h"
 #include "train/batch.h"
 #include "train/checkpoint.h"
 #include "train/segment_sampler.h"
@@ -74,6 +75,11 @@ std::unique_ptr<DynamicsModel> DynamicsModel::Load(const std::string& path,
   s.config = ConfigFromJson(meta.config);
   ValidateConfig(s.config, file);
   s.step = meta.step;
+  if (meta.reward_target != kRewardTargetFrame) {
+    LogWarn(file + ": trained before the reward head predicted each frame's own step, so its "
+                   "rewards and terminal flags are one step late and never saw a final reward; "
+                   "retrain it for value metrics (its frames are unaffected)");
+  }
   s.device = torch::Device(device);
   Check(!s.device.is_cuda() || torch::cuda::is_available(),
         "device " + device + " requested but CUDA is not available");
@@ -125,16 +131,13 @@ std::vector<int64_t> DynamicsModel::PredictNextFrame(const FrameContext& context
 RewardPrediction DynamicsModel::PredictRewards(const FrameContext& context) const {
   torch::NoGradGuard no_grad;
   State& s = *state_;  // unique_ptr: const API, non-const state
-  Check(context.frames >= 2 && context.frames <= s.config.model.context_frames,
-        "reward prediction needs 2.." + std::to_string(s.config.model.context_frames) + " frames");
+  Check(context.frames >= 1 && context.frames <= s.config.model.context_frames,
+        "reward prediction needs 1.." + std::to_string(s.config.model.context_frames) + " frames");
   torch::Tensor tokens, actions, z;
   s.Tensors(context, context.frames, tokens, actions, z);
   DynamicsOutput out = s.model->Dynamics(tokens, actions, z);
-  const int64_t T = tokens.size(1);
-  // Position j >= 1 predicts the reward of step j-1.
-  torch::Tensor r = out.reward.slice(1, 1, T).to(torch::kCPU, torch::kFloat).contiguous();
-  torch::Tensor p =
-      torch::sigmoid(out.terminal_logit.slice(1, 1, T)).to(torch::kCPU, torch::kFloat).contiguous();
+  torch::Tensor r = out.reward.to(torch::kCPU, torch::kFloat).contiguous();  // position j: step j
+  torch::Tensor p = torch::sigmoid(out.terminal_logit).to(torch::kCPU, torch::kFloat).contiguous();
   return {std::vector<float>(r.data_ptr<float>(), r.data_ptr<float>() + r.numel()),
           std::vector<float>(p.data_ptr<float>(), p.data_ptr<float>() + p.numel())};
 }

@@ -25,9 +25,10 @@ struct FrameContext {
   std::vector<uint64_t> row_seeds;
 };
 
+// Per frame t, the reward and terminal flag RLDS logs with observation t (step t).
 struct RewardPrediction {
-  std::vector<float> reward;         // [batch, frames - 1]: r_t of step t -> t+1
-  std::vector<float> terminal_prob;  // [batch, frames - 1]: P(is_terminal_t)
+  std::vector<float> reward;         // [batch, frames]: r_t
+  std::vector<float> terminal_prob;  // [batch, frames]: P(is_terminal_t)
 };
 
 class DynamicsModel {
@@ -57,7 +58,7 @@ class DynamicsModel {
   // frame depends only on its own context and seed, not on the other rows.
   std::vector<int64_t> PredictNextFrame(const FrameContext& context, uint64_t seed = 0,
                                         int steps = 0, double temperature = -1) const;
-  // Reward and terminal probability of each step between the context's frames.
+  // Reward and terminal probability of each of the context's frames (step t of frame t).
   RewardPrediction PredictRewards(const FrameContext& context) const;
   // The prior's z_h class probabilities after the last frame [batch, categories * classes];
   // empty without policy conditioning.

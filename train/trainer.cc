@@ -167,6 +167,10 @@ TrainSummary TrainDynamics(const TrainOptions& o) {
   int64_t step = 0;
   if (o.resume && fs::exists(ckpt)) {
     const CheckpointMeta loaded = LoadCheckpoint(ckpt, model, &adamw, &config_json);
+    Check(loaded.reward_target == kRewardTargetFrame,
+          "checkpoint trained with the earlier reward alignment (position j predicting step j-1); "
+          "resuming would switch its reward target mid-run: start a new run directory",
+          {.file = ckpt, .key = "meta.reward_target"});
     step = meta.step = loaded.step;
     meta.adamw_step = loaded.adamw_step;
     if (writer) {

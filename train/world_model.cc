@@ -162,10 +162,11 @@ WorldModelLosses WorldModelImpl::Losses(const SegmentBatch& b) {
     torch::Tensor hit = (logits.argmax(-1).reshape({-1}) == target.reshape({-1}));
     l.token_accuracy = ((hit.to(m.scalar_type()) * m).sum() / n).item<double>();
   }
-  // Position j >= 1 predicts the reward and terminal flag of step j-1.
-  l.reward_mse = F::mse_loss(out.reward.slice(1, 1, T), b.rewards.slice(1, 0, T - 1));
-  l.terminal_bce = F::binary_cross_entropy_with_logits(out.terminal_logit.slice(1, 1, T),
-                                                       b.terminals.slice(1, 0, T - 1));
+  // Position j predicts the reward and terminal flag of step j, the ones RLDS logs with frame j
+  // (tabletop's reward 1 comes with the frame showing the block in the goal, on an episode's last
+  // step: a target only a position that sees that frame can learn).
+  l.reward_mse = F::mse_loss(out.reward, b.rewards);
+  l.terminal_bce = F::binary_cross_entropy_with_logits(out.terminal_logit, b.terminals);
   const TrainConfig& t = config.train;
   l.dynamics = l.token_ce + t.reward_weight * l.reward_mse + t.terminal_weight * l.terminal_bce;
   l.total = l.policy ? l.dynamics + t.policy_weight * l.policy->loss : l.dynamics;

@@ -229,8 +229,8 @@ class WorldModel(nn.Module):
         ce = F.cross_entropy(logits.reshape(-1, k), target.reshape(-1), reduction="none")
         m = mask.reshape(-1).float()
         out["token_ce"] = (ce * m).sum() / m.sum().clamp_min(1)
-        out["reward_mse"] = F.mse_loss(reward[:, 1:], rewards[:, :-1])
-        out["terminal_bce"] = F.binary_cross_entropy_with_logits(terminal[:, 1:], terminals[:, :-1])
+        out["reward_mse"] = F.mse_loss(reward, rewards)  # position j: step j
+        out["terminal_bce"] = F.binary_cross_entropy_with_logits(terminal, terminals)
         total = (out["token_ce"] + t_cfg["reward_weight"] * out["reward_mse"] +
                  t_cfg["terminal_weight"] * out["terminal_bce"])
         if self.policy is not None:

@@ -256,14 +256,45 @@ TEST_F(DynamicsTrainTest, ModelApiPredictsFramesAndRewards) {
   EXPECT_EQ(next.size(), 32u);
   EXPECT_EQ(next, model->PredictNextFrame(ctx, 7));
   RewardPrediction r = model->PredictRewards(ctx);
-  EXPECT_EQ(r.reward.size(), 4u);
-  EXPECT_EQ(r.terminal_prob.size(), 4u);
+  EXPECT_EQ(r.reward.size(), 6u);  // 2 rows x 3 frames
+  EXPECT_EQ(r.terminal_prob.size(), 6u);
   EXPECT_EQ(model->PolicyEmbedding(ctx).size(), 2u * 16);
   ctx.policy_z.assign(2 * 16, 1.0f / 4);
   EXPECT_EQ(model->PredictNextFrame(ctx, 7).size(), 32u);
   ctx.tokens[0] = 99;
   EXPECT_NE(wm::test::ErrorText([&] { model->PredictNextFrame(ctx); }).find("num_codes"),
             std::string::npos);
+}
+
+// The final step's reward (the only non-zero one, as on tabletop, where it comes with the frame
+// showing success) must be a training target: a next-frame model then predicts it on the frame
+// whose step earns it. Before position j was paired with step j, no window ever scored it.
+TEST_F(DynamicsTrainTest, RewardHeadLearnsTheFinalStepsReward) {
+  TrainOptions o = Options("run", 600);
+  o.config.model.objective = "next_frame";
+  TrainDynamics(o);
+  auto model = DynamicsModel::Load(dir_ / "run");
+  const tokens::TokenDataset data(dir_ / "tokens");
+  const int64_t n = data.tokens_per_frame(), window = model->max_context_frames();
+  std::vector<float> rewarded, unrewarded;  // predictions on each episode's last window
+  for (int64_t k = 0; k < data.num_episodes(); ++k) {
+    const int64_t frames = data.episode(k).num_frames, first = std::max<int64_t>(0, frames - window);
+    FrameContext c{.batch = 1, .frames = frames - first};
+    c.tokens.resize(static_cast<size_t>(c.frames * n));
+    data.CopyTokens(k, first, c.frames, c.tokens.data());
+    c.actions.assign(data.actions(k) + first * 7, data.actions(k) + frames * 7);
+    const RewardPrediction r = model->PredictRewards(c);
+    for (int64_t t = 0; t < c.frames; ++t) {
+      (data.rewards(k)[first + t] > 0.5f ? rewarded : unrewarded).push_back(r.reward[t]);
+    }
+  }
+  ASSERT_GE(rewarded.size(), 5u);
+  // AUROC: how often a rewarded step's prediction beats an unrewarded one's (0.5 = blind).
+  double ordered = 0;
+  for (float a : rewarded)
+    for (float b : unrewarded) ordered += a > b ? 1.0 : (a == b ? 0.5 : 0.0);
+  EXPECT_GT(ordered / (rewarded.size() * unrewarded.size()), 0.8)
+      << rewarded.size() << " rewarded steps, " << unrewarded.size() << " others";
 }
 
 TEST(DynamicsConfig, PresetsLoadAndErrorsNameFileAndKey) {
