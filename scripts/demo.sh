@@ -10,6 +10,9 @@ SEED=${SEED:-0}
 DYN_STEPS=${DYN_STEPS:-300}
 EARLY_STEPS=${EARLY_STEPS:-60}
 LOOK=${LOOK:-plain}  # varied: textured tables, harder (README, "Known limits")
+# Intra-op threads of the dynamics model: 2 on a quiet 2-core machine; 1 when other work shares
+# the cores (two spinning threads on a busy core run about 6x slower).
+DYN_THREADS=${DYN_THREADS:-2}
 RAW=$OUT/raw
 SHARDS=$OUT/shards
 start=$(date +%s)
@@ -64,7 +67,7 @@ echo "originals above reconstructions, val episode 0: $OUT/tokenizer_episode0.pn
 echo
 echo "== 5/6 dynamics model (configs/dynamics/tiny.yaml, $DYN_STEPS steps): early checkpoint at" \
   "step $EARLY_STEPS, then resumed to the end"
-DYN="--steps $DYN_STEPS --threads 2"
+DYN="--steps $DYN_STEPS --threads $DYN_THREADS"
 if [ ! -f "$RUN/early/dynamics/checkpoint.wmt" ]; then
   DYNAMICS_ARGS="$DYN --stop-after $EARLY_STEPS" bash scripts/train.sh "$BIN" "$RUN" \
     "$SHARDS/train" "$SHARDS/val"
