@@ -10,9 +10,9 @@ SEED=${SEED:-0}
 DYN_STEPS=${DYN_STEPS:-300}
 EARLY_STEPS=${EARLY_STEPS:-60}
 LOOK=${LOOK:-plain}  # varied: textured tables, harder (README, "Known limits")
-# Intra-op threads of the dynamics model: 2 on a quiet 2-core machine; 1 when other work shares
-# the cores (two spinning threads on a busy core run about 6x slower).
-DYN_THREADS=${DYN_THREADS:-2}
+# Intra-op threads of the dynamics model. 1 by default: 2 are faster only on a quiet machine,
+# but run about 6x slower when other work shares the cores (spinning threads).
+DYN_THREADS=${DYN_THREADS:-1}
 RAW=$OUT/raw
 SHARDS=$OUT/shards
 start=$(date +%s)

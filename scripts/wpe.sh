@@ -8,7 +8,7 @@
 # Settings (environment): SIM_EPISODES (100: episodes per policy in the simulator), STARTS (16:
 # held-out first frames the world model starts from, the demo's whole val split), HORIZON (40:
 # policy steps, as the simulator's), ROLLOUTS (1 per start), POLICIES (the policy list),
-# DYN_THREADS (2: the model's intra-op threads here and in scripts/demo.sh; 1 on a busy machine).
+# DYN_THREADS (1: the model's intra-op threads here and in scripts/demo.sh; 2 on a quiet machine).
 set -euo pipefail
 BIN=${1:-build/bin}
 OUT=${2:-data/wpe}
@@ -38,7 +38,7 @@ echo "== 3/3 the same policies closed loop in the world model ($STARTS starts x 
 "$BIN/wm-eval" --checkpoint "$DEMO/run/dynamics" --name dynamics \
   --tokenizer "$DEMO/run/tokenizer" --data "$DEMO/shards/val" --tokens "$DEMO/run/tokens/val" \
   --out "$OUT/reports" --episodes "$STARTS" --policy-horizon "$HORIZON" \
-  --policy-rollouts "$ROLLOUTS" --temperature 0 --threads "${DYN_THREADS:-2}" --policies "$POLICIES" \
+  --policy-rollouts "$ROLLOUTS" --temperature 0 --threads "${DYN_THREADS:-1}" --policies "$POLICIES" \
   --true-values "$OUT/truth/policy_values.json"
 
 echo
