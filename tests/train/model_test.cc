@@ -295,7 +295,7 @@ TEST(Overfit, TinyBatchReachesNearZeroLoss) {
   for (const auto& p : m->named_parameters()) named.emplace_back(p.key(), p.value());
   tokenize::AdamW opt(named, {.lr = 3e-3, .beta1 = 0.9, .beta2 = 0.99, .weight_decay = 0});
   WorldModelLosses l;
-  for (int step = 0; step < 150; ++step) {
+  for (int step = 0; step < 300; ++step) {  // 8 reward targets: one per position
     opt.ZeroGrad();
     l = m->Losses(b);
     l.total.backward();
