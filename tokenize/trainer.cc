@@ -2,37 +2,33 @@
 
 #include <torch/torch.h>
 
-#include <chrono>
-#include <cmath>
-#include <filesystem>
-#include <fstream>
 #include <future>
-#include <numbers>
 #include <optional>
 #include <sstream>
 
-#include "core/atomic_file.h"
 #include "core/error.h"
 #include "core/log.h"
-#include "core/paths.h"
 #include "core/progress.h"
 #include "core/provenance.h"
-#include "core/sha256.h"
-#include "core/step_log.h"
 #include "core/tensor_archive.h"
-#include "tokenize/adamw.h"
 #include "tokenize/frame_sampler.h"
-#include "tokenize/mixture.h"
-#include "tokenize/module_archive.h"
 #include "tokenize/tokenizer.h"
 #include "tokenize/validation.h"
 #include "tokenize/vqvae.h"
+#include "trainkit/adamw.h"
+#include "trainkit/mixture.h"
+#include "trainkit/module_archive.h"
+#include "trainkit/run_dir.h"
+#include "trainkit/schedule.h"
+#include "trainkit/step_log.h"
+#include "trainkit/torch_runtime.h"
 
 namespace wm::tokenize {
-namespace fs = std::filesystem;
 namespace {
 
-constexpr const char* kManifest = "checkpoint.json";
+using trainkit::AdamW;
+using trainkit::RunDir;
+
 constexpr const char* kMetrics = "metrics.csv";
 constexpr const char* kValMetrics = "val.csv";
 constexpr const char* kMetricsHeader =
@@ -61,35 +57,25 @@ nlohmann::json RngJson(const TrainState& s) {
   return {{"reseed_mt19937_64", RngText(s.reseed_rng)}};
 }
 
-// checkpoint.json describes checkpoint.wmt and is written after it. A kill between the two
-// renames leaves it describing the previous checkpoint, so resuming rewrites it from the archive.
-void WriteManifest(const TrainOptions& o, const TrainState& s) {
-  const std::string path = (fs::path(o.out_dir) / kCheckpointFile).string();
-  nlohmann::json manifest =
-      MakeProvenance("wm-tokenize train", ConfigToJson(o.config), {{"libtorch", TorchVersion()}});
-  manifest["step"] = s.step;
-  manifest["checkpoint"] = {
-      {"file", kCheckpointFile}, {"sha256", Sha256File(path)}, {"format", kTensorArchiveFormat}};
+// checkpoint.json: describes the checkpoint.wmt in `run` (RunDir::WriteCheckpoint).
+nlohmann::json Manifest(const TrainOptions& o, const RunDir& run, const TrainState& s) {
+  nlohmann::json manifest = run.Manifest("wm-tokenize train", ConfigToJson(o.config), s.step);
   manifest["data"] = s.sampler->DataProvenance();
   manifest["rng"] = RngJson(s);
-  WriteFileAtomically((fs::path(o.out_dir) / kManifest).string(), manifest.dump(2) + "\n");
+  return manifest;
 }
 
-void SaveCheckpoint(const TrainOptions& o, TrainState& s, const std::string& config_hash) {
+void SaveCheckpoint(const TrainOptions& o, const RunDir& run, TrainState& s,
+                    const std::string& config_hash) {
   TensorArchiveWriter w;
-  AddModule(w, "model/", *s.model);
-  const auto& params = s.optimizer->parameters();
-  for (size_t i = 0; i < params.size(); ++i) {
-    AddTensor(w, "adamw/exp_avg/" + params[i].first, s.optimizer->exp_avg()[i]);
-    AddTensor(w, "adamw/exp_avg_sq/" + params[i].first, s.optimizer->exp_avg_sq()[i]);
-  }
+  trainkit::AddModule(w, "model/", *s.model);
+  trainkit::AddAdamW(w, *s.optimizer);
   w.SetMeta({{"step", s.step},
              {"adamw_step", s.optimizer->step_count()},
              {"config", ConfigToJson(o.config)},  // makes the archive loadable on its own
              {"config_hash", config_hash},
              {"rng", RngJson(s)}});
-  w.Write((fs::path(o.out_dir) / kCheckpointFile).string());  // atomic
-  WriteManifest(o, s);
+  run.WriteCheckpoint(w, [&] { return Manifest(o, run, s); });
 }
 
 void LoadCheckpoint(const std::string& path, const nlohmann::json& config, TrainState& s) {
@@ -100,14 +86,9 @@ void LoadCheckpoint(const std::string& path, const nlohmann::json& config, Train
                       meta.contains("config") ? ConfigToJson(ConfigFromJson(meta.at("config")))
                                               : nlohmann::json(),
                       config);
-    LoadModule(r, "model/", *s.model);
-    const auto& params = s.optimizer->parameters();
-    for (size_t i = 0; i < params.size(); ++i) {
-      LoadTensor(r, "adamw/exp_avg/" + params[i].first, s.optimizer->exp_avg()[i]);
-      LoadTensor(r, "adamw/exp_avg_sq/" + params[i].first, s.optimizer->exp_avg_sq()[i]);
-    }
+    trainkit::LoadModule(r, "model/", *s.model);
+    trainkit::LoadAdamW(r, meta.at("adamw_step").get<int64_t>(), *s.optimizer);
     s.step = meta.at("step").get<int64_t>();
-    s.optimizer->set_step_count(meta.at("adamw_step").get<int64_t>());
     std::istringstream in(meta.at("rng").at("reseed_mt19937_64").get<std::string>());
     in >> s.reseed_rng;
     Check(!in.fail(), "corrupt reseed RNG state", {.key = "meta.rng"});
@@ -118,22 +99,15 @@ void LoadCheckpoint(const std::string& path, const nlohmann::json& config, Train
   }
 }
 
-void SetUpTorch(const TrainConfig& t, const torch::Device& device) {
-  torch::set_num_threads(t.threads);
-  // CPU kernels used here are deterministic for a fixed thread count; on CUDA some (bincount,
-  // index_copy_) are not, so there this only warns.
-  at::globalContext().setDeterministicAlgorithms(true, /*warn_only=*/device.is_cuda());
-  torch::manual_seed(t.seed);
-}
-
 std::unique_ptr<FrameSampler> MakeSampler(const TrainOptions& o,
                                           const std::vector<std::string>& dirs, uint64_t seed,
                                           bool use_mixture) {
   auto sampler = std::make_unique<FrameSampler>(dirs, o.config.data.image_key,
                                                 o.config.model.image_size, seed);
   if (!use_mixture || o.mixture_file.empty()) return sampler;
-  std::vector<double> weights = MixtureWeights(LoadMixture(o.mixture_file), o.mixture_file,
-                                               sampler->dataset_names(), sampler->step_counts());
+  std::vector<double> weights =
+      trainkit::MixtureWeights(trainkit::LoadMixture(o.mixture_file), o.mixture_file,
+                               sampler->dataset_names(), sampler->step_counts());
   return std::make_unique<FrameSampler>(dirs, o.config.data.image_key, o.config.model.image_size,
                                         seed, weights);
 }
@@ -142,8 +116,8 @@ std::unique_ptr<FrameSampler> MakeSampler(const TrainOptions& o,
 // val.csv rows scored on it.
 class Validation {
  public:
-  Validation(const TrainOptions& o, int64_t resume_step)
-      : size_(o.config.model.image_size), path_((fs::path(o.out_dir) / kValMetrics).string()) {
+  Validation(const TrainOptions& o, const RunDir& run, int64_t resume_step)
+      : size_(o.config.model.image_size), log_(run.File(kValMetrics), kValHeader, resume_step) {
     auto sampler = MakeSampler(o, o.val_dirs, Mix64(o.config.train.seed ^ 0x76616cull), false);
     const auto refs = sampler->BatchRefs(0, o.config.train.val_frames);
     frames_.resize(refs.size() * 3 * size_ * size_);
@@ -156,7 +130,6 @@ class Validation {
       std::vector<float>& e = episodes_.emplace_back(clip.size() * 3 * size_ * size_);
       sampler->Load(clip, e.data());
     }
-    TruncateStepLog(path_, kValHeader, resume_step);
   }
 
   ReconstructionScore Run(VqVae& model, const torch::Device& device, int64_t step) {
@@ -172,11 +145,10 @@ class Validation {
     const FlickerCounts flicker = Flicker(model, device);
     score.flicker = flicker.flicker();
     score.token_change_rate = flicker.change_rate();
-    std::ofstream out(path_, std::ios::app);
-    out << step << ',' << score.psnr << ',' << score.ssim << ',' << score.l1 << ',' << score.flicker
-        << ',' << score.token_change_rate << '\n';
-    out.flush();
-    Check(out.good(), "cannot append a row (disk full?)", {.file = path_});
+    std::ostringstream row;
+    row << step << ',' << score.psnr << ',' << score.ssim << ',' << score.l1 << ',' << score.flicker
+        << ',' << score.token_change_rate;
+    log_.Append(row.str());
     return score;
   }
 
@@ -204,7 +176,7 @@ class Validation {
   }
 
   int size_;
-  std::string path_;
+  trainkit::StepLog log_;
   std::vector<float> frames_;
   std::vector<float> anchors_;  // with model.anchor_decoder: each frame's (FixedGapAnchors)
   std::vector<std::vector<float>> episodes_;  // [T, 3, size, size] each, for Flicker
@@ -213,13 +185,10 @@ class Validation {
 }  // namespace
 
 double LearningRateAt(const TrainConfig& t, int64_t step) {
-  if (step < t.warmup_steps) return t.max_lr * static_cast<double>(step + 1) / t.warmup_steps;
-  const double span = std::max<int64_t>(1, t.steps - t.warmup_steps);
-  const double progress = std::min(1.0, static_cast<double>(step - t.warmup_steps) / span);
-  return t.min_lr + 0.5 * (t.max_lr - t.min_lr) * (1.0 + std::cos(std::numbers::pi * progress));
+  return trainkit::LearningRateAt(
+      {.max_lr = t.max_lr, .min_lr = t.min_lr, .warmup_steps = t.warmup_steps, .steps = t.steps},
+      step);
 }
-
-std::string TorchVersion() { return TORCH_VERSION; }
 
 TrainSummary TrainTokenizer(const TrainOptions& o) {
   const TokenizerConfig& cfg = o.config;
@@ -227,38 +196,32 @@ TrainSummary TrainTokenizer(const TrainOptions& o) {
   const torch::Device device(o.device);
   Check(!device.is_cuda() || torch::cuda::is_available(),
         "--device " + o.device + " requested but CUDA is not available");
-  fs::create_directories(o.out_dir);
-  const std::string ckpt = (fs::path(o.out_dir) / kCheckpointFile).string();
-  const std::string metrics_path = (fs::path(o.out_dir) / kMetrics).string();
-  Check(o.resume || !fs::exists(ckpt),
-        "run directory already has a checkpoint; pass --resume or choose another --out",
-        {.file = ckpt});
+  const RunDir run(o.out_dir, o.resume, /*create=*/true);
   const nlohmann::json config_json = ConfigToJson(cfg);
   const std::string config_hash = ConfigHash(config_json);
 
-  SetUpTorch(cfg.train, device);
+  trainkit::SetUpTorch(cfg.train.threads, cfg.train.seed, device.is_cuda());
   TrainState s;
   s.model = VqVae(cfg.model);
   s.model->to(device);
   std::vector<std::pair<std::string, torch::Tensor>> params;
   for (const auto& item : s.model->named_parameters())
     params.emplace_back(item.key(), item.value());
-  s.optimizer = std::make_unique<AdamW>(std::move(params),
-                                        AdamWOptions{.lr = cfg.train.max_lr,
-                                                     .beta1 = cfg.train.beta1,
-                                                     .beta2 = cfg.train.beta2,
-                                                     .weight_decay = cfg.train.weight_decay});
+  s.optimizer = std::make_unique<AdamW>(
+      std::move(params), trainkit::AdamWOptions{.lr = cfg.train.max_lr,
+                                                .beta1 = cfg.train.beta1,
+                                                .beta2 = cfg.train.beta2,
+                                                .weight_decay = cfg.train.weight_decay});
   s.sampler = MakeSampler(o, o.data_dirs, cfg.train.seed, /*use_mixture=*/true);
   s.reseed_rng.seed(cfg.train.seed ^ 0x9E3779B97F4A7C15ull);
-  if (o.resume && fs::exists(ckpt)) {
-    LoadCheckpoint(ckpt, config_json, s);
-    LogInfo("resuming " + ckpt + " at step " + std::to_string(s.step));
-    WriteManifest(o, s);
+  if (run.resuming()) {
+    LoadCheckpoint(run.checkpoint(), config_json, s);
+    LogInfo("resuming " + run.checkpoint() + " at step " + std::to_string(s.step));
+    run.WriteManifest(Manifest(o, run, s));  // may describe an older archive
   }
-  TruncateStepLog(metrics_path, kMetricsHeader, s.step);
-  std::ofstream metrics(metrics_path, std::ios::app);
+  trainkit::StepLog metrics(run.File(kMetrics), kMetricsHeader, s.step);
   std::optional<Validation> val;
-  if (!o.val_dirs.empty()) val.emplace(o, s.step);
+  if (!o.val_dirs.empty()) val.emplace(o, run, s.step);
 
   TrainSummary summary;
   summary.start_step = s.step;
@@ -284,8 +247,7 @@ TrainSummary TrainTokenizer(const TrainOptions& o) {
   };
   std::future<std::vector<float>> pending;
   if (s.step < stop) pending = std::async(std::launch::async, load, s.step);
-  auto window_start = std::chrono::steady_clock::now();
-  int64_t window_frames = 0;
+  trainkit::ThroughputWindow window;
   while (s.step < stop) {
     std::vector<float> batch = pending.get();
     if (s.step + 1 < stop) pending = std::async(std::launch::async, load, s.step + 1);
@@ -308,7 +270,7 @@ TrainSummary TrainTokenizer(const TrainOptions& o) {
     const int64_t reseeded = s.model->quantizer->UpdateUsageAndReseed(
         out.quant, cfg.model.dead_code_steps, s.reseed_rng);
     ++s.step;
-    window_frames += B;
+    window.Add(B);
     const bool first = s.step == summary.start_step + 1;
     // Rows depend only on the step, so a resumed run's metrics.csv has the same rows.
     const bool log_row = s.step % cfg.train.log_every == 0 || s.step == cfg.train.steps;
@@ -319,17 +281,11 @@ TrainSummary TrainTokenizer(const TrainOptions& o) {
       summary.last_recon_l1 = l1;
       summary.last_perplexity = out.quant.perplexity;
       if (log_row) {
-        const auto now = std::chrono::steady_clock::now();
-        const double secs = std::chrono::duration<double>(now - window_start).count();
-        metrics << s.step << ',' << loss << ',' << l1 << ','
-                << out.quant.codebook_loss.item<double>() << ','
-                << out.quant.commitment.item<double>() << ',' << out.quant.perplexity << ','
-                << out.quant.usage << ',' << reseeded << ',' << lr << ','
-                << (secs > 0 ? window_frames / secs : 0.0) << '\n';
-        metrics.flush();
-        Check(metrics.good(), "cannot append a row (disk full?)", {.file = metrics_path});
-        window_start = now;
-        window_frames = 0;
+        std::ostringstream row;
+        row << s.step << ',' << loss << ',' << l1 << ',' << out.quant.codebook_loss.item<double>()
+            << ',' << out.quant.commitment.item<double>() << ',' << out.quant.perplexity << ','
+            << out.quant.usage << ',' << reseeded << ',' << lr << ',' << window.TakeRate();
+        metrics.Append(row.str());
       }
     }
     if (val && (s.step == cfg.train.steps ||
@@ -337,13 +293,13 @@ TrainSummary TrainTokenizer(const TrainOptions& o) {
       summary.val = val->Run(s.model, device, s.step);
     }
     if (s.step % cfg.train.checkpoint_every == 0 || s.step == stop) {
-      SaveCheckpoint(o, s, config_hash);
+      SaveCheckpoint(o, run, s, config_hash);
     }
     if (progress) progress->Add(1);
   }
   if (progress) progress->Finish();
   summary.end_step = s.step;
-  summary.checkpoint_path = ckpt;
+  summary.checkpoint_path = run.checkpoint();
   return summary;
 }
 

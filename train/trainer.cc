@@ -4,24 +4,23 @@
 #include <torch/torch.h>
 
 #include <chrono>
-#include <filesystem>
-#include <fstream>
 #include <optional>
+#include <sstream>
 
-#include "core/atomic_file.h"
 #include "core/error.h"
 #include "core/log.h"
 #include "core/progress.h"
 #include "core/provenance.h"
-#include "core/step_log.h"
-#include "tokenize/adamw.h"
-#include "tokenize/trainer.h"
 #include "train/batch.h"
 #include "train/checkpoint.h"
 #include "train/distributed.h"
+#include "trainkit/adamw.h"
+#include "trainkit/run_dir.h"
+#include "trainkit/schedule.h"
+#include "trainkit/step_log.h"
+#include "trainkit/torch_runtime.h"
 
 namespace wm::train {
-namespace fs = std::filesystem;
 namespace {
 
 constexpr const char* kMetrics = "metrics.csv";
@@ -90,12 +89,9 @@ void Clip(const std::vector<torch::Tensor>& params, double max_norm) {
 }  // namespace
 
 double LearningRateAt(const TrainConfig& t, int64_t step) {
-  tokenize::TrainConfig schedule;
-  schedule.max_lr = t.max_lr;
-  schedule.min_lr = t.min_lr;
-  schedule.warmup_steps = t.warmup_steps;
-  schedule.steps = t.steps;
-  return tokenize::LearningRateAt(schedule, step);
+  return trainkit::LearningRateAt(
+      {.max_lr = t.max_lr, .min_lr = t.min_lr, .warmup_steps = t.warmup_steps, .steps = t.steps},
+      step);
 }
 
 TrainSummary TrainDynamics(const TrainOptions& o) {
@@ -110,12 +106,7 @@ TrainSummary TrainDynamics(const TrainOptions& o) {
             std::to_string(o.world_size) + " data-parallel ranks",
         {.key = "train.batch_size"});
   const bool writer = o.rank == 0;
-  const std::string ckpt = (fs::path(o.out_dir) / kCheckpointFile).string();
-  const std::string metrics_path = (fs::path(o.out_dir) / kMetrics).string();
-  Check(o.resume || !fs::exists(ckpt),
-        "run directory already has a checkpoint; pass --resume or choose another --out",
-        {.file = ckpt});
-  if (writer) fs::create_directories(o.out_dir);
+  const trainkit::RunDir run(o.out_dir, o.resume, /*create=*/writer);
   const nlohmann::json config_json = ConfigToJson(cfg);
   const std::string config_hash = ConfigHash(config_json);
 
@@ -133,9 +124,7 @@ TrainSummary TrainDynamics(const TrainOptions& o) {
   if (!o.val_dir.empty())
     val.emplace(std::vector<std::string>{o.val_dir}, cfg.model.context_frames);
 
-  torch::set_num_threads(tc.threads);
-  at::globalContext().setDeterministicAlgorithms(true, /*warn_only=*/device.is_cuda());
-  torch::manual_seed(tc.seed);
+  trainkit::SetUpTorch(tc.threads, tc.seed, device.is_cuda());
   WorldModel model(cfg);
   model->to(device);
   std::vector<std::pair<std::string, torch::Tensor>> named;
@@ -147,9 +136,9 @@ TrainSummary TrainDynamics(const TrainOptions& o) {
     all_params.push_back(item.value());
     num_parameters += item.value().numel();
   }
-  tokenize::AdamW adamw(
+  trainkit::AdamW adamw(
       named,
-      tokenize::AdamWOptions{
+      trainkit::AdamWOptions{
           .lr = tc.max_lr, .beta1 = tc.beta1, .beta2 = tc.beta2, .weight_decay = tc.weight_decay});
   CheckpointMeta meta;
   meta.config = config_json;
@@ -165,17 +154,17 @@ TrainSummary TrainDynamics(const TrainOptions& o) {
                "noise; no state beyond seed and step"},
               {"seed", tc.seed}};
   int64_t step = 0;
-  if (o.resume && fs::exists(ckpt)) {
-    const CheckpointMeta loaded = LoadCheckpoint(ckpt, model, &adamw, &config_json);
+  if (run.resuming()) {
+    const CheckpointMeta loaded = LoadCheckpoint(run.checkpoint(), model, &adamw, &config_json);
     Check(loaded.reward_target == kRewardTargetFrame,
           "checkpoint trained with the earlier reward alignment (position j predicting step j-1); "
           "resuming would switch its reward target mid-run: start a new run directory",
-          {.file = ckpt, .key = "meta.reward_target"});
+          {.file = run.checkpoint(), .key = "meta.reward_target"});
     step = meta.step = loaded.step;
     meta.adamw_step = loaded.adamw_step;
     if (writer) {
-      LogInfo("resuming " + ckpt + " at step " + std::to_string(step));
-      WriteManifest(o.out_dir, meta, sampler.DataProvenance());  // may describe an older archive
+      LogInfo("resuming " + run.checkpoint() + " at step " + std::to_string(step));
+      run.WriteManifest(Manifest(run, meta, sampler.DataProvenance()));  // maybe an older archive
     }
   }
   GradientReducer reducer({o.rank, o.world_size, o.master_addr, o.master_port}, device);
@@ -183,11 +172,8 @@ TrainSummary TrainDynamics(const TrainOptions& o) {
     LogInfo("data parallel: " + std::to_string(o.world_size) + " ranks, " + reducer.backend() +
             " backend");
   }
-  std::ofstream metrics;
-  if (writer) {
-    TruncateStepLog(metrics_path, kMetricsHeader, step);
-    metrics.open(metrics_path, std::ios::app);
-  }
+  std::optional<trainkit::StepLog> metrics;
+  if (writer) metrics.emplace(run.File(kMetrics), kMetricsHeader, step);
 
   TrainSummary summary;
   summary.start_step = step;
@@ -202,8 +188,7 @@ TrainSummary TrainDynamics(const TrainOptions& o) {
   const bool bf16 = device.is_cuda() && tc.bf16;
   SegmentData data;
   const auto run_start = std::chrono::steady_clock::now();
-  auto window_start = run_start;
-  int64_t window_steps = 0;
+  trainkit::ThroughputWindow window;
   while (step < stop) {
     const auto refs = sampler.Draw(tc.seed, step, tc.batch_size);
     sampler.Fill(refs, first_row, local, data);
@@ -230,7 +215,7 @@ TrainSummary TrainDynamics(const TrainOptions& o) {
     Clip(policy_params, tc.grad_clip);
     adamw.Step();
     ++step;
-    ++window_steps;
+    window.Add(tokens_per_step);
     const bool first = step == summary.start_step + 1;
     // Rows depend only on the step, so a resumed run's metrics.csv has the same rows.
     const bool log_row = step % tc.log_every == 0 || step == tc.steps;
@@ -254,26 +239,20 @@ TrainSummary TrainDynamics(const TrainOptions& o) {
       summary.last_token_ce = s[1];
       summary.last_token_accuracy = s[2];
       if (log_row && writer) {
-        const auto now = std::chrono::steady_clock::now();
-        const double secs = std::chrono::duration<double>(now - window_start).count();
-        metrics << step << ',' << s[0] << ',' << s[1] << ',' << s[2] << ',' << s[3] << ',' << s[4]
-                << ',' << s[5] << ',' << s[6] << ',' << lr << ','
-                << (secs > 0 ? window_steps * tokens_per_step / secs : 0.0) << ',';
+        std::ostringstream row;
+        row << step << ',' << s[0] << ',' << s[1] << ',' << s[2] << ',' << s[3] << ',' << s[4]
+            << ',' << s[5] << ',' << s[6] << ',' << lr << ',' << window.TakeRate() << ',';
         if (val_now)
-          metrics << summary.last_val_token_ce << ',' << summary.last_val_token_accuracy;
+          row << summary.last_val_token_ce << ',' << summary.last_val_token_accuracy;
         else
-          metrics << ',';
-        metrics << '\n';
-        metrics.flush();
-        Check(metrics.good(), "cannot append a row (disk full?)", {.file = metrics_path});
-        window_start = now;
-        window_steps = 0;
+          row << ',';
+        metrics->Append(row.str());
       }
     }
     if (writer && (step % tc.checkpoint_every == 0 || step == stop)) {
       meta.step = step;
       meta.adamw_step = adamw.step_count();
-      SaveCheckpoint(o.out_dir, model, adamw, meta, sampler.DataProvenance());
+      SaveCheckpoint(run, model, adamw, meta, sampler.DataProvenance());
     }
     if (progress) progress->Add(1);
   }
@@ -285,7 +264,7 @@ TrainSummary TrainDynamics(const TrainOptions& o) {
     summary.tokens_per_second = summary.steps_per_second * tokens_per_step;
   }
   summary.end_step = step;
-  summary.checkpoint_path = ckpt;
+  summary.checkpoint_path = run.checkpoint();
   return summary;
 }
 

@@ -1,0 +1,19 @@
+#pragma once
+// The learning-rate schedule both trainers use (torch-free).
+#include <cstdint>
+
+namespace wm::trainkit {
+
+// The train-section fields that shape the schedule (docs/config.md).
+struct LrSchedule {
+  double max_lr = 3e-4;
+  double min_lr = 3e-5;
+  int64_t warmup_steps = 100;
+  int64_t steps = 2000;  // train.steps: where the cosine reaches min_lr
+};
+
+// lr at `step` (0-based): linear warmup to max_lr over warmup_steps, then cosine to min_lr at
+// `steps`.
+double LearningRateAt(const LrSchedule& schedule, int64_t step);
+
+}  // namespace wm::trainkit

@@ -1,0 +1,15 @@
+#include "trainkit/torch_runtime.h"
+
+#include <torch/torch.h>
+
+namespace wm::trainkit {
+
+std::string TorchVersion() { return TORCH_VERSION; }
+
+void SetUpTorch(int threads, uint64_t seed, bool cuda) {
+  torch::set_num_threads(threads);
+  at::globalContext().setDeterministicAlgorithms(true, /*warn_only=*/cuda);
+  torch::manual_seed(seed);
+}
+
+}  // namespace wm::trainkit
