@@ -12,6 +12,7 @@
 #include "trainkit/run_dir.h"
 #include "trainkit/schedule.h"
 #include "trainkit/step_log.h"
+#include "trainkit/training_loop.h"
 
 namespace wm::trainkit {
 namespace {
@@ -96,6 +97,40 @@ TEST(RunDir, WritesTheArchiveBeforeItsManifestAndRefusesToOverwriteIt) {
             std::string::npos);
   EXPECT_TRUE(RunDir(dir / "run", /*resume=*/true, /*create=*/false).resuming());
   EXPECT_FALSE(RunDir(dir / "other", /*resume=*/true, /*create=*/false).resuming());
+}
+
+// Records what the loop asks of it; rows carry the step so the log shows which steps logged.
+class RecordingStage : public TrainingStage {
+ public:
+  void Train(int64_t step, int64_t) override { trained.push_back(step); }
+  int64_t UnitsPerStep() const override { return 4; }
+  std::optional<MetricsRow> Finish(const StepInfo& info) override {
+    if (info.first) firsts.push_back(info.step);
+    if (!info.log_row) return std::nullopt;
+    return MetricsRow{.before = "x" + std::to_string(info.step), .after = ",end"};
+  }
+  void SaveCheckpoint(int64_t step) override { checkpoints.push_back(step); }
+  std::vector<int64_t> trained, firsts, checkpoints;
+};
+
+TEST(TrainingLoop, RowsAndCheckpointsDependOnlyOnTheStep) {
+  test::TempDir dir;
+  const LoopOptions o{
+      .start_step = 2, .steps = 7, .max_steps_this_run = 4, .log_every = 3, .checkpoint_every = 5};
+  RecordingStage stage;
+  StepLog log(dir / "metrics.csv", "step,x,rate,end", 2);
+  EXPECT_EQ(RunTrainingLoop(o, stage, &log), 6);  // stops early, after 4 steps
+  EXPECT_EQ(stage.trained, (std::vector<int64_t>{2, 3, 4, 5}));
+  EXPECT_EQ(stage.firsts, std::vector<int64_t>{3});
+  EXPECT_EQ(stage.checkpoints, (std::vector<int64_t>{5, 6}));  // every 5 and the last
+  const std::string rows = ReadFile(dir / "metrics.csv");
+  EXPECT_EQ(rows.substr(0, rows.find('\n')), "step,x,rate,end");
+  EXPECT_NE(rows.find("\n3,x3,"), std::string::npos);
+  EXPECT_NE(rows.find("\n6,x6,"), std::string::npos);
+  EXPECT_EQ(rows.find("\n4,"), std::string::npos);
+  RecordingStage rest;
+  EXPECT_EQ(RunTrainingLoop({.start_step = 6, .steps = 7, .writer = false}, rest, nullptr), 7);
+  EXPECT_TRUE(rest.checkpoints.empty());  // a non-writing rank trains but saves nothing
 }
 
 }  // namespace
