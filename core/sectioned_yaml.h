@@ -7,6 +7,7 @@
 
 #include <cmath>
 #include <map>
+#include <nlohmann/json.hpp>
 #include <set>
 #include <string>
 #include <type_traits>
@@ -94,6 +95,26 @@ void ReadSectionedYaml(const std::string& yaml_text, const std::string& file, co
     Check(top.second.IsMap(), "expected a mapping", {.file = file, .key = section});
     CheckKnownYamlKeys(top.second, known[section], file, section, std::string("see ") + doc);
   }
+}
+
+// The config as {section: {key: value}} JSON (manifests, checkpoints, wm::ConfigHash), and back;
+// a key missing from `j` keeps its default, so configs saved before the key existed still load.
+template <class Config, class VisitFields>
+nlohmann::json SectionedToJson(const Config& config, VisitFields visit_fields) {
+  nlohmann::json j;
+  visit_fields(config, [&](const char* section, const char* key, const auto& field) {
+    j[section][key] = field;
+  });
+  return j;
+}
+
+template <class Config, class VisitFields>
+Config SectionedFromJson(const nlohmann::json& j, VisitFields visit_fields) {
+  Config config;
+  visit_fields(config, [&](const char* section, const char* key, auto& field) {
+    if (j.contains(section) && j[section].contains(key)) j[section][key].get_to(field);
+  });
+  return config;
 }
 
 }  // namespace wm

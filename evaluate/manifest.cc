@@ -9,8 +9,8 @@
 #include "core/shard/dataset_reader.h"
 #include "core/tokens/token_dataset.h"
 #include "tokenize/tokenizer.h"
-#include "tokenize/trainer.h"
 #include "train/dynamics_model.h"
+#include "trainkit/torch_runtime.h"
 
 namespace wm::evaluate {
 namespace fs = std::filesystem;
@@ -83,7 +83,7 @@ void WriteEvalManifest(const std::string& dir, const std::string& name,
                        const train::DynamicsModel& model, const tokenize::Tokenizer& tok,
                        const tokens::TokenDataset& data, const shard::DatasetReader& shards) {
   nlohmann::json m =
-      MakeProvenance("wm-eval", EvalConfigJson(o), {{"libtorch", tokenize::TorchVersion()}});
+      MakeProvenance("wm-eval", EvalConfigJson(o), {{"libtorch", trainkit::TorchVersion()}});
   m["checkpoint"] = {{"name", name},
                      {"path_basename", fs::path(checkpoint).filename().string()},
                      {"sha256", Sha256File(model.checkpoint_file())},

@@ -11,8 +11,6 @@
 #include "metrics/lpips/lpips.h"
 #include "metrics/masked_metrics.h"
 #include "metrics/pixel_metrics.h"
-#include "tokenize/frame_sampler.h"
-#include "tokenize/tokenizer.h"
 
 namespace wm::metrics {
 namespace {
@@ -36,14 +34,14 @@ std::vector<uint8_t> ToRgb8(const Image& image) {
   return out;
 }
 
-// Every frame as the tokenizer sees it: planar [n, 3, S, S] in [-1, 1].
-std::vector<float> TokenizerInput(const Frames& frames, int size) {
-  const size_t floats = 3ull * size * size;
+// Every frame as the feature net sees it: planar [n, 3, S, S].
+std::vector<float> FeatureNetInput(const FeatureNet& net, const Frames& frames) {
+  const size_t floats = 3ull * net.image_size() * net.image_size();
   std::vector<float> out(frames.images.size() * floats);
   for (size_t i = 0; i < frames.images.size(); ++i) {
     const Image& image = frames.images[i];
     const std::vector<uint8_t> rgb = ToRgb8(image);
-    tokenize::Rgb8ToPlanar(rgb.data(), image.height, image.width, size, out.data() + i * floats);
+    net.Input(rgb.data(), image.height, image.width, out.data() + i * floats);
   }
   return out;
 }
@@ -65,7 +63,11 @@ class Comparison {
     if (Wants(o, "lpips")) {
       lpips_.emplace(o.lpips_weights, LpipsOptions{.device = o.device, .threads = o.threads});
     }
-    if (Wants(o, "lpips_style") || Wants(o, "fvd_style")) tok_.emplace(o.feature_net, o.device);
+    if (Wants(o, "lpips_style") || Wants(o, "fvd_style")) {
+      Check(static_cast<bool>(o.feature_net_loader),
+            "lpips_style and fvd_style need a feature network, and this program wires in none");
+      features_ = o.feature_net_loader(o.feature_net, o.device);
+    }
     if (!o.mask.empty()) {  // a source of exactly one mask applies it to every frame
       masks_.emplace(o.mask);
       masks_->Read(2, &pending_masks_);
@@ -95,12 +97,12 @@ class Comparison {
       for (size_t i = 0; i < a.size(); ++i) pa.push_back(a[i].data()), pb.push_back(b[i].data());
       Append("lpips", lpips_->Distance(pa, pb, ref.images[0].height, ref.images[0].width));
     }
-    if (tok_) {
-      const std::vector<float> a = TokenizerInput(ref, tok_->image_size());
-      const std::vector<float> b = TokenizerInput(pred, tok_->image_size());
+    if (features_) {
+      const std::vector<float> a = FeatureNetInput(*features_, ref);
+      const std::vector<float> b = FeatureNetInput(*features_, pred);
       const auto n = static_cast<int64_t>(ref.images.size());
       if (Wants(o_, "lpips_style")) {
-        Append("lpips_style", tok_->PerceptualDistance(a.data(), b.data(), n));
+        Append("lpips_style", features_->PerceptualDistance(a.data(), b.data(), n));
       }
       if (Wants(o_, "fvd_style")) AddClipFrames(a, b);
     }
@@ -189,7 +191,7 @@ class Comparison {
 
   // fvd_style: consecutive clips of clip_length frames; a clip may span chunks.
   void AddClipFrames(const std::vector<float>& a, const std::vector<float>& b) {
-    const size_t floats = 3ull * tok_->image_size() * tok_->image_size();
+    const size_t floats = 3ull * features_->image_size() * features_->image_size();
     const size_t clip = static_cast<size_t>(o_.clip_length) * floats;
     carry_ref_.insert(carry_ref_.end(), a.begin(), a.end());
     carry_pred_.insert(carry_pred_.end(), b.begin(), b.end());
@@ -197,7 +199,8 @@ class Comparison {
     for (; carry_ref_.size() - used >= clip; used += clip) {
       for (auto [set, pixels] :
            {std::pair{&fvd_ref_, &carry_ref_}, std::pair{&fvd_pred_, &carry_pred_}}) {
-        const std::vector<double> d = tok_->ClipDescriptor(pixels->data() + used, o_.clip_length);
+        const std::vector<double> d =
+            features_->ClipDescriptor(pixels->data() + used, o_.clip_length);
         set->dim = static_cast<int64_t>(d.size());
         set->rows += 1;
         set->values.insert(set->values.end(), d.begin(), d.end());
@@ -210,7 +213,7 @@ class Comparison {
   const CompareOptions& o_;
   MetricOptions mo_;
   std::optional<Lpips> lpips_;
-  std::optional<tokenize::Tokenizer> tok_;
+  std::unique_ptr<FeatureNet> features_;  // lpips_style / fvd_style
   std::optional<FrameStream> masks_;
   Frames one_mask_;
   Frames pending_masks_;  // read ahead of the frames they belong to

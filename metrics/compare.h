@@ -5,6 +5,8 @@
 #include <string>
 #include <vector>
 
+#include "metrics/feature_net.h"
+
 namespace wm::metrics {
 
 struct CompareOptions {
@@ -15,7 +17,8 @@ struct CompareOptions {
   // lpips_style / fvd_style: a wm-tokenize run directory or checkpoint whose encoder gives the
   // features (docs/metrics.md); frames are resized to its image size.
   std::string feature_net;
-  int clip_length = 16;  // fvd_style: frames per clip (consecutive, non-overlapping)
+  FeatureNetLoader feature_net_loader;  // opens `feature_net` (wm-metrics: a tokenizer's encoder)
+  int clip_length = 16;                 // fvd_style: frames per clip (consecutive, non-overlapping)
   // mse / psnr / ssim inside a mask (metrics/masked_metrics.h): an image (every frame) or one
   // mask per frame (folder or video); a pixel is inside when non-zero.
   std::string mask;

@@ -10,6 +10,7 @@
 #include "core/atomic_file.h"
 #include "core/error.h"
 #include "core/sectioned_yaml.h"
+#include "trainkit/train_fields.h"
 
 namespace wm::tokenize {
 namespace {
@@ -35,20 +36,8 @@ void VisitFields(Config& c, F&& f) {
   f("model", "detail_weight", m.detail_weight);
   f("model", "anchor_decoder", m.anchor_decoder);
   auto& t = c.train;
-  f("train", "batch_size", t.batch_size);
-  f("train", "steps", t.steps);
-  f("train", "max_lr", t.max_lr);
-  f("train", "min_lr", t.min_lr);
-  f("train", "warmup_steps", t.warmup_steps);
-  f("train", "beta1", t.beta1);
-  f("train", "beta2", t.beta2);
-  f("train", "weight_decay", t.weight_decay);
-  f("train", "grad_clip", t.grad_clip);
-  f("train", "seed", t.seed);
-  f("train", "threads", t.threads);
-  f("train", "checkpoint_every", t.checkpoint_every);
-  f("train", "log_every", t.log_every);
-  f("train", "val_every", t.val_every);
+  trainkit::VisitOptimizerFields(t, f);
+  trainkit::VisitRunFields(t, f);
   f("train", "val_frames", t.val_frames);
   f("train", "anchor_max_gap", t.anchor_max_gap);
   f("train", "anchor_dropout", t.anchor_dropout);
@@ -70,19 +59,11 @@ TokenizerConfig LoadTokenizerConfig(const std::string& path) {
 }
 
 nlohmann::json ConfigToJson(const TokenizerConfig& config) {
-  nlohmann::json j;
-  VisitFields(config, [&](const char* section, const char* key, const auto& field) {
-    j[section][key] = field;
-  });
-  return j;
+  return SectionedToJson(config, [](auto& c, auto&& f) { VisitFields(c, f); });
 }
 
 TokenizerConfig ConfigFromJson(const nlohmann::json& j) {
-  TokenizerConfig config;
-  VisitFields(config, [&](const char* section, const char* key, auto& field) {
-    if (j.contains(section) && j[section].contains(key)) j[section][key].get_to(field);
-  });
-  return config;
+  return SectionedFromJson<TokenizerConfig>(j, [](auto& c, auto&& f) { VisitFields(c, f); });
 }
 
 void ValidateConfig(const TokenizerConfig& c, const std::string& file) {
@@ -109,18 +90,8 @@ void ValidateConfig(const TokenizerConfig& c, const std::string& file) {
   require(m.dead_code_steps >= 0, "model.dead_code_steps", "must be >= 0");
   require(m.detail_weight >= 0, "model.detail_weight", "must be >= 0");
   const TrainConfig& t = c.train;
-  require(t.batch_size > 0, "train.batch_size", "must be > 0");
-  require(t.steps > 0, "train.steps", "must be > 0");
-  require(t.max_lr > 0, "train.max_lr", "must be > 0");
-  require(t.min_lr >= 0 && t.min_lr <= t.max_lr, "train.min_lr", "must be in [0, max_lr]");
-  require(t.warmup_steps >= 0, "train.warmup_steps", "must be >= 0");
-  require(t.beta1 >= 0 && t.beta1 < 1, "train.beta1", "must be in [0, 1)");
-  require(t.beta2 >= 0 && t.beta2 < 1, "train.beta2", "must be in [0, 1)");
-  require(t.weight_decay >= 0, "train.weight_decay", "must be >= 0");
-  require(t.grad_clip >= 0, "train.grad_clip", "must be >= 0");
-  require(t.threads > 0, "train.threads", "must be > 0");
-  require(t.checkpoint_every > 0, "train.checkpoint_every", "must be > 0");
-  require(t.log_every > 0, "train.log_every", "must be > 0");
+  trainkit::ValidateOptimizerFields(t, file);
+  trainkit::ValidateRunFields(t, file);
   require(t.val_every >= 0, "train.val_every", "must be >= 0");
   require(t.val_frames > 0, "train.val_frames", "must be > 0");
   require(t.anchor_max_gap >= 1, "train.anchor_max_gap", "must be >= 1");

@@ -15,7 +15,7 @@
 #include "core/tokens/token_format.h"
 #include "tokenize/frame_sampler.h"
 #include "tokenize/tokenizer.h"
-#include "tokenize/trainer.h"
+#include "trainkit/torch_runtime.h"
 
 namespace wm::tokenize {
 namespace fs = std::filesystem;
@@ -46,7 +46,7 @@ tokens::TokenIndex BaseIndex(const Tokenizer& tok, const shard::DatasetIndex& so
   x.provenance =
       MakeProvenance("wm-tokenize encode",
                      {{"tokenizer_sha256", tok.checkpoint_sha256()}, {"hysteresis", hysteresis}},
-                     {{"libtorch", TorchVersion()}});
+                     {{"libtorch", trainkit::TorchVersion()}});
   return x;
 }
 

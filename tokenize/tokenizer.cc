@@ -7,8 +7,8 @@
 #include "core/paths.h"
 #include "core/sha256.h"
 #include "core/tensor_archive.h"
-#include "tokenize/module_archive.h"
 #include "tokenize/vqvae.h"
+#include "trainkit/module_archive.h"
 
 namespace wm::tokenize {
 namespace {
@@ -47,7 +47,7 @@ Tokenizer::Tokenizer(const std::string& checkpoint, const std::string& device)
     throw e.WithFile(s.path);
   }
   s.model = VqVae(s.config.model);
-  LoadModule(reader, "model/", *s.model);
+  trainkit::LoadModule(reader, "model/", *s.model);
   s.model->to(s.device);
   s.model->eval();
   s.sha256 = Sha256File(s.path);

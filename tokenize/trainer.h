@@ -41,11 +41,8 @@ struct TrainSummary {
 // RUN_DIR that already holds a checkpoint without --resume.
 TrainSummary TrainTokenizer(const TrainOptions& options);
 
-// lr at `step` (0-based): linear warmup to max_lr over warmup_steps, then cosine to min_lr at
-// train.steps.
+// lr at `step` (0-based): trainkit::LearningRateAt (linear warmup to max_lr over warmup_steps,
+// then cosine to min_lr at train.steps) on this config's schedule fields.
 double LearningRateAt(const TrainConfig& train, int64_t step);
-
-// "1.13.0" etc.: the LibTorch this binary was built against.
-std::string TorchVersion();
 
 }  // namespace wm::tokenize

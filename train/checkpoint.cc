@@ -1,17 +1,11 @@
 #include "train/checkpoint.h"
 
-#include <filesystem>
-
-#include "core/atomic_file.h"
 #include "core/error.h"
 #include "core/provenance.h"
-#include "core/sha256.h"
 #include "core/tensor_archive.h"
-#include "tokenize/module_archive.h"
-#include "tokenize/trainer.h"
+#include "trainkit/module_archive.h"
 
 namespace wm::train {
-namespace fs = std::filesystem;
 
 nlohmann::json MetaToJson(const CheckpointMeta& m) {
   return {{"step", m.step},
@@ -44,34 +38,24 @@ CheckpointMeta MetaFromJson(const nlohmann::json& j, const std::string& file) {
   }
 }
 
-void SaveCheckpoint(const std::string& run_dir, WorldModel& model, tokenize::AdamW& adamw,
+void SaveCheckpoint(const trainkit::RunDir& run, WorldModel& model, const trainkit::AdamW& adamw,
                     const CheckpointMeta& meta, const nlohmann::json& data) {
   TensorArchiveWriter w;
-  tokenize::AddModule(w, "model/", *model);
-  const auto& params = adamw.parameters();
-  for (size_t i = 0; i < params.size(); ++i) {
-    tokenize::AddTensor(w, "adamw/exp_avg/" + params[i].first, adamw.exp_avg()[i]);
-    tokenize::AddTensor(w, "adamw/exp_avg_sq/" + params[i].first, adamw.exp_avg_sq()[i]);
-  }
+  trainkit::AddModule(w, "model/", *model);
+  trainkit::AddAdamW(w, adamw);
   w.SetMeta(MetaToJson(meta));
-  w.Write((fs::path(run_dir) / kCheckpointFile).string());  // atomic
-  WriteManifest(run_dir, meta, data);
+  run.WriteCheckpoint(w, [&] { return Manifest(run, meta, data); });
 }
 
-void WriteManifest(const std::string& run_dir, const CheckpointMeta& meta,
-                   const nlohmann::json& data) {
-  const std::string path = (fs::path(run_dir) / kCheckpointFile).string();
-  nlohmann::json manifest =
-      MakeProvenance("wm-train", meta.config, {{"libtorch", tokenize::TorchVersion()}});
-  manifest["step"] = meta.step;
-  manifest["checkpoint"] = {
-      {"file", kCheckpointFile}, {"sha256", Sha256File(path)}, {"format", kTensorArchiveFormat}};
+nlohmann::json Manifest(const trainkit::RunDir& run, const CheckpointMeta& meta,
+                        const nlohmann::json& data) {
+  nlohmann::json manifest = run.Manifest("wm-train", meta.config, meta.step);
   manifest["data"] = data;
   manifest["tokenizer"] = meta.tokenizer;
   manifest["action_norms"] = meta.action_norms;
   manifest["rng"] = meta.rng;
   manifest["reward_target"] = meta.reward_target;
-  WriteFileAtomically((fs::path(run_dir) / kManifestFile).string(), manifest.dump(2) + "\n");
+  return manifest;
 }
 
 CheckpointMeta ReadCheckpointMeta(const std::string& path) {
@@ -79,7 +63,7 @@ CheckpointMeta ReadCheckpointMeta(const std::string& path) {
   return MetaFromJson(r.meta(), path);
 }
 
-CheckpointMeta LoadCheckpoint(const std::string& path, WorldModel& model, tokenize::AdamW* adamw,
+CheckpointMeta LoadCheckpoint(const std::string& path, WorldModel& model, trainkit::AdamW* adamw,
                               const nlohmann::json* expected_config) {
   TensorArchiveReader r(path);
   CheckpointMeta meta = MetaFromJson(r.meta(), path);
@@ -88,15 +72,8 @@ CheckpointMeta LoadCheckpoint(const std::string& path, WorldModel& model, tokeni
       CheckResumeConfig(meta.config_hash, ConfigToJson(ConfigFromJson(meta.config)),
                         *expected_config);
     }
-    tokenize::LoadModule(r, "model/", *model);
-    if (adamw) {
-      const auto& params = adamw->parameters();
-      for (size_t i = 0; i < params.size(); ++i) {
-        tokenize::LoadTensor(r, "adamw/exp_avg/" + params[i].first, adamw->exp_avg()[i]);
-        tokenize::LoadTensor(r, "adamw/exp_avg_sq/" + params[i].first, adamw->exp_avg_sq()[i]);
-      }
-      adamw->set_step_count(meta.adamw_step);
-    }
+    trainkit::LoadModule(r, "model/", *model);
+    if (adamw) trainkit::LoadAdamW(r, meta.adamw_step, *adamw);
   } catch (const Error& e) {
     throw e.WithFile(path);
   }

@@ -5,14 +5,13 @@
 #include <nlohmann/json.hpp>
 #include <string>
 
-#include "core/paths.h"  // kCheckpointFile
-#include "tokenize/adamw.h"
 #include "train/config.h"
 #include "train/world_model.h"
+#include "trainkit/adamw.h"
+#include "trainkit/run_dir.h"
 
 namespace wm::train {
 
-inline constexpr const char* kManifestFile = "checkpoint.json";
 inline constexpr const char* kRewardTargetFrame = "frame";
 
 // What the archive's meta holds besides the tensors. The config and action statistics make the
@@ -32,21 +31,21 @@ struct CheckpointMeta {
 nlohmann::json MetaToJson(const CheckpointMeta& meta);
 CheckpointMeta MetaFromJson(const nlohmann::json& j, const std::string& file);
 
-// Writes checkpoint.wmt and checkpoint.json into `run_dir`. `data` is the manifest's data
+// Writes checkpoint.wmt and then checkpoint.json into `run`. `data` is the manifest's data
 // provenance (SegmentSampler::DataProvenance).
-void SaveCheckpoint(const std::string& run_dir, WorldModel& model, tokenize::AdamW& adamw,
+void SaveCheckpoint(const trainkit::RunDir& run, WorldModel& model, const trainkit::AdamW& adamw,
                     const CheckpointMeta& meta, const nlohmann::json& data);
 
-// Writes checkpoint.json for the checkpoint.wmt in `run_dir`, whose meta is `meta`. It is written
-// after the archive, so a kill between the two leaves it describing the previous checkpoint:
-// resuming calls this again to make it describe the archive it resumed from.
-void WriteManifest(const std::string& run_dir, const CheckpointMeta& meta,
-                   const nlohmann::json& data);
+// checkpoint.json for the checkpoint.wmt in `run`, whose meta is `meta`. A kill between the
+// archive and its manifest leaves the manifest describing the previous archive, so resuming
+// writes this again (trainkit::RunDir::WriteManifest) for the archive it resumed from.
+nlohmann::json Manifest(const trainkit::RunDir& run, const CheckpointMeta& meta,
+                        const nlohmann::json& data);
 
 // Restores model, AdamW moments (when `adamw` is given) and returns the meta. With
 // `expected_config` (resuming) refuses a checkpoint trained with another config, naming the keys
 // that differ.
-CheckpointMeta LoadCheckpoint(const std::string& path, WorldModel& model, tokenize::AdamW* adamw,
+CheckpointMeta LoadCheckpoint(const std::string& path, WorldModel& model, trainkit::AdamW* adamw,
                               const nlohmann::json* expected_config = nullptr);
 
 // Reads only the meta (to build the model before loading it).

@@ -9,6 +9,7 @@
 #include "core/atomic_file.h"
 #include "core/error.h"
 #include "core/sectioned_yaml.h"
+#include "trainkit/train_fields.h"
 
 namespace wm::train {
 namespace {
@@ -47,24 +48,12 @@ void VisitFields(Config& c, F&& f) {
   f("policy", "log_std_max", p.log_std_max);
   f("policy", "kl_beta", p.kl_beta);
   auto& t = c.train;
-  f("train", "batch_size", t.batch_size);
-  f("train", "steps", t.steps);
-  f("train", "max_lr", t.max_lr);
-  f("train", "min_lr", t.min_lr);
-  f("train", "warmup_steps", t.warmup_steps);
-  f("train", "beta1", t.beta1);
-  f("train", "beta2", t.beta2);
-  f("train", "weight_decay", t.weight_decay);
-  f("train", "grad_clip", t.grad_clip);
+  trainkit::VisitOptimizerFields(t, f);
   f("train", "policy_weight", t.policy_weight);
   f("train", "reward_weight", t.reward_weight);
   f("train", "terminal_weight", t.terminal_weight);
   f("train", "bf16", t.bf16);
-  f("train", "seed", t.seed);
-  f("train", "threads", t.threads);
-  f("train", "checkpoint_every", t.checkpoint_every);
-  f("train", "log_every", t.log_every);
-  f("train", "val_every", t.val_every);
+  trainkit::VisitRunFields(t, f);
   f("train", "val_batches", t.val_batches);
   f("data", "mixture", c.data.mixture);
 }
@@ -84,19 +73,11 @@ DynamicsConfig LoadDynamicsConfig(const std::string& path) {
 }
 
 nlohmann::json ConfigToJson(const DynamicsConfig& config) {
-  nlohmann::json j;
-  VisitFields(config, [&](const char* section, const char* key, const auto& field) {
-    j[section][key] = field;
-  });
-  return j;
+  return SectionedToJson(config, [](auto& c, auto&& f) { VisitFields(c, f); });
 }
 
 DynamicsConfig ConfigFromJson(const nlohmann::json& j) {
-  DynamicsConfig config;
-  VisitFields(config, [&](const char* section, const char* key, auto& field) {
-    if (j.contains(section) && j[section].contains(key)) j[section][key].get_to(field);
-  });
-  return config;
+  return SectionedFromJson<DynamicsConfig>(j, [](auto& c, auto&& f) { VisitFields(c, f); });
 }
 
 void ValidateConfig(const DynamicsConfig& c, const std::string& file) {
@@ -133,21 +114,11 @@ void ValidateConfig(const DynamicsConfig& c, const std::string& file) {
   require(p.log_std_min < p.log_std_max, "policy.log_std_min", "must be < policy.log_std_max");
   require(p.kl_beta >= 0, "policy.kl_beta", "must be >= 0");
   const TrainConfig& t = c.train;
-  require(t.batch_size > 0, "train.batch_size", "must be > 0");
-  require(t.steps > 0, "train.steps", "must be > 0");
-  require(t.max_lr > 0, "train.max_lr", "must be > 0");
-  require(t.min_lr >= 0 && t.min_lr <= t.max_lr, "train.min_lr", "must be in [0, max_lr]");
-  require(t.warmup_steps >= 0, "train.warmup_steps", "must be >= 0");
-  require(t.beta1 >= 0 && t.beta1 < 1, "train.beta1", "must be in [0, 1)");
-  require(t.beta2 >= 0 && t.beta2 < 1, "train.beta2", "must be in [0, 1)");
-  require(t.weight_decay >= 0, "train.weight_decay", "must be >= 0");
-  require(t.grad_clip >= 0, "train.grad_clip", "must be >= 0");
+  trainkit::ValidateOptimizerFields(t, file);
   require(t.policy_weight >= 0, "train.policy_weight", "must be >= 0");
   require(t.reward_weight >= 0, "train.reward_weight", "must be >= 0");
   require(t.terminal_weight >= 0, "train.terminal_weight", "must be >= 0");
-  require(t.threads > 0, "train.threads", "must be > 0");
-  require(t.checkpoint_every > 0, "train.checkpoint_every", "must be > 0");
-  require(t.log_every > 0, "train.log_every", "must be > 0");
+  trainkit::ValidateRunFields(t, file);
   require(t.val_every > 0, "train.val_every", "must be > 0");
   require(t.val_batches > 0, "train.val_batches", "must be > 0");
 }

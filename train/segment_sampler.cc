@@ -8,7 +8,7 @@
 #include "core/error.h"
 #include "core/sha256.h"
 #include "core/tokens/token_dataset.h"
-#include "tokenize/mixture.h"
+#include "trainkit/mixture.h"
 
 namespace wm::train {
 namespace {
@@ -82,8 +82,8 @@ SegmentSampler::SegmentSampler(const std::vector<std::string>& dirs, int context
     names.push_back(index.dataset);
     sources_.push_back(std::move(s));
   }
-  const std::vector<double> weights = tokenize::MixtureWeights(
-      mixture_file.empty() ? std::map<std::string, double>{} : tokenize::LoadMixture(mixture_file),
+  const std::vector<double> weights = trainkit::MixtureWeights(
+      mixture_file.empty() ? std::map<std::string, double>{} : trainkit::LoadMixture(mixture_file),
       mixture_file, names, sizes);
   for (size_t i = 0; i < sources_.size(); ++i) sources_[i]->weight = weights[i];
   double sum = 0;

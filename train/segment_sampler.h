@@ -44,7 +44,7 @@ struct SegmentData {
 
 class SegmentSampler {
  public:
-  // `mixture_file`: configs/mixtures/*.yaml (tokenize/mixture.h), empty = weight by size.
+  // `mixture_file`: configs/mixtures/*.yaml (trainkit/mixture.h), empty = weight by size.
   // Throws wm::Error when a dataset has no episode of at least `context_frames` frames, when
   // datasets disagree on the tokenizer, or when the mixture misses a dataset.
   SegmentSampler(const std::vector<std::string>& dirs, int context_frames,

@@ -4,24 +4,23 @@
 #include <torch/torch.h>
 
 #include <chrono>
-#include <filesystem>
-#include <fstream>
 #include <optional>
+#include <sstream>
 
-#include "core/atomic_file.h"
 #include "core/error.h"
 #include "core/log.h"
-#include "core/progress.h"
 #include "core/provenance.h"
-#include "core/step_log.h"
-#include "tokenize/adamw.h"
-#include "tokenize/trainer.h"
 #include "train/batch.h"
 #include "train/checkpoint.h"
 #include "train/distributed.h"
+#include "trainkit/adamw.h"
+#include "trainkit/run_dir.h"
+#include "trainkit/schedule.h"
+#include "trainkit/step_log.h"
+#include "trainkit/torch_runtime.h"
+#include "trainkit/training_loop.h"
 
 namespace wm::train {
-namespace fs = std::filesystem;
 namespace {
 
 constexpr const char* kMetrics = "metrics.csv";
@@ -70,11 +69,11 @@ std::pair<double, double> Validate(WorldModel& model, const SegmentSampler& val,
     val.Fill(refs, 0, refs.size(), d);
     SegmentBatch b = MakeSegmentBatch(c, d, DrawStepNoise(c, 0, 0, d.batch), 0, 1, device);
     torch::Tensor z = model->DynamicsZ(b.tokens, b.actions);
-    torch::Tensor logits = model
-                               ->NextFrameLogits(b.tokens.slice(1, 0, T - 1),
-                                                 b.actions.slice(1, 0, T - 1),
-                                                 z.defined() ? z.slice(1, 0, T - 1) : z)
-                               .to(torch::kFloat);  // [B, N, K]
+    torch::Tensor logits =
+        model
+            ->NextFrameLogits(b.tokens.slice(1, 0, T - 1), b.actions.slice(1, 0, T - 1),
+                              z.defined() ? z.slice(1, 0, T - 1) : z)
+            .to(torch::kFloat);                        // [B, N, K]
     torch::Tensor target = b.tokens.select(1, T - 1);  // [B, N]
     ce += torch::nn::functional::cross_entropy(logits.reshape({-1, K}), target.reshape({-1}))
               .item<double>();
@@ -87,73 +86,24 @@ void Clip(const std::vector<torch::Tensor>& params, double max_norm) {
   if (max_norm > 0 && !params.empty()) torch::nn::utils::clip_grad_norm_(params, max_norm);
 }
 
-}  // namespace
-
-double LearningRateAt(const TrainConfig& t, int64_t step) {
-  tokenize::TrainConfig schedule;
-  schedule.max_lr = t.max_lr;
-  schedule.min_lr = t.min_lr;
-  schedule.warmup_steps = t.warmup_steps;
-  schedule.steps = t.steps;
-  return tokenize::LearningRateAt(schedule, step);
-}
-
-TrainSummary TrainDynamics(const TrainOptions& o) {
-  const DynamicsConfig& cfg = o.config;
-  const TrainConfig& tc = cfg.train;
-  ValidateConfig(cfg, "(config)");
-  const torch::Device device(o.device);
-  Check(!device.is_cuda() || torch::cuda::is_available(),
-        "--device " + o.device + " requested but CUDA is not available");
-  Check(tc.batch_size % o.world_size == 0,
-        "train.batch_size " + std::to_string(tc.batch_size) + " is not divisible by " +
-            std::to_string(o.world_size) + " data-parallel ranks",
-        {.key = "train.batch_size"});
-  const bool writer = o.rank == 0;
-  const std::string ckpt = (fs::path(o.out_dir) / kCheckpointFile).string();
-  const std::string metrics_path = (fs::path(o.out_dir) / kMetrics).string();
-  Check(o.resume || !fs::exists(ckpt),
-        "run directory already has a checkpoint; pass --resume or choose another --out",
-        {.file = ckpt});
-  if (writer) fs::create_directories(o.out_dir);
-  const nlohmann::json config_json = ConfigToJson(cfg);
-  const std::string config_hash = ConfigHash(config_json);
-
-  SegmentSampler sampler(o.token_dirs, cfg.model.context_frames, cfg.data.mixture);
-  Check(sampler.grid_h() == cfg.model.grid_h && sampler.grid_w() == cfg.model.grid_w,
+// The token datasets must have the config's grid and codebook.
+void CheckTokensFit(const SegmentSampler& sampler, const ModelConfig& m) {
+  Check(sampler.grid_h() == m.grid_h && sampler.grid_w() == m.grid_w,
         "token data has " + std::to_string(sampler.grid_h()) + "x" +
             std::to_string(sampler.grid_w()) + " tokens per frame, config says " +
-            std::to_string(cfg.model.grid_h) + "x" + std::to_string(cfg.model.grid_w),
+            std::to_string(m.grid_h) + "x" + std::to_string(m.grid_w),
         {.key = "model.grid_h"});
-  Check(sampler.num_codes() == cfg.model.num_codes,
+  Check(sampler.num_codes() == m.num_codes,
         "token data has " + std::to_string(sampler.num_codes()) + " codes, config says " +
-            std::to_string(cfg.model.num_codes),
+            std::to_string(m.num_codes),
         {.key = "model.num_codes"});
-  std::optional<SegmentSampler> val;
-  if (!o.val_dir.empty())
-    val.emplace(std::vector<std::string>{o.val_dir}, cfg.model.context_frames);
+}
 
-  torch::set_num_threads(tc.threads);
-  at::globalContext().setDeterministicAlgorithms(true, /*warn_only=*/device.is_cuda());
-  torch::manual_seed(tc.seed);
-  WorldModel model(cfg);
-  model->to(device);
-  std::vector<std::pair<std::string, torch::Tensor>> named;
-  std::vector<torch::Tensor> dyn_params, policy_params, all_params;
-  int64_t num_parameters = 0;
-  for (const auto& item : model->named_parameters()) {
-    named.emplace_back(item.key(), item.value());
-    (item.key().rfind("policy.", 0) == 0 ? policy_params : dyn_params).push_back(item.value());
-    all_params.push_back(item.value());
-    num_parameters += item.value().numel();
-  }
-  tokenize::AdamW adamw(
-      named,
-      tokenize::AdamWOptions{
-          .lr = tc.max_lr, .beta1 = tc.beta1, .beta2 = tc.beta2, .weight_decay = tc.weight_decay});
+// The archive meta of a new run on `sampler`'s data (step 0).
+CheckpointMeta NewRunMeta(const DynamicsConfig& cfg, const SegmentSampler& sampler) {
   CheckpointMeta meta;
-  meta.config = config_json;
-  meta.config_hash = config_hash;
+  meta.config = ConfigToJson(cfg);
+  meta.config_hash = ConfigHash(meta.config);
   meta.action_norms = sampler.ActionNorms();
   meta.tokenizer = {
       {"checkpoint_sha256", sampler.DataProvenance()[0].at("tokenizer_checkpoint_sha256")},
@@ -163,129 +113,214 @@ TrainSummary TrainDynamics(const TrainOptions& o) {
   meta.rng = {{"scheme",
                "counter: mt19937_64(MixSeed(seed, step)) segments, torch CPU generator "
                "noise; no state beyond seed and step"},
-              {"seed", tc.seed}};
-  int64_t step = 0;
-  if (o.resume && fs::exists(ckpt)) {
-    const CheckpointMeta loaded = LoadCheckpoint(ckpt, model, &adamw, &config_json);
-    Check(loaded.reward_target == kRewardTargetFrame,
-          "checkpoint trained with the earlier reward alignment (position j predicting step j-1); "
-          "resuming would switch its reward target mid-run: start a new run directory",
-          {.file = ckpt, .key = "meta.reward_target"});
-    step = meta.step = loaded.step;
-    meta.adamw_step = loaded.adamw_step;
-    if (writer) {
-      LogInfo("resuming " + ckpt + " at step " + std::to_string(step));
-      WriteManifest(o.out_dir, meta, sampler.DataProvenance());  // may describe an older archive
+              {"seed", cfg.train.seed}};
+  return meta;
+}
+
+// The model and its optimizer; the parameters split into the dynamics and the policy
+// embedding's, which are clipped separately.
+struct Trainee {
+  explicit Trainee(const DynamicsConfig& cfg, const torch::Device& device) : model(cfg) {
+    model->to(device);
+    std::vector<std::pair<std::string, torch::Tensor>> named;
+    for (const auto& item : model->named_parameters()) {
+      named.emplace_back(item.key(), item.value());
+      (item.key().rfind("policy.", 0) == 0 ? policy_params : dyn_params).push_back(item.value());
+      all_params.push_back(item.value());
+      num_parameters += item.value().numel();
     }
+    const TrainConfig& t = cfg.train;
+    adamw = std::make_unique<trainkit::AdamW>(
+        named,
+        trainkit::AdamWOptions{
+            .lr = t.max_lr, .beta1 = t.beta1, .beta2 = t.beta2, .weight_decay = t.weight_decay});
   }
-  GradientReducer reducer({o.rank, o.world_size, o.master_addr, o.master_port}, device);
-  if (o.world_size > 1 && writer) {
-    LogInfo("data parallel: " + std::to_string(o.world_size) + " ranks, " + reducer.backend() +
-            " backend");
-  }
-  std::ofstream metrics;
+  WorldModel model;
+  std::unique_ptr<trainkit::AdamW> adamw;
+  std::vector<torch::Tensor> dyn_params, policy_params, all_params;
+  int64_t num_parameters = 0;
+};
+
+// Loads the checkpoint being resumed into `t` and `meta`; returns its step.
+int64_t Resume(const trainkit::RunDir& run, bool writer, const SegmentSampler& sampler, Trainee& t,
+               CheckpointMeta& meta) {
+  const CheckpointMeta loaded =
+      LoadCheckpoint(run.checkpoint(), t.model, t.adamw.get(), &meta.config);
+  Check(loaded.reward_target == kRewardTargetFrame,
+        "checkpoint trained with the earlier reward alignment (position j predicting step j-1); "
+        "resuming would switch its reward target mid-run: start a new run directory",
+        {.file = run.checkpoint(), .key = "meta.reward_target"});
+  meta.step = loaded.step;
+  meta.adamw_step = loaded.adamw_step;
   if (writer) {
-    TruncateStepLog(metrics_path, kMetricsHeader, step);
-    metrics.open(metrics_path, std::ios::app);
+    LogInfo("resuming " + run.checkpoint() + " at step " + std::to_string(meta.step));
+    run.WriteManifest(Manifest(run, meta, sampler.DataProvenance()));  // maybe an older archive
+  }
+  return meta.step;
+}
+
+// One data-parallel step of the world model (this rank's rows of the global batch).
+class DynamicsStage : public trainkit::TrainingStage {
+ public:
+  DynamicsStage(const TrainOptions& o, const trainkit::RunDir& run, const torch::Device& device,
+                const SegmentSampler& sampler, const std::optional<SegmentSampler>& val, Trainee& t,
+                CheckpointMeta& meta, TrainSummary& summary)
+      : o_(o),
+        cfg_(o.config),
+        run_(run),
+        device_(device),
+        sampler_(sampler),
+        val_(val),
+        t_(t),
+        meta_(meta),
+        summary_(summary),
+        reducer_({o.rank, o.world_size, o.master_addr, o.master_port}, device) {
+    if (o.world_size > 1 && o.rank == 0) {
+      LogInfo("data parallel: " + std::to_string(o.world_size) + " ranks, " + reducer_.backend() +
+              " backend");
+    }
   }
 
-  TrainSummary summary;
-  summary.start_step = step;
-  summary.num_parameters = num_parameters;
-  const int64_t stop =
-      o.max_steps_this_run > 0 ? std::min(tc.steps, step + o.max_steps_this_run) : tc.steps;
-  std::optional<Progress> progress;
-  if (o.show_progress && writer) progress.emplace("dynamics train", stop - step, "steps");
-  const int64_t local = tc.batch_size / o.world_size, first_row = o.rank * local;
-  const int64_t tokens_per_step =
-      int64_t{tc.batch_size} * cfg.model.context_frames * sampler.tokens_per_frame();
-  const bool bf16 = device.is_cuda() && tc.bf16;
-  SegmentData data;
-  const auto run_start = std::chrono::steady_clock::now();
-  auto window_start = run_start;
-  int64_t window_steps = 0;
-  while (step < stop) {
-    const auto refs = sampler.Draw(tc.seed, step, tc.batch_size);
-    sampler.Fill(refs, first_row, local, data);
+  int64_t UnitsPerStep() const override {  // tokens
+    return int64_t{cfg_.train.batch_size} * cfg_.model.context_frames * sampler_.tokens_per_frame();
+  }
+
+  void Train(int64_t step, int64_t) override {
+    const TrainConfig& tc = cfg_.train;
+    const int64_t local = tc.batch_size / o_.world_size, first_row = o_.rank * local;
+    sampler_.Fill(sampler_.Draw(tc.seed, step, tc.batch_size), first_row, local, data_);
     SegmentBatch batch =
-        MakeSegmentBatch(cfg, data, DrawStepNoise(cfg, tc.seed, step, tc.batch_size), first_row,
-                         o.world_size, device);
-    const double lr = LearningRateAt(tc, step);
-    adamw.set_lr(lr);
-    adamw.ZeroGrad();
-    WorldModelLosses l;
+        MakeSegmentBatch(cfg_, data_, DrawStepNoise(cfg_, tc.seed, step, tc.batch_size), first_row,
+                         o_.world_size, device_);
+    lr_ = LearningRateAt(tc, step);
+    t_.adamw->set_lr(lr_);
+    t_.adamw->ZeroGrad();
     {
-      AutocastScope autocast(bf16);
-      l = model->Losses(batch);
+      AutocastScope autocast(device_.is_cuda() && tc.bf16);
+      losses_ = t_.model->Losses(batch);
     }
-    l.total.backward();
+    losses_.total.backward();
     std::vector<torch::Tensor> grads;
-    for (auto& p : all_params) {
+    for (auto& p : t_.all_params) {
       if (!p.grad().defined()) p.mutable_grad() = torch::zeros_like(p);
       grads.push_back(p.grad());
     }
-    reducer.AllReduceMean(grads);
+    reducer_.AllReduceMean(grads);
     // Separate clipping: z is stop-gradient, so the two losses train disjoint parameters.
-    Clip(dyn_params, tc.grad_clip);
-    Clip(policy_params, tc.grad_clip);
-    adamw.Step();
-    ++step;
-    ++window_steps;
-    const bool first = step == summary.start_step + 1;
-    // Rows depend only on the step, so a resumed run's metrics.csv has the same rows.
-    const bool log_row = step % tc.log_every == 0 || step == tc.steps;
-    const bool val_now = val && writer && (step % tc.val_every == 0 || step == stop);
-    if (val_now) {
-      std::tie(summary.last_val_token_ce, summary.last_val_token_accuracy) =
-          Validate(model, *val, cfg, device);
-    }
-    if (first || log_row || step == stop) {
-      torch::Tensor stats = torch::stack(
-          {l.total.detach().to(torch::kFloat), l.token_ce.detach().to(torch::kFloat),
-           torch::scalar_tensor(l.token_accuracy, torch::kFloat).to(device),
-           l.reward_mse.detach().to(torch::kFloat), l.terminal_bce.detach().to(torch::kFloat),
-           l.policy ? l.policy->nll.detach().to(torch::kFloat) : torch::zeros({}, device),
-           l.policy ? l.policy->kl.detach().to(torch::kFloat) : torch::zeros({}, device)});
-      reducer.AllReduceMean({stats});
-      stats = stats.to(torch::kCPU, torch::kDouble);
-      const double* s = stats.data_ptr<double>();
-      if (first) summary.first_loss = s[0];
-      summary.last_loss = s[0];
-      summary.last_token_ce = s[1];
-      summary.last_token_accuracy = s[2];
-      if (log_row && writer) {
-        const auto now = std::chrono::steady_clock::now();
-        const double secs = std::chrono::duration<double>(now - window_start).count();
-        metrics << step << ',' << s[0] << ',' << s[1] << ',' << s[2] << ',' << s[3] << ',' << s[4]
-                << ',' << s[5] << ',' << s[6] << ',' << lr << ','
-                << (secs > 0 ? window_steps * tokens_per_step / secs : 0.0) << ',';
-        if (val_now)
-          metrics << summary.last_val_token_ce << ',' << summary.last_val_token_accuracy;
-        else
-          metrics << ',';
-        metrics << '\n';
-        metrics.flush();
-        Check(metrics.good(), "cannot append a row (disk full?)", {.file = metrics_path});
-        window_start = now;
-        window_steps = 0;
-      }
-    }
-    if (writer && (step % tc.checkpoint_every == 0 || step == stop)) {
-      meta.step = step;
-      meta.adamw_step = adamw.step_count();
-      SaveCheckpoint(o.out_dir, model, adamw, meta, sampler.DataProvenance());
-    }
-    if (progress) progress->Add(1);
+    Clip(t_.dyn_params, tc.grad_clip);
+    Clip(t_.policy_params, tc.grad_clip);
+    t_.adamw->Step();
   }
-  if (progress) progress->Finish();
+
+  std::optional<trainkit::MetricsRow> Finish(const trainkit::StepInfo& info) override {
+    const bool val_now =
+        val_ && o_.rank == 0 && (info.step % cfg_.train.val_every == 0 || info.last);
+    if (val_now) {
+      std::tie(summary_.last_val_token_ce, summary_.last_val_token_accuracy) =
+          Validate(t_.model, *val_, cfg_, device_);
+    }
+    if (!info.first && !info.log_row && !info.last) return std::nullopt;
+    const std::vector<double> s = Statistics();  // all ranks: it all-reduces
+    if (info.first) summary_.first_loss = s[0];
+    summary_.last_loss = s[0];
+    summary_.last_token_ce = s[1];
+    summary_.last_token_accuracy = s[2];
+    if (!info.log_row) return std::nullopt;
+    std::ostringstream before, after;
+    before << s[0] << ',' << s[1] << ',' << s[2] << ',' << s[3] << ',' << s[4] << ',' << s[5] << ','
+           << s[6] << ',' << lr_;
+    after << ',';
+    if (val_now)
+      after << summary_.last_val_token_ce << ',' << summary_.last_val_token_accuracy;
+    else
+      after << ',';
+    return trainkit::MetricsRow{.before = before.str(), .after = after.str()};
+  }
+
+  void SaveCheckpoint(int64_t step) override {
+    meta_.step = step;
+    meta_.adamw_step = t_.adamw->step_count();
+    ::wm::train::SaveCheckpoint(run_, t_.model, *t_.adamw, meta_, sampler_.DataProvenance());
+  }
+
+ private:
+  // The metrics.csv losses of the last step, averaged over the ranks.
+  std::vector<double> Statistics() {
+    const WorldModelLosses& l = losses_;
+    torch::Tensor stats = torch::stack(
+        {l.total.detach().to(torch::kFloat), l.token_ce.detach().to(torch::kFloat),
+         torch::scalar_tensor(l.token_accuracy, torch::kFloat).to(device_),
+         l.reward_mse.detach().to(torch::kFloat), l.terminal_bce.detach().to(torch::kFloat),
+         l.policy ? l.policy->nll.detach().to(torch::kFloat) : torch::zeros({}, device_),
+         l.policy ? l.policy->kl.detach().to(torch::kFloat) : torch::zeros({}, device_)});
+    reducer_.AllReduceMean({stats});
+    stats = stats.to(torch::kCPU, torch::kDouble).contiguous();
+    return {stats.data_ptr<double>(), stats.data_ptr<double>() + stats.numel()};
+  }
+
+  const TrainOptions& o_;
+  const DynamicsConfig& cfg_;
+  const trainkit::RunDir& run_;
+  const torch::Device device_;
+  const SegmentSampler& sampler_;
+  const std::optional<SegmentSampler>& val_;
+  Trainee& t_;
+  CheckpointMeta& meta_;
+  TrainSummary& summary_;
+  GradientReducer reducer_;
+  SegmentData data_;
+  WorldModelLosses losses_;  // of the last step
+  double lr_ = 0;
+};
+
+}  // namespace
+
+double LearningRateAt(const TrainConfig& t, int64_t step) {
+  return trainkit::LearningRateAt(trainkit::ScheduleOf(t), step);
+}
+
+TrainSummary TrainDynamics(const TrainOptions& o) {
+  const TrainConfig& tc = o.config.train;
+  ValidateConfig(o.config, "(config)");
+  trainkit::CheckDevice(o.device);
+  const torch::Device device(o.device);
+  Check(tc.batch_size % o.world_size == 0,
+        "train.batch_size " + std::to_string(tc.batch_size) + " is not divisible by " +
+            std::to_string(o.world_size) + " data-parallel ranks",
+        {.key = "train.batch_size"});
+  const bool writer = o.rank == 0;
+  const trainkit::RunDir run(o.out_dir, o.resume, /*create=*/writer);
+  const SegmentSampler sampler(o.token_dirs, o.config.model.context_frames, o.config.data.mixture);
+  CheckTokensFit(sampler, o.config.model);
+  std::optional<SegmentSampler> val;
+  if (!o.val_dir.empty())
+    val.emplace(std::vector<std::string>{o.val_dir}, o.config.model.context_frames);
+  trainkit::SetUpTorch(tc.threads, tc.seed, device.is_cuda());
+  Trainee trainee(o.config, device);
+  CheckpointMeta meta = NewRunMeta(o.config, sampler);
+  const int64_t start = run.resuming() ? Resume(run, writer, sampler, trainee, meta) : 0;
+
+  TrainSummary summary{.start_step = start, .num_parameters = trainee.num_parameters};
+  DynamicsStage stage(o, run, device, sampler, val, trainee, meta, summary);
+  std::optional<trainkit::StepLog> metrics;
+  if (writer) metrics.emplace(run.File(kMetrics), kMetricsHeader, start);
+  const auto run_start = std::chrono::steady_clock::now();
+  summary.end_step =
+      trainkit::RunTrainingLoop({.start_step = start,
+                                 .steps = tc.steps,
+                                 .max_steps_this_run = o.max_steps_this_run,
+                                 .log_every = tc.log_every,
+                                 .checkpoint_every = tc.checkpoint_every,
+                                 .writer = writer,
+                                 .progress_label = o.show_progress ? "dynamics train" : ""},
+                                stage, metrics ? &*metrics : nullptr);
   const double secs =
       std::chrono::duration<double>(std::chrono::steady_clock::now() - run_start).count();
   if (secs > 0) {
-    summary.steps_per_second = (step - summary.start_step) / secs;
-    summary.tokens_per_second = summary.steps_per_second * tokens_per_step;
+    summary.steps_per_second = (summary.end_step - start) / secs;
+    summary.tokens_per_second = summary.steps_per_second * stage.UnitsPerStep();
   }
-  summary.end_step = step;
-  summary.checkpoint_path = ckpt;
+  summary.checkpoint_path = run.checkpoint();
   return summary;
 }
 

@@ -46,7 +46,7 @@ struct TrainSummary {
 // without --resume.
 TrainSummary TrainDynamics(const TrainOptions& options);
 
-// lr at `step` (tokenize::LearningRateAt on this config's schedule fields).
+// lr at `step` (trainkit::LearningRateAt on this config's schedule fields).
 double LearningRateAt(const TrainConfig& train, int64_t step);
 
 }  // namespace wm::train

@@ -10,6 +10,7 @@
 #include "metrics/compare.h"
 #include "metrics/tools/scaling_command.h"
 #include "metrics/tools/seg_command.h"
+#include "metrics/tools/tokenizer_feature_net.h"
 #include "metrics/tools/value_command.h"
 
 namespace {
@@ -42,6 +43,7 @@ void RequireOptions(const CLI::App& app, std::initializer_list<const char*> name
 
 int main(int argc, char** argv) {
   wm::metrics::CompareOptions o;
+  o.feature_net_loader = wm::metrics::OpenTokenizerFeatureNet;
   std::string format = "json";
   CLI::App app{
       "wm-metrics: PSNR, SSIM, MS-SSIM, MSE and LPIPS between frames; value and scaling metrics "

@@ -18,9 +18,9 @@
 #include "core/log.h"
 #include "core/provenance.h"
 #include "core/tensor_archive.h"
-#include "tokenize/module_archive.h"
 #include "tokenize/tokenizer.h"
 #include "tokenize/vqvae.h"
+#include "trainkit/module_archive.h"
 
 namespace {
 
@@ -122,7 +122,7 @@ nlohmann::json Losses(const wm::tokenize::Tokenizer& tok, std::vector<float>& fr
                       const Options& o) {
   wm::TensorArchiveReader reader(tok.checkpoint_path());
   wm::tokenize::VqVae model(tok.config().model);
-  wm::tokenize::LoadModule(reader, "model/", *model);
+  wm::trainkit::LoadModule(reader, "model/", *model);
   model->to(torch::Device(o.device));
   const int S = tok.image_size();
   torch::Tensor images = torch::from_blob(frames.data(), {n, 3, S, S}).to(torch::Device(o.device));
@@ -136,7 +136,7 @@ nlohmann::json Losses(const wm::tokenize::Tokenizer& tok, std::vector<float>& fr
   if (!o.grads_path.empty()) {
     wm::TensorArchiveWriter w;
     for (const auto& p : model->named_parameters()) {
-      wm::tokenize::AddTensor(w, "grad/" + p.key(), p.value().grad());
+      wm::trainkit::AddTensor(w, "grad/" + p.key(), p.value().grad());
     }
     w.SetMeta({{"loss", v.loss.item<double>()}, {"frames", n}});
     w.Write(o.grads_path);

@@ -10,7 +10,6 @@
 #include "tests/core/test_util.h"
 #include "tests/tokenize/shapes_fixture.h"
 #include "tokenize/frame_sampler.h"
-#include "tokenize/mixture.h"
 #include "tokenize/trainer.h"
 
 namespace wm::tokenize {
@@ -65,21 +64,6 @@ TEST_F(TrainTest, MixtureWeightsSetHowOftenEachDatasetIsDrawn) {
   int from_second = 0;
   for (const auto& r : sampler.BatchRefs(0, 4000)) from_second += r.dataset == 1;
   EXPECT_NEAR(from_second / 4000.0, 0.75, 0.03);
-  const std::string mix = dir_ / "mix.yaml";
-  WriteFileAtomically(mix, "datasets:\n  - name: shapes\n    weight: 2\n");
-  EXPECT_EQ(MixtureWeights(LoadMixture(mix), mix, {"shapes"}, {18.0}), std::vector<double>{2.0});
-  EXPECT_NE(test::ErrorText([&] { MixtureWeights(LoadMixture(mix), mix, {"second"}, {1.0}); })
-                .find("'second' (given with --data) has no weight"),
-            std::string::npos);
-  WriteFileAtomically(mix, "datasets:\n  - name: shapes\n    weight: -1\n");
-  EXPECT_NE(test::ErrorText([&] { LoadMixture(mix); }).find("datasets[0].weight"),
-            std::string::npos);
-  // Misspelt keys are errors, not silently ignored.
-  WriteFileAtomically(mix, "datasets:\n  - name: shapes\n    weight: 1\n    wieght: 3\n");
-  EXPECT_NE(test::ErrorText([&] { LoadMixture(mix); }).find("key 'datasets[0].wieght'"),
-            std::string::npos);
-  WriteFileAtomically(mix, "datasets:\n  - name: shapes\n    weight: 1\ndataset: [x]\n");
-  EXPECT_NE(test::ErrorText([&] { LoadMixture(mix); }).find("key 'dataset'"), std::string::npos);
 }
 
 TEST_F(TrainTest, LossDecreasesOverSixtySteps) {
@@ -171,19 +155,6 @@ TEST(TokenizerConfig, ErrorsNameFileAndKey) {
             std::string::npos);
   EXPECT_NE(error("optim: {}\n").find("key 'optim'"), std::string::npos);
   EXPECT_NE(error("model: [1\n").find("cfg.yaml"), std::string::npos);
-}
-
-TEST(LearningRate, WarmsUpThenFollowsCosineToMinimum) {
-  TrainConfig t;
-  t.max_lr = 1.0;
-  t.min_lr = 0.1;
-  t.warmup_steps = 10;
-  t.steps = 110;
-  EXPECT_DOUBLE_EQ(LearningRateAt(t, 0), 0.1);
-  EXPECT_DOUBLE_EQ(LearningRateAt(t, 9), 1.0);
-  EXPECT_DOUBLE_EQ(LearningRateAt(t, 10), 1.0);
-  EXPECT_NEAR(LearningRateAt(t, 60), 0.55, 1e-12);
-  EXPECT_NEAR(LearningRateAt(t, 110), 0.1, 1e-12);
 }
 
 }  // namespace

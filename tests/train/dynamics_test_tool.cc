@@ -15,9 +15,9 @@
 #include "core/tokens/token_dataset.h"
 #include "tests/train/moving_block.h"
 #include "tests/train/test_config.h"
-#include "tokenize/module_archive.h"
 #include "train/dynamics_model.h"
 #include "train/world_model.h"
+#include "trainkit/module_archive.h"
 
 namespace {
 using namespace wm::train;
@@ -60,31 +60,31 @@ void WriteReference(const std::string& path, const ReferenceFlags& f, uint64_t s
   b.z_noise = torch::rand({B, c.policy.categories, c.policy.classes});
   WorldModelLosses l = m->Losses(b);
   wm::TensorArchiveWriter w;
-  wm::tokenize::AddModule(w, "model/", *m);
-  wm::tokenize::AddTensor(w, "input/tokens", b.tokens);
-  wm::tokenize::AddTensor(w, "input/actions", b.actions);
-  wm::tokenize::AddTensor(w, "input/rewards", b.rewards);
-  wm::tokenize::AddTensor(w, "input/terminals", b.terminals);
-  wm::tokenize::AddTensor(w, "input/mask", b.mask.to(torch::kInt64));
-  wm::tokenize::AddTensor(w, "input/z_noise", b.z_noise);
+  wm::trainkit::AddModule(w, "model/", *m);
+  wm::trainkit::AddTensor(w, "input/tokens", b.tokens);
+  wm::trainkit::AddTensor(w, "input/actions", b.actions);
+  wm::trainkit::AddTensor(w, "input/rewards", b.rewards);
+  wm::trainkit::AddTensor(w, "input/terminals", b.terminals);
+  wm::trainkit::AddTensor(w, "input/mask", b.mask.to(torch::kInt64));
+  wm::trainkit::AddTensor(w, "input/z_noise", b.z_noise);
   torch::NoGradGuard no_grad;
   torch::Tensor masked = f.next_frame ? b.tokens : b.tokens.masked_fill(b.mask, c.model.num_codes);
   torch::Tensor z = m->DynamicsZ(b.tokens, b.actions);
   DynamicsOutput out = m->Dynamics(masked, b.actions, z);
-  wm::tokenize::AddTensor(w, "output/logits", out.logits);
-  wm::tokenize::AddTensor(w, "output/reward", out.reward);
-  wm::tokenize::AddTensor(w, "output/terminal_logit", out.terminal_logit);
+  wm::trainkit::AddTensor(w, "output/logits", out.logits);
+  wm::trainkit::AddTensor(w, "output/reward", out.reward);
+  wm::trainkit::AddTensor(w, "output/terminal_logit", out.terminal_logit);
   nlohmann::json losses = {{"token_ce", l.token_ce.item<double>()},
                            {"reward_mse", l.reward_mse.item<double>()},
                            {"terminal_bce", l.terminal_bce.item<double>()},
                            {"total", l.total.item<double>()}};
   if (policy) {
     PolicyOutput po = m->policy->forward(b.tokens, b.actions, b.z_noise);
-    wm::tokenize::AddTensor(w, "output/z", z);
-    wm::tokenize::AddTensor(w, "output/prior_logits", po.prior_logits);
-    wm::tokenize::AddTensor(w, "output/posterior_logits", po.posterior_logits);
-    wm::tokenize::AddTensor(w, "output/action_mean", po.action_mean);
-    wm::tokenize::AddTensor(w, "output/action_log_std", po.action_log_std);
+    wm::trainkit::AddTensor(w, "output/z", z);
+    wm::trainkit::AddTensor(w, "output/prior_logits", po.prior_logits);
+    wm::trainkit::AddTensor(w, "output/posterior_logits", po.posterior_logits);
+    wm::trainkit::AddTensor(w, "output/action_mean", po.action_mean);
+    wm::trainkit::AddTensor(w, "output/action_log_std", po.action_log_std);
     losses["policy_nll"] = l.policy->nll.item<double>();
     losses["policy_kl"] = l.policy->kl.item<double>();
   }

@@ -7,9 +7,9 @@
 #include <numbers>
 
 #include "tests/train/test_config.h"
-#include "tokenize/adamw.h"
 #include "train/batch.h"
 #include "train/world_model.h"
+#include "trainkit/adamw.h"
 
 namespace wm::train {
 namespace {
@@ -293,7 +293,7 @@ TEST(Overfit, TinyBatchReachesNearZeroLoss) {
   b.z_noise = torch::rand({2, 4, 4});
   std::vector<std::pair<std::string, torch::Tensor>> named;
   for (const auto& p : m->named_parameters()) named.emplace_back(p.key(), p.value());
-  tokenize::AdamW opt(named, {.lr = 3e-3, .beta1 = 0.9, .beta2 = 0.99, .weight_decay = 0});
+  trainkit::AdamW opt(named, {.lr = 3e-3, .beta1 = 0.9, .beta2 = 0.99, .weight_decay = 0});
   WorldModelLosses l;
   for (int step = 0; step < 300; ++step) {  // 8 reward targets: one per position
     opt.ZeroGrad();

@@ -1,4 +1,4 @@
-#include "tokenize/mixture.h"
+#include "trainkit/mixture.h"
 
 #include <yaml-cpp/yaml.h>
 
@@ -7,7 +7,7 @@
 #include "core/error.h"
 #include "core/sectioned_yaml.h"
 
-namespace wm::tokenize {
+namespace wm::trainkit {
 
 std::map<std::string, double> LoadMixture(const std::string& path) {
   YAML::Node root;
@@ -56,4 +56,4 @@ std::vector<double> MixtureWeights(const std::map<std::string, double>& mixture,
   return out;
 }
 
-}  // namespace wm::tokenize
+}  // namespace wm::trainkit

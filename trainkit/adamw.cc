@@ -1,8 +1,8 @@
-#include "tokenize/adamw.h"
+#include "trainkit/adamw.h"
 
 #include <cmath>
 
-namespace wm::tokenize {
+namespace wm::trainkit {
 
 AdamW::AdamW(std::vector<std::pair<std::string, torch::Tensor>> named_parameters,
              AdamWOptions options)
@@ -37,4 +37,4 @@ void AdamW::Step() {
   }
 }
 
-}  // namespace wm::tokenize
+}  // namespace wm::trainkit

@@ -1,8 +1,8 @@
-#include "tokenize/module_archive.h"
+#include "trainkit/module_archive.h"
 
 #include "core/error.h"
 
-namespace wm::tokenize {
+namespace wm::trainkit {
 
 std::vector<std::pair<std::string, torch::Tensor>> ModuleTensors(const torch::nn::Module& m) {
   std::vector<std::pair<std::string, torch::Tensor>> out;
@@ -40,4 +40,21 @@ void LoadModule(const TensorArchiveReader& r, const std::string& prefix, torch::
   for (auto& [name, t] : ModuleTensors(m)) LoadTensor(r, prefix + name, t);
 }
 
-}  // namespace wm::tokenize
+void AddAdamW(TensorArchiveWriter& w, const AdamW& adamw) {
+  const auto& params = adamw.parameters();
+  for (size_t i = 0; i < params.size(); ++i) {
+    AddTensor(w, "adamw/exp_avg/" + params[i].first, adamw.exp_avg()[i]);
+    AddTensor(w, "adamw/exp_avg_sq/" + params[i].first, adamw.exp_avg_sq()[i]);
+  }
+}
+
+void LoadAdamW(const TensorArchiveReader& r, int64_t step_count, AdamW& adamw) {
+  const auto& params = adamw.parameters();
+  for (size_t i = 0; i < params.size(); ++i) {
+    LoadTensor(r, "adamw/exp_avg/" + params[i].first, adamw.exp_avg()[i]);
+    LoadTensor(r, "adamw/exp_avg_sq/" + params[i].first, adamw.exp_avg_sq()[i]);
+  }
+  adamw.set_step_count(step_count);
+}
+
+}  // namespace wm::trainkit

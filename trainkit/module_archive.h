@@ -9,8 +9,9 @@
 #include <vector>
 
 #include "core/tensor_archive.h"
+#include "trainkit/adamw.h"
 
-namespace wm::tokenize {
+namespace wm::trainkit {
 
 // Parameters, then buffers, by module path ("encoder.0.weight"), in registration order.
 std::vector<std::pair<std::string, torch::Tensor>> ModuleTensors(const torch::nn::Module& module);
@@ -28,4 +29,10 @@ void AddModule(TensorArchiveWriter& writer, const std::string& prefix,
 void LoadModule(const TensorArchiveReader& reader, const std::string& prefix,
                 torch::nn::Module& module);
 
-}  // namespace wm::tokenize
+// The optimizer's moments as "adamw/exp_avg/<param>" and "adamw/exp_avg_sq/<param>", one
+// parameter after the other. LoadAdamW also restores the step count (`step_count`, from the
+// archive's meta).
+void AddAdamW(TensorArchiveWriter& writer, const AdamW& adamw);
+void LoadAdamW(const TensorArchiveReader& reader, int64_t step_count, AdamW& adamw);
+
+}  // namespace wm::trainkit

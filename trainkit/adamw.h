@@ -10,7 +10,7 @@
 #include <utility>
 #include <vector>
 
-namespace wm::tokenize {
+namespace wm::trainkit {
 
 struct AdamWOptions {
   double lr = 3e-4;
@@ -32,6 +32,8 @@ class AdamW {
   const std::vector<std::pair<std::string, torch::Tensor>>& parameters() const { return params_; }
   std::vector<torch::Tensor>& exp_avg() { return exp_avg_; }
   std::vector<torch::Tensor>& exp_avg_sq() { return exp_avg_sq_; }
+  const std::vector<torch::Tensor>& exp_avg() const { return exp_avg_; }
+  const std::vector<torch::Tensor>& exp_avg_sq() const { return exp_avg_sq_; }
 
  private:
   std::vector<std::pair<std::string, torch::Tensor>> params_;
@@ -40,4 +42,4 @@ class AdamW {
   int64_t step_ = 0;
 };
 
-}  // namespace wm::tokenize
+}  // namespace wm::trainkit

@@ -1,6 +1,7 @@
 #pragma once
 // Dataset mixtures (configs/mixtures/*.yaml): how often each dataset is drawn when several are
-// trained on together, as in Octo/OXE mixtures. Format (docs/tokenizer.md, "Data"):
+// trained on together, as in Octo/OXE mixtures; both trainers read them. Format
+// (docs/tokenizer.md, "Data"):
 //   datasets:
 //     - name: fractal20220817_data   # index.json "dataset"
 //       weight: 0.6                   # relative; normalised over the datasets given with --data
@@ -8,7 +9,7 @@
 #include <string>
 #include <vector>
 
-namespace wm::tokenize {
+namespace wm::trainkit {
 
 // name -> weight (> 0). Throws wm::Error naming the file and key on a malformed file.
 std::map<std::string, double> LoadMixture(const std::string& path);
@@ -21,4 +22,4 @@ std::vector<double> MixtureWeights(const std::map<std::string, double>& mixture,
                                    const std::vector<std::string>& dataset_names,
                                    const std::vector<double>& fallback);
 
-}  // namespace wm::tokenize
+}  // namespace wm::trainkit

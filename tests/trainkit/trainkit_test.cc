@@ -1,0 +1,137 @@
+// The training substrate on its own: AdamW equals torch.optim.AdamW, mixture files, the run
+// directory (refuses to overwrite, writes the archive before its manifest) and step logs.
+#include <gtest/gtest.h>
+
+#include <filesystem>
+
+#include "core/atomic_file.h"
+#include "core/error.h"
+#include "tests/core/test_util.h"
+#include "trainkit/adamw.h"
+#include "trainkit/mixture.h"
+#include "trainkit/run_dir.h"
+#include "trainkit/schedule.h"
+#include "trainkit/step_log.h"
+#include "trainkit/training_loop.h"
+
+namespace wm::trainkit {
+namespace {
+namespace fs = std::filesystem;
+
+TEST(AdamW, MatchesLibTorchAdamW) {
+  torch::manual_seed(3);
+  torch::Tensor init = torch::randn({4, 3});
+  torch::Tensor a = init.clone().requires_grad_(true), b = init.clone().requires_grad_(true);
+  AdamW ours({{"w", a}}, {.lr = 0.01, .beta1 = 0.9, .beta2 = 0.9, .weight_decay = 0.1});
+  torch::optim::AdamW ref({b},
+                          torch::optim::AdamWOptions(0.01).betas({0.9, 0.9}).weight_decay(0.1));
+  for (int step = 0; step < 5; ++step) {
+    ours.ZeroGrad();
+    ref.zero_grad();
+    (a * a * (step + 1)).sum().backward();
+    (b * b * (step + 1)).sum().backward();
+    ours.Step();
+    ref.step();
+  }
+  EXPECT_TRUE(torch::allclose(a, b, 1e-6, 1e-7)) << (a - b).abs().max().item<float>();
+}
+
+TEST(Mixture, WeightsComeFromTheFileAndMisspeltKeysAreErrors) {
+  test::TempDir dir_;
+  const std::string mix = dir_ / "mix.yaml";
+  WriteFileAtomically(mix, "datasets:\n  - name: shapes\n    weight: 2\n");
+  EXPECT_EQ(MixtureWeights(LoadMixture(mix), mix, {"shapes"}, {18.0}), std::vector<double>{2.0});
+  EXPECT_NE(test::ErrorText([&] {
+              MixtureWeights(LoadMixture(mix), mix, {"second"}, {1.0});
+            }).find("'second' (given with --data) has no weight"),
+            std::string::npos);
+  WriteFileAtomically(mix, "datasets:\n  - name: shapes\n    weight: -1\n");
+  EXPECT_NE(test::ErrorText([&] { LoadMixture(mix); }).find("datasets[0].weight"),
+            std::string::npos);
+  // Misspelt keys are errors, not silently ignored.
+  WriteFileAtomically(mix, "datasets:\n  - name: shapes\n    weight: 1\n    wieght: 3\n");
+  EXPECT_NE(test::ErrorText([&] { LoadMixture(mix); }).find("key 'datasets[0].wieght'"),
+            std::string::npos);
+  WriteFileAtomically(mix, "datasets:\n  - name: shapes\n    weight: 1\ndataset: [x]\n");
+  EXPECT_NE(test::ErrorText([&] { LoadMixture(mix); }).find("key 'dataset'"), std::string::npos);
+}
+
+TEST(Schedule, WarmsUpLinearlyThenFollowsACosineToMinLr) {
+  const LrSchedule t{.max_lr = 1.0, .min_lr = 0.1, .warmup_steps = 10, .steps = 110};
+  EXPECT_DOUBLE_EQ(LearningRateAt(t, 0), 0.1);
+  EXPECT_DOUBLE_EQ(LearningRateAt(t, 9), 1.0);
+  EXPECT_DOUBLE_EQ(LearningRateAt(t, 10), 1.0);
+  EXPECT_NEAR(LearningRateAt(t, 60), 0.55, 1e-12);
+  EXPECT_NEAR(LearningRateAt(t, 110), 0.1, 1e-12);
+}
+
+TEST(StepLog, ResumingDropsTheRowsAfterTheCheckpointStep) {
+  test::TempDir dir;
+  const std::string path = dir / "metrics.csv";
+  {
+    StepLog log(path, "step,loss", 0);
+    for (int step = 1; step <= 4; ++step) log.Append(std::to_string(step) + ",0.5");
+  }
+  StepLog resumed(path, "step,loss", 2);
+  EXPECT_EQ(ReadFile(path), "step,loss\n1,0.5\n2,0.5\n");
+  resumed.Append("3,0.25");
+  EXPECT_EQ(ReadFile(path), "step,loss\n1,0.5\n2,0.5\n3,0.25\n");
+}
+
+TEST(RunDir, WritesTheArchiveBeforeItsManifestAndRefusesToOverwriteIt) {
+  test::TempDir dir;
+  const RunDir run(dir / "run", /*resume=*/false, /*create=*/true);
+  EXPECT_FALSE(run.resuming());
+  TensorArchiveWriter archive;
+  archive.SetMeta({{"step", 3}});
+  bool archive_first = false;
+  run.WriteCheckpoint(archive, [&] {
+    archive_first = fs::exists(run.checkpoint());
+    return run.Manifest("test", {{"a", 1}}, 3);
+  });
+  EXPECT_TRUE(archive_first);
+  const nlohmann::json manifest = nlohmann::json::parse(ReadFile(run.File(kManifestFile)));
+  EXPECT_EQ(manifest.at("step"), 3);
+  EXPECT_EQ(manifest.at("checkpoint").at("file"), kCheckpointFile);
+  EXPECT_NE(test::ErrorText([&] { RunDir(dir / "run", false, true); }).find("pass --resume"),
+            std::string::npos);
+  EXPECT_TRUE(RunDir(dir / "run", /*resume=*/true, /*create=*/false).resuming());
+  EXPECT_FALSE(RunDir(dir / "other", /*resume=*/true, /*create=*/false).resuming());
+}
+
+// Records what the loop asks of it; rows carry the step so the log shows which steps logged.
+class RecordingStage : public TrainingStage {
+ public:
+  void Train(int64_t step, int64_t) override { trained.push_back(step); }
+  int64_t UnitsPerStep() const override { return 4; }
+  std::optional<MetricsRow> Finish(const StepInfo& info) override {
+    if (info.first) firsts.push_back(info.step);
+    if (!info.log_row) return std::nullopt;
+    return MetricsRow{.before = "x" + std::to_string(info.step), .after = ",end"};
+  }
+  void SaveCheckpoint(int64_t step) override { checkpoints.push_back(step); }
+  std::vector<int64_t> trained, firsts, checkpoints;
+};
+
+TEST(TrainingLoop, RowsAndCheckpointsDependOnlyOnTheStep) {
+  test::TempDir dir;
+  const LoopOptions o{
+      .start_step = 2, .steps = 7, .max_steps_this_run = 4, .log_every = 3, .checkpoint_every = 5};
+  RecordingStage stage;
+  StepLog log(dir / "metrics.csv", "step,x,rate,end", 2);
+  EXPECT_EQ(RunTrainingLoop(o, stage, &log), 6);  // stops early, after 4 steps
+  EXPECT_EQ(stage.trained, (std::vector<int64_t>{2, 3, 4, 5}));
+  EXPECT_EQ(stage.firsts, std::vector<int64_t>{3});
+  EXPECT_EQ(stage.checkpoints, (std::vector<int64_t>{5, 6}));  // every 5 and the last
+  const std::string rows = ReadFile(dir / "metrics.csv");
+  EXPECT_EQ(rows.substr(0, rows.find('\n')), "step,x,rate,end");
+  EXPECT_NE(rows.find("\n3,x3,"), std::string::npos);
+  EXPECT_NE(rows.find("\n6,x6,"), std::string::npos);
+  EXPECT_EQ(rows.find("\n4,"), std::string::npos);
+  RecordingStage rest;
+  EXPECT_EQ(RunTrainingLoop({.start_step = 6, .steps = 7, .writer = false}, rest, nullptr), 7);
+  EXPECT_TRUE(rest.checkpoints.empty());  // a non-writing rank trains but saves nothing
+}
+
+}  // namespace
+}  // namespace wm::trainkit

@@ -1,0 +1,39 @@
+#pragma once
+// CSV logs keyed by training step (a run's metrics.csv, val.csv): the first column is the step.
+// Rows depend only on the step, so a resumed run's log has the rows of an uninterrupted one.
+#include <chrono>
+#include <cstdint>
+#include <string>
+
+namespace wm::trainkit {
+
+// Rewrites `path` (atomically) with `header` and only the rows whose step is <= `step`, so a run
+// resumed from the checkpoint at `step` continues its log without the rows of the lost steps.
+// A missing file becomes just the header.
+void TruncateStepLog(const std::string& path, const std::string& header, int64_t step);
+
+// Appends rows to a step log that TruncateStepLog has cut back to the resume step.
+class StepLog {
+ public:
+  StepLog(std::string path, const std::string& header, int64_t resume_step);
+  // `row` without its newline; flushed at once so a kill loses no written row. Throws wm::Error
+  // naming the file when the row cannot be written (disk full).
+  void Append(const std::string& row);
+
+ private:
+  std::string path_;
+};
+
+// Work units (frames, tokens) per wall-clock second since the last row: the throughput column.
+// It is the only column of metrics.csv that differs between identical runs.
+class ThroughputWindow {
+ public:
+  void Add(int64_t units) { units_ += units; }
+  double TakeRate();  // units / seconds since the last TakeRate (or construction); restarts
+
+ private:
+  std::chrono::steady_clock::time_point start_ = std::chrono::steady_clock::now();
+  int64_t units_ = 0;
+};
+
+}  // namespace wm::trainkit
