@@ -307,7 +307,7 @@ TrainSummary TrainTokenizer(const TrainOptions& o) {
   if (run.resuming()) {
     LoadCheckpoint(run.checkpoint(), ConfigToJson(cfg), s);
     LogInfo("resuming " + run.checkpoint() + " at step " + std::to_string(s.step));
-    run.WriteManifest(Manifest(o, run, s));  // may describe an older archive
+    run.RefreshManifest(Manifest(o, run, s));  // may describe an older archive
   }
   trainkit::StepLog metrics(run.File(kMetrics), kMetricsHeader, s.step);
   std::optional<Validation> val;

@@ -154,7 +154,7 @@ int64_t Resume(const trainkit::RunDir& run, bool writer, const SegmentSampler& s
   meta.adamw_step = loaded.adamw_step;
   if (writer) {
     LogInfo("resuming " + run.checkpoint() + " at step " + std::to_string(meta.step));
-    run.WriteManifest(Manifest(run, meta, sampler.DataProvenance()));  // maybe an older archive
+    run.RefreshManifest(Manifest(run, meta, sampler.DataProvenance()));  // maybe an older archive
   }
   return meta.step;
 }

@@ -37,6 +37,13 @@ void RunDir::WriteManifest(const nlohmann::json& manifest) const {
   WriteFileAtomically(File(kManifestFile), manifest.dump(2) + "\n");
 }
 
+void RunDir::RefreshManifest(const nlohmann::json& manifest) const {
+  const std::string path = File(kManifestFile), bytes = manifest.dump(2) + "\n";
+  std::error_code ec;
+  if (fs::exists(path, ec) && ReadFile(path) == bytes) return;
+  WriteFileAtomically(path, bytes);
+}
+
 void RunDir::WriteCheckpoint(const TensorArchiveWriter& archive,
                              const std::function<nlohmann::json()>& manifest) const {
   archive.Write(checkpoint_);  // atomic

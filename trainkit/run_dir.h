@@ -31,10 +31,14 @@ class RunDir {
   nlohmann::json Manifest(const std::string& tool, const nlohmann::json& config,
                           int64_t step) const;
   void WriteManifest(const nlohmann::json& manifest) const;  // atomically
+  // On resume: writes `manifest` unless checkpoint.json already holds exactly it, so only a
+  // manifest left stale by a kill is rewritten (and a read-only run directory fails where it
+  // did before, at the first log it appends to).
+  void RefreshManifest(const nlohmann::json& manifest) const;
 
   // Writes checkpoint.wmt (atomically), then the manifest `manifest()` makes. A kill between the
   // two leaves the manifest describing the previous archive, so a resumed run rewrites it
-  // (WriteManifest) from the archive it loaded.
+  // (RefreshManifest) from the archive it loaded.
   void WriteCheckpoint(const TensorArchiveWriter& archive,
                        const std::function<nlohmann::json()>& manifest) const;
 
