@@ -9,6 +9,7 @@
 #endif
 
 #include "core/error.h"
+#include "core/mix_bits.h"
 #include "core/image_codec.h"
 #include "core/shard/dataset_reader.h"
 
@@ -87,13 +88,6 @@ void Rgb8ToPlanar(const uint8_t* rgb, int height, int width, int size, float* ou
 }
 #endif
 
-uint64_t Mix64(uint64_t x) {
-  x += 0x9E3779B97F4A7C15ull;
-  x = (x ^ (x >> 30)) * 0xBF58476D1CE4E5B9ull;
-  x = (x ^ (x >> 27)) * 0x94D049BB133111EBull;
-  return x ^ (x >> 31);
-}
-
 FrameSampler::FrameSampler(const std::vector<std::string>& dataset_dirs, std::string image_key,
                            int size, uint64_t seed, std::vector<double> weights)
     : image_key_(std::move(image_key)), size_(size), seed_(seed) {
@@ -115,9 +109,9 @@ FrameSampler::~FrameSampler() = default;
 
 namespace {
 
-// The hash key of (batch step, slot): every draw of the slot is Mix64(key + i), i distinct.
+// The hash key of (batch step, slot): every draw of the slot is MixBits(key + i), i distinct.
 uint64_t SlotKey(uint64_t seed, int64_t step, int slot) {
-  return Mix64(seed ^ Mix64(static_cast<uint64_t>(step) * 0x10000ull + slot));
+  return MixBits(seed ^ MixBits(static_cast<uint64_t>(step) * 0x10000ull + slot));
 }
 
 }  // namespace
@@ -138,11 +132,11 @@ std::vector<AnchorRef> FrameSampler::TrainingAnchors(const std::vector<FrameRef>
   std::vector<AnchorRef> anchors;
   for (size_t b = 0; b < frames.size(); ++b) {
     const uint64_t key = SlotKey(seed_, step, static_cast<int>(b));
-    const double u = static_cast<double>(Mix64(key + 4) >> 11) * 0x1.0p-53;  // [0, 1)
+    const double u = static_cast<double>(MixBits(key + 4) >> 11) * 0x1.0p-53;  // [0, 1)
     FrameRef f = frames[b];
     const size_t span = std::min<size_t>(f.step, static_cast<size_t>(max_gap));
     const bool blank = span == 0 || u < dropout;
-    if (!blank) f.step -= 1 + Mix64(key + 5) % span;
+    if (!blank) f.step -= 1 + MixBits(key + 5) % span;
     anchors.push_back({f, blank});
   }
   return anchors;
@@ -162,14 +156,14 @@ std::vector<FrameRef> FrameSampler::BatchRefs(int64_t step, int batch_size) cons
   std::vector<FrameRef> refs(static_cast<size_t>(batch_size));
   for (int b = 0; b < batch_size; ++b) {
     const uint64_t key = SlotKey(seed_, step, b);
-    const double u = static_cast<double>(Mix64(key + 1) >> 11) * 0x1.0p-53;  // [0, 1)
+    const double u = static_cast<double>(MixBits(key + 1) >> 11) * 0x1.0p-53;  // [0, 1)
     FrameRef& r = refs[b];
     while (r.dataset + 1 < weights_prefix_.size() && u >= weights_prefix_[r.dataset]) ++r.dataset;
     const shard::DatasetReader& reader = *readers_[r.dataset];
     // `x % n` has a bias below n / 2^64: negligible, and identical on every platform.
-    r.episode = Mix64(key + 2) % reader.num_episodes();
+    r.episode = MixBits(key + 2) % reader.num_episodes();
     const auto [shard, local] = reader.Locate(r.episode);
-    r.step = Mix64(key + 3) % reader.shard(shard).entries()[local].num_steps;
+    r.step = MixBits(key + 3) % reader.shard(shard).entries()[local].num_steps;
   }
   return refs;
 }

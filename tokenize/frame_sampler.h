@@ -23,9 +23,6 @@ void DecodeFrame(const std::string& encoded, int size, float* out);
 // The same from interleaved RGB uint8 [height, width, 3] already in memory.
 void Rgb8ToPlanar(const uint8_t* rgb, int height, int width, int size, float* out);
 
-// SplitMix64's finaliser (Steele et al. 2014): a bijective 64-bit mix; hashes counters.
-uint64_t Mix64(uint64_t x);
-
 struct FrameRef {
   size_t dataset = 0, episode = 0, step = 0;
 };

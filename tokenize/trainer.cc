@@ -7,6 +7,7 @@
 #include <sstream>
 
 #include "core/error.h"
+#include "core/mix_bits.h"
 #include "core/log.h"
 #include "core/provenance.h"
 #include "core/tensor_archive.h"
@@ -135,7 +136,7 @@ class Validation {
  public:
   Validation(const TrainOptions& o, const RunDir& run, int64_t resume_step)
       : size_(o.config.model.image_size), log_(run.File(kValMetrics), kValHeader, resume_step) {
-    auto sampler = MakeSampler(o, o.val_dirs, Mix64(o.config.train.seed ^ 0x76616cull), false);
+    auto sampler = MakeSampler(o, o.val_dirs, MixBits(o.config.train.seed ^ 0x76616cull), false);
     const auto refs = sampler->BatchRefs(0, o.config.train.val_frames);
     frames_.resize(refs.size() * 3 * size_ * size_);
     sampler->Load(refs, frames_.data());

@@ -332,7 +332,7 @@ class Mt19937_64:
 
 
 def mix64(x):
-    """SplitMix64's finaliser (tokenize/frame_sampler.cc Mix64)."""
+    """SplitMix64's finaliser (core/mix_bits.h MixBits)."""
     x = (x + 0x9E3779B97F4A7C15) & M64
     x = ((x ^ (x >> 30)) * 0xBF58476D1CE4E5B9) & M64
     x = ((x ^ (x >> 27)) * 0x94D049BB133111EB) & M64
@@ -392,7 +392,7 @@ class FrameSampler:
         return refs
 
     def training_anchors(self, refs, step, max_gap, dropout):
-        """FrameSampler::TrainingAnchors: [(ref, blank)], draws Mix64(key + 4), Mix64(key + 5)."""
+        """FrameSampler::TrainingAnchors: [(ref, blank)], draws MixBits(key + 4), MixBits(key + 5)."""
         out = []
         for b, (ds, episode, t) in enumerate(refs):
             key = mix64(self.seed ^ mix64((step * 0x10000 + b) & M64))
