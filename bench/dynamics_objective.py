@@ -49,7 +49,8 @@ def learning_rate(step, steps):
 
 
 class Experiment:
-    def __init__(self, objective, token_dir, tokenizer):
+    def __init__(self, objective, token_dir, tokenizer, seed=0):
+        torch.manual_seed(seed)  # the weights' init: reruns give the same table
         config = yaml.safe_load(open(os.path.join(SRC, "configs", "dynamics", "tiny.yaml")))
         m = config["model"]
         m.update(policy_conditioning=False, copy_prior=objective == "ce")
@@ -64,9 +65,9 @@ class Experiment:
         for p in self.net.parameters():
             if p.dim() >= 2:
                 torch.nn.init.normal_(p, 0, 0.02)
-        self.head = torch.nn.Linear(m["d_model"], self.book.shape[1])
         self.params = list(self.net.parameters())
         if objective == "regression":
+            self.head = torch.nn.Linear(m["d_model"], self.book.shape[1])
             self.params += list(self.head.parameters())
 
     def windows(self, episodes, k, s):
@@ -88,7 +89,6 @@ class Experiment:
         return (v @ self.book.T).argmax(-1), (1 - (v * self.book[target]).sum(-1)).mean()
 
     def fit(self, steps, seed=0):
-        torch.manual_seed(seed)
         rng = np.random.default_rng(seed)
         starts = [(k, s) for k, (c, _) in enumerate(self.train)
                   for s in range(len(c) - self.context + 1)]
