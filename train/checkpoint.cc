@@ -3,20 +3,23 @@
 #include "core/error.h"
 #include "core/provenance.h"
 #include "core/tensor_archive.h"
+#include "trainkit/init_from.h"
 #include "trainkit/module_archive.h"
 
 namespace wm::train {
 
 nlohmann::json MetaToJson(const CheckpointMeta& m) {
-  return {{"step", m.step},
-          {"adamw_step", m.adamw_step},
-          {"config", m.config},
-          {"config_hash", m.config_hash},
-          {"action_norms", m.action_norms},
-          {"tokenizer", m.tokenizer},
-          {"rng", m.rng},
-          {"reward_target", m.reward_target},
-          {"model", "wm-dynamics"}};
+  nlohmann::json j = {{"step", m.step},
+                      {"adamw_step", m.adamw_step},
+                      {"config", m.config},
+                      {"config_hash", m.config_hash},
+                      {"action_norms", m.action_norms},
+                      {"tokenizer", m.tokenizer},
+                      {"rng", m.rng},
+                      {"reward_target", m.reward_target},
+                      {"model", "wm-dynamics"}};
+  if (!m.init_from.is_null()) j["init_from"] = m.init_from;
+  return j;
 }
 
 CheckpointMeta MetaFromJson(const nlohmann::json& j, const std::string& file) {
@@ -32,6 +35,7 @@ CheckpointMeta MetaFromJson(const nlohmann::json& j, const std::string& file) {
     m.tokenizer = j.at("tokenizer");
     m.rng = j.at("rng");
     m.reward_target = j.value("reward_target", "previous_step");
+    m.init_from = j.value("init_from", nlohmann::json());
     return m;
   } catch (const nlohmann::json::exception& e) {
     throw Error("bad checkpoint meta: " + std::string(e.what()), {.file = file});
@@ -49,7 +53,7 @@ void SaveCheckpoint(const trainkit::RunDir& run, WorldModel& model, const traink
 
 nlohmann::json Manifest(const trainkit::RunDir& run, const CheckpointMeta& meta,
                         const nlohmann::json& data) {
-  nlohmann::json manifest = run.Manifest("wm-train", meta.config, meta.step);
+  nlohmann::json manifest = run.Manifest("wm-train", meta.config, meta.step, meta.init_from);
   manifest["data"] = data;
   manifest["tokenizer"] = meta.tokenizer;
   manifest["action_norms"] = meta.action_norms;
@@ -69,8 +73,10 @@ CheckpointMeta LoadCheckpoint(const std::string& path, WorldModel& model, traink
   CheckpointMeta meta = MetaFromJson(r.meta(), path);
   try {
     if (expected_config != nullptr) {
-      CheckResumeConfig(meta.config_hash, ConfigToJson(ConfigFromJson(meta.config)),
-                        *expected_config);
+      CheckResumeConfig(
+          meta.config_hash,
+          trainkit::HashedConfig(ConfigToJson(ConfigFromJson(meta.config)), meta.init_from),
+          *expected_config);
     }
     trainkit::LoadModule(r, "model/", *model);
     if (adamw) trainkit::LoadAdamW(r, meta.adamw_step, *adamw);

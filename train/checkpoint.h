@@ -26,6 +26,9 @@ struct CheckpointMeta {
   // Which step the reward head of position j predicts: "frame" = step j (RLDS's reward logged
   // with frame j). Checkpoints without the key predicted step j-1 and never saw a final reward.
   std::string reward_target = kRewardTargetFrame;
+  // --init-from: the parent (trainkit::Parent::record), also hashed into config_hash; null when
+  // the run started from a random init (and then absent from the meta and checkpoint.json).
+  nlohmann::json init_from;
 };
 
 nlohmann::json MetaToJson(const CheckpointMeta& meta);
@@ -43,8 +46,8 @@ nlohmann::json Manifest(const trainkit::RunDir& run, const CheckpointMeta& meta,
                         const nlohmann::json& data);
 
 // Restores model, AdamW moments (when `adamw` is given) and returns the meta. With
-// `expected_config` (resuming) refuses a checkpoint trained with another config, naming the keys
-// that differ.
+// `expected_config` (resuming: trainkit::HashedConfig of the config and init_from) refuses a
+// checkpoint trained with another config or parent, naming the keys that differ.
 CheckpointMeta LoadCheckpoint(const std::string& path, WorldModel& model, trainkit::AdamW* adamw,
                               const nlohmann::json* expected_config = nullptr);
 

@@ -13,7 +13,9 @@
 #include "train/batch.h"
 #include "train/checkpoint.h"
 #include "train/distributed.h"
+#include "train/init_from.h"
 #include "trainkit/adamw.h"
+#include "trainkit/module_archive.h"
 #include "trainkit/run_dir.h"
 #include "trainkit/schedule.h"
 #include "trainkit/step_log.h"
@@ -118,16 +120,23 @@ CheckpointMeta NewRunMeta(const DynamicsConfig& cfg, const SegmentSampler& sampl
 }
 
 // The model and its optimizer; the parameters split into the dynamics and the policy
-// embedding's, which are clipped separately.
+// embedding's, which are clipped separately. Parameters under `frozen` prefixes (--freeze) get no
+// gradient and stay out of the optimizer, so they keep their bits.
 struct Trainee {
-  explicit Trainee(const DynamicsConfig& cfg, const torch::Device& device) : model(cfg) {
+  Trainee(const DynamicsConfig& cfg, const torch::Device& device,
+          const std::vector<std::string>& frozen)
+      : model(cfg) {
     model->to(device);
     std::vector<std::pair<std::string, torch::Tensor>> named;
     for (const auto& item : model->named_parameters()) {
+      num_parameters += item.value().numel();
+      if (trainkit::IsFrozen(item.key(), frozen)) {
+        item.value().set_requires_grad(false);
+        continue;
+      }
       named.emplace_back(item.key(), item.value());
       (item.key().rfind("policy.", 0) == 0 ? policy_params : dyn_params).push_back(item.value());
       all_params.push_back(item.value());
-      num_parameters += item.value().numel();
     }
     const TrainConfig& t = cfg.train;
     adamw = std::make_unique<trainkit::AdamW>(
@@ -144,8 +153,8 @@ struct Trainee {
 // Loads the checkpoint being resumed into `t` and `meta`; returns its step.
 int64_t Resume(const trainkit::RunDir& run, bool writer, const SegmentSampler& sampler, Trainee& t,
                CheckpointMeta& meta) {
-  const CheckpointMeta loaded =
-      LoadCheckpoint(run.checkpoint(), t.model, t.adamw.get(), &meta.config);
+  const nlohmann::json expected = trainkit::HashedConfig(meta.config, meta.init_from);
+  const CheckpointMeta loaded = LoadCheckpoint(run.checkpoint(), t.model, t.adamw.get(), &expected);
   Check(loaded.reward_target == kRewardTargetFrame,
         "checkpoint trained with the earlier reward alignment (position j predicting step j-1); "
         "resuming would switch its reward target mid-run: start a new run directory",
@@ -295,10 +304,14 @@ TrainSummary TrainDynamics(const TrainOptions& o) {
   std::optional<SegmentSampler> val;
   if (!o.val_dir.empty())
     val.emplace(std::vector<std::string>{o.val_dir}, o.config.model.context_frames);
+  const std::optional<trainkit::Parent> parent = ReadDynamicsParent(o);
   trainkit::SetUpTorch(tc.threads, tc.seed, device.is_cuda());
-  Trainee trainee(o.config, device);
+  Trainee trainee(o.config, device, FrozenPrefixes(o));
   CheckpointMeta meta = NewRunMeta(o.config, sampler);
+  if (parent) AdoptParent(*parent, meta);
+  // Resuming takes precedence: a killed fine-tune continues from its own checkpoint.
   const int64_t start = run.resuming() ? Resume(run, writer, sampler, trainee, meta) : 0;
+  if (parent && !run.resuming()) trainkit::LoadParentModule(*parent, *trainee.model);
 
   TrainSummary summary{.start_step = start, .num_parameters = trainee.num_parameters};
   DynamicsStage stage(o, run, device, sampler, val, trainee, meta, summary);

@@ -40,6 +40,24 @@ void LoadModule(const TensorArchiveReader& r, const std::string& prefix, torch::
   for (auto& [name, t] : ModuleTensors(m)) LoadTensor(r, prefix + name, t);
 }
 
+void LoadParentModule(const Parent& parent, torch::nn::Module& m) {
+  constexpr const char* kPrefix = "model/";
+  try {
+    size_t archived = 0;
+    for (const std::string& name : parent.archive->Names()) archived += name.rfind(kPrefix, 0) == 0;
+    const auto tensors = ModuleTensors(m);
+    for (const auto& [name, t] : tensors) {
+      Check(parent.archive->Contains(kPrefix + name), "the parent has no tensor " + name);
+    }
+    Check(archived == tensors.size(), "the parent has " + std::to_string(archived) +
+                                          " model tensors, this model " +
+                                          std::to_string(tensors.size()));
+    LoadModule(*parent.archive, kPrefix, m);
+  } catch (const Error& e) {
+    throw ParentError(parent, e.what());
+  }
+}
+
 void AddAdamW(TensorArchiveWriter& w, const AdamW& adamw) {
   const auto& params = adamw.parameters();
   for (size_t i = 0; i < params.size(); ++i) {

@@ -10,6 +10,7 @@
 
 #include "core/tensor_archive.h"
 #include "trainkit/adamw.h"
+#include "trainkit/init_from.h"
 
 namespace wm::trainkit {
 
@@ -28,6 +29,10 @@ void AddModule(TensorArchiveWriter& writer, const std::string& prefix,
                const torch::nn::Module& module);
 void LoadModule(const TensorArchiveReader& reader, const std::string& prefix,
                 torch::nn::Module& module);
+
+// --init-from: the parent's "model/" tensors into `module`, which must be exactly the parent's
+// set (a tensor either side lacks, or another dtype or shape, is an error naming it).
+void LoadParentModule(const Parent& parent, torch::nn::Module& module);
 
 // The optimizer's moments as "adamw/exp_avg/<param>" and "adamw/exp_avg_sq/<param>", one
 // parameter after the other. LoadAdamW also restores the step count (`step_count`, from the

@@ -6,6 +6,7 @@
 #include "core/error.h"
 #include "core/provenance.h"
 #include "core/sha256.h"
+#include "trainkit/init_from.h"
 #include "trainkit/torch_runtime.h"
 
 namespace wm::trainkit {
@@ -23,9 +24,13 @@ RunDir::RunDir(std::string dir, bool resume, bool create)
 
 std::string RunDir::File(const std::string& name) const { return (fs::path(dir_) / name).string(); }
 
-nlohmann::json RunDir::Manifest(const std::string& tool, const nlohmann::json& config,
-                                int64_t step) const {
+nlohmann::json RunDir::Manifest(const std::string& tool, const nlohmann::json& config, int64_t step,
+                                const nlohmann::json& init_from) const {
   nlohmann::json manifest = MakeProvenance(tool, config, {{"libtorch", TorchVersion()}});
+  if (!init_from.is_null()) {
+    manifest["config_hash"] = ConfigHash(HashedConfig(config, init_from));
+    manifest["init_from"] = init_from;
+  }
   manifest["step"] = step;
   manifest["checkpoint"] = {{"file", kCheckpointFile},
                             {"sha256", Sha256File(checkpoint_)},

@@ -27,9 +27,11 @@ class RunDir {
   bool resuming() const { return resuming_; }
 
   // The fields every checkpoint.json has: MakeProvenance(tool, config, LibTorch version), the
-  // step and {file, sha256, format} of checkpoint.wmt as it is on disk now.
-  nlohmann::json Manifest(const std::string& tool, const nlohmann::json& config,
-                          int64_t step) const;
+  // step and {file, sha256, format} of checkpoint.wmt as it is on disk now. A run started with
+  // --init-from also has "init_from" (Parent::record), and its config_hash is that of
+  // HashedConfig(config, init_from) (trainkit/init_from.h).
+  nlohmann::json Manifest(const std::string& tool, const nlohmann::json& config, int64_t step,
+                          const nlohmann::json& init_from = nullptr) const;
   void WriteManifest(const nlohmann::json& manifest) const;  // atomically
   // On resume: writes `manifest` unless checkpoint.json already holds exactly it, so only a
   // manifest left stale by a kill is rewritten (and a read-only run directory fails where it

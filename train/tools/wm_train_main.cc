@@ -35,6 +35,8 @@ void AddOptions(CLI::App& app, Args& a) {
       "MASTER_ADDR, MASTER_PORT in the environment of every process.\n"
       "Re-running with --resume continues from RUN_DIR/checkpoint.wmt; the final checkpoint is\n"
       "byte-identical to an uninterrupted CPU run.\n"
+      "Fine-tuning: --init-from runs/dyn-tiny [--freeze policy] starts from that run's weights\n"
+      "(fresh optimizer and schedule); the parent's checkpoint sha256 is recorded, not its path.\n"
       "Exit codes: 0 success, 1 error (one line naming file and key), 2 bad command line.");
   app.add_option("--config", a.config, "Dynamics YAML (configs/dynamics/*.yaml)")
       ->required()
@@ -50,6 +52,13 @@ void AddOptions(CLI::App& app, Args& a) {
   app.add_option("--seed", a.seed, "Override train.seed");
   app.add_option("--threads", a.threads, "Override train.threads (LibTorch intra-op, per rank)");
   app.add_flag("--resume", a.options.resume, "Continue from RUN_DIR/checkpoint.wmt");
+  app.add_option("--init-from", a.options.init_from,
+                 "Start from the weights of this finished run (RUN_DIR or checkpoint.wmt)")
+      ->check(CLI::ExistingPath);
+  app.add_option("--freeze", a.options.freeze,
+                 "With --init-from: keep these parameters fixed (policy = the policy embedding)")
+      ->check(CLI::IsMember({"policy"}))
+      ->needs("--init-from");
   app.add_option("--stop-after", a.stop_after,
                  "Stop after N steps of this invocation (time-sliced jobs)");
   app.add_option("--nproc", a.nproc, "Spawn N local data-parallel processes (Gloo/store on CPU)");
