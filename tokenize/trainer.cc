@@ -12,10 +12,12 @@
 #include "core/provenance.h"
 #include "core/tensor_archive.h"
 #include "tokenize/frame_sampler.h"
+#include "tokenize/init_from.h"
 #include "tokenize/tokenizer.h"
 #include "tokenize/validation.h"
 #include "tokenize/vqvae.h"
 #include "trainkit/adamw.h"
+#include "trainkit/init_from.h"
 #include "trainkit/mixture.h"
 #include "trainkit/module_archive.h"
 #include "trainkit/run_dir.h"
@@ -51,6 +53,7 @@ struct TrainState {
   std::unique_ptr<FrameSampler> sampler;
   std::mt19937_64 reseed_rng;
   int64_t step = 0;
+  nlohmann::json init_from;  // --init-from: trainkit::Parent::record; null without a parent
 };
 
 // Frame sampling is a pure function of (seed, step); only the dead-code draws carry state.
@@ -60,7 +63,8 @@ nlohmann::json RngJson(const TrainState& s) {
 
 // checkpoint.json: describes the checkpoint.wmt in `run` (RunDir::WriteCheckpoint).
 nlohmann::json Manifest(const TrainOptions& o, const RunDir& run, const TrainState& s) {
-  nlohmann::json manifest = run.Manifest("wm-tokenize train", ConfigToJson(o.config), s.step);
+  nlohmann::json manifest =
+      run.Manifest("wm-tokenize train", ConfigToJson(o.config), s.step, s.init_from);
   manifest["data"] = s.sampler->DataProvenance();
   manifest["rng"] = RngJson(s);
   return manifest;
@@ -70,11 +74,14 @@ void WriteCheckpoint(const TrainOptions& o, const RunDir& run, TrainState& s) {
   TensorArchiveWriter w;
   trainkit::AddModule(w, "model/", *s.model);
   trainkit::AddAdamW(w, *s.optimizer);
-  w.SetMeta({{"step", s.step},
-             {"adamw_step", s.optimizer->step_count()},
-             {"config", ConfigToJson(o.config)},  // makes the archive loadable on its own
-             {"config_hash", ConfigHash(ConfigToJson(o.config))},
-             {"rng", RngJson(s)}});
+  nlohmann::json meta = {
+      {"step", s.step},
+      {"adamw_step", s.optimizer->step_count()},
+      {"config", ConfigToJson(o.config)},  // makes the archive loadable on its own
+      {"config_hash", ConfigHash(trainkit::HashedConfig(ConfigToJson(o.config), s.init_from))},
+      {"rng", RngJson(s)}};
+  if (!s.init_from.is_null()) meta["init_from"] = s.init_from;
+  w.SetMeta(std::move(meta));
   run.WriteCheckpoint(w, [&] { return Manifest(o, run, s); });
 }
 
@@ -82,10 +89,12 @@ void LoadCheckpoint(const std::string& path, const nlohmann::json& config, Train
   TensorArchiveReader r(path);
   try {
     const nlohmann::json& meta = r.meta();
-    CheckResumeConfig(meta.value("config_hash", ""),
-                      meta.contains("config") ? ConfigToJson(ConfigFromJson(meta.at("config")))
-                                              : nlohmann::json(),
-                      config);
+    CheckResumeConfig(
+        meta.value("config_hash", ""),
+        trainkit::HashedConfig(
+            meta.contains("config") ? ConfigToJson(ConfigFromJson(meta.at("config"))) : nullptr,
+            meta.value("init_from", nlohmann::json())),
+        trainkit::HashedConfig(config, s.init_from));
     trainkit::LoadModule(r, "model/", *s.model);
     trainkit::LoadAdamW(r, meta.at("adamw_step").get<int64_t>(), *s.optimizer);
     s.step = meta.at("step").get<int64_t>();
@@ -113,14 +122,21 @@ std::unique_ptr<FrameSampler> MakeSampler(const TrainOptions& o,
 }
 
 // The model, optimizer and sampler of step 0 (in this order: they draw from the torch seed).
-TrainState MakeTrainState(const TrainOptions& o, const torch::Device& device) {
+// Parameters under `frozen` prefixes (--freeze) get no gradient and stay out of the optimizer.
+TrainState MakeTrainState(const TrainOptions& o, const torch::Device& device,
+                          const std::vector<std::string>& frozen) {
   const TrainConfig& t = o.config.train;
   TrainState s;
   s.model = VqVae(o.config.model);
   s.model->to(device);
   std::vector<std::pair<std::string, torch::Tensor>> params;
-  for (const auto& item : s.model->named_parameters())
-    params.emplace_back(item.key(), item.value());
+  for (const auto& item : s.model->named_parameters()) {
+    if (trainkit::IsFrozen(item.key(), frozen)) {
+      item.value().set_requires_grad(false);
+    } else {
+      params.emplace_back(item.key(), item.value());
+    }
+  }
   s.optimizer = std::make_unique<AdamW>(
       std::move(params),
       trainkit::AdamWOptions{
@@ -205,7 +221,13 @@ class TokenizerStage : public trainkit::TrainingStage {
  public:
   TokenizerStage(const TrainOptions& o, const RunDir& run, const torch::Device& device,
                  TrainState& s, std::optional<Validation>& val, TrainSummary& summary)
-      : o_(o), cfg_(o.config), run_(run), device_(device), s_(s), val_(val), summary_(summary) {}
+      : o_(o), cfg_(o.config), run_(run), device_(device), s_(s), val_(val), summary_(summary) {
+    // A fine-tune keeps its parent's codebook (no data-dependent init), and a frozen one also
+    // never re-seeds dead codes, so every frame keeps its tokens.
+    seed_codebook_ = s.init_from.is_null();
+    dead_code_steps_ =
+        s.model->quantizer->codebook.requires_grad() ? cfg_.model.dead_code_steps : 0;
+  }
 
   void Train(int64_t step, int64_t stop) override {
     const int B = cfg_.train.batch_size, S = cfg_.model.image_size;
@@ -223,15 +245,17 @@ class TokenizerStage : public trainkit::TrainingStage {
     lr_ = LearningRateAt(cfg_.train, step);
     s_.optimizer->set_lr(lr_);
     s_.optimizer->ZeroGrad();
-    if (step == 0) s_.model->quantizer->SeedFromLatents(s_.model->Encode(images), s_.reseed_rng);
+    if (step == 0 && seed_codebook_) {
+      s_.model->quantizer->SeedFromLatents(s_.model->Encode(images), s_.reseed_rng);
+    }
     out_ = s_.model->forward(images, anchors);  // images: [B, 3, S, S]
     out_.loss.backward();
     if (cfg_.train.grad_clip > 0) {
       torch::nn::utils::clip_grad_norm_(s_.model->parameters(), cfg_.train.grad_clip);
     }
     s_.optimizer->Step();
-    reseeded_ = s_.model->quantizer->UpdateUsageAndReseed(out_.quant, cfg_.model.dead_code_steps,
-                                                          s_.reseed_rng);
+    reseeded_ =
+        s_.model->quantizer->UpdateUsageAndReseed(out_.quant, dead_code_steps_, s_.reseed_rng);
     s_.step = step + 1;
   }
 
@@ -289,6 +313,8 @@ class TokenizerStage : public trainkit::TrainingStage {
   VqVaeOutput out_;  // of the last step
   double lr_ = 0;
   int64_t reseeded_ = 0;
+  bool seed_codebook_ = true;
+  int64_t dead_code_steps_ = 0;
 };
 
 }  // namespace
@@ -303,12 +329,17 @@ TrainSummary TrainTokenizer(const TrainOptions& o) {
   trainkit::CheckDevice(o.device);
   const torch::Device device(o.device);
   const RunDir run(o.out_dir, o.resume, /*create=*/true);
+  const std::optional<trainkit::Parent> parent = ReadTokenizerParent(o);
   trainkit::SetUpTorch(cfg.train.threads, cfg.train.seed, device.is_cuda());
-  TrainState s = MakeTrainState(o, device);
+  TrainState s = MakeTrainState(o, device, FrozenPrefixes(o));
+  if (parent) s.init_from = parent->record;
+  // Resuming takes precedence: a killed fine-tune continues from its own checkpoint.
   if (run.resuming()) {
     LoadCheckpoint(run.checkpoint(), ConfigToJson(cfg), s);
     LogInfo("resuming " + run.checkpoint() + " at step " + std::to_string(s.step));
     run.RefreshManifest(Manifest(o, run, s));  // may describe an older archive
+  } else if (parent) {
+    trainkit::LoadParentModule(*parent, *s.model);
   }
   trainkit::StepLog metrics(run.File(kMetrics), kMetricsHeader, s.step);
   std::optional<Validation> val;

@@ -23,6 +23,14 @@ struct TrainOptions {
   std::string out_dir;                 // RUN_DIR, created if missing
   std::string device = "cpu";          // "cpu", "cuda" or "cuda:N"
   bool resume = false;                 // continue from RUN_DIR/checkpoint.wmt
+  // --init-from: a finished run (its directory or checkpoint.wmt) whose weights, codebook and
+  // dead-code counters this run starts from, with a fresh optimizer, schedule and dead-code RNG;
+  // empty = a random init. Once RUN_DIR has a checkpoint, --resume continues it instead (the
+  // parent must be the one it recorded).
+  std::string init_from;
+  // --freeze: parameter groups kept fixed (no gradient, no AdamW update); needs init_from.
+  // "encoder" = the encoder and the codebook (no dead-code re-seeding): tokens stay identical.
+  std::vector<std::string> freeze;
   // Stop (with a checkpoint) after this many steps of this invocation, 0 = run to
   // train.steps; for time-sliced jobs. Does not change the schedule.
   int64_t max_steps_this_run = 0;
@@ -37,8 +45,9 @@ struct TrainSummary {
   std::string checkpoint_path;
 };
 
-// Throws wm::Error on bad data, a config that differs from the checkpoint's on --resume, or a
-// RUN_DIR that already holds a checkpoint without --resume.
+// Throws wm::Error on bad data, a config (or --init-from parent) that differs from the
+// checkpoint's on --resume, a parent whose shapes differ from the config's, or a RUN_DIR that
+// already holds a checkpoint without --resume.
 TrainSummary TrainTokenizer(const TrainOptions& options);
 
 // lr at `step` (0-based): trainkit::LearningRateAt (linear warmup to max_lr over warmup_steps,

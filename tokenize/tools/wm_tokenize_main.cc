@@ -33,7 +33,9 @@ void AddTrain(CLI::App& app, TrainArgs& a) {
       "Example:\n  wm-tokenize train --config configs/tokenizer/tiny.yaml \\\n"
       "    --data data/tabletop/train --out runs/tok-tiny\n"
       "Re-running with --resume continues from RUN_DIR/checkpoint.wmt; the final checkpoint is\n"
-      "byte-identical to an uninterrupted CPU run.");
+      "byte-identical to an uninterrupted CPU run.\n"
+      "Fine-tuning: --init-from runs/tok-tiny [--freeze encoder] starts from that run's weights\n"
+      "(fresh optimizer and schedule); the parent's checkpoint sha256 is recorded, not its path.");
   train->add_option("--config", a.config, "Tokenizer YAML (configs/tokenizer/*.yaml)")
       ->required()
       ->check(CLI::ExistingFile);
@@ -54,6 +56,16 @@ void AddTrain(CLI::App& app, TrainArgs& a) {
   train->add_option("--seed", a.seed, "Override train.seed");
   train->add_option("--threads", a.threads, "Override train.threads (LibTorch intra-op)");
   train->add_flag("--resume", a.options.resume, "Continue from RUN_DIR/checkpoint.wmt");
+  train
+      ->add_option("--init-from", a.options.init_from,
+                   "Start from the weights of this finished run (RUN_DIR or checkpoint.wmt)")
+      ->check(CLI::ExistingPath);
+  train
+      ->add_option("--freeze", a.options.freeze,
+                   "With --init-from: keep these parameters fixed (encoder = encoder + codebook, "
+                   "so tokens stay identical)")
+      ->check(CLI::IsMember({"encoder"}))
+      ->needs("--init-from");
   train->add_option("--stop-after", a.stop_after,
                     "Stop after N steps of this invocation (time-sliced jobs)");
 }
