@@ -1,5 +1,7 @@
 #include "trainkit/init_from.h"
 
+#include <algorithm>
+
 #include "core/error.h"
 #include "core/paths.h"
 #include "core/sha256.h"
@@ -8,6 +10,9 @@ namespace wm::trainkit {
 
 Parent ReadParent(const std::string& run_dir, const std::vector<std::string>& freeze) {
   Parent p{.given = run_dir};
+  std::vector<std::string> groups = freeze;  // recorded as a set: the order means nothing
+  std::sort(groups.begin(), groups.end());
+  groups.erase(std::unique(groups.begin(), groups.end()), groups.end());
   const std::string file = CheckpointFileIn(run_dir);
   try {
     p.archive = std::make_shared<const TensorArchiveReader>(file);
@@ -15,7 +20,7 @@ Parent ReadParent(const std::string& run_dir, const std::vector<std::string>& fr
     p.record = {{"checkpoint_sha256", Sha256File(file)},
                 {"config_hash", meta.at("config_hash").get<std::string>()},
                 {"step", meta.at("step").get<int64_t>()},
-                {"freeze", freeze}};
+                {"freeze", groups}};
   } catch (const nlohmann::json::exception& e) {
     throw ParentError(p, file + ": not a wmkit training checkpoint (meta): " + e.what());
   } catch (const Error& e) {

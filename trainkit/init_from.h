@@ -28,7 +28,7 @@ struct Parent {
 };
 
 // Opens RUN_DIR/checkpoint.wmt (or the file itself, as encode's --checkpoint) and hashes it.
-// `freeze`: the parameter groups the new run keeps fixed (recorded, in the given order).
+// `freeze`: the parameter groups the new run keeps fixed (recorded sorted, each once).
 Parent ReadParent(const std::string& run_dir, const std::vector<std::string>& freeze);
 
 // What a run's config_hash is the hash of: `config`, with "init_from": `init_from` added when the

@@ -1,9 +1,13 @@
 #include "tests/core/test_util.h"
 
+#include <algorithm>
+#include <cmath>
 #include <cstdlib>
+#include <cstring>
 #include <fstream>
 
 #include "core/error.h"
+#include "core/tensor_archive.h"
 #include <unistd.h>
 
 namespace wm::test {
@@ -100,6 +104,41 @@ std::string ErrorText(const std::function<void()>& f) {
     return e.what();
   }
   return "(no error)";
+}
+
+std::vector<std::string> TensorNames(const std::string& archive, const std::string& prefix) {
+  std::vector<std::string> names;
+  for (const std::string& name : TensorArchiveReader(archive).Names()) {
+    if (name.rfind(prefix, 0) == 0) names.push_back(name);
+  }
+  return names;
+}
+
+std::vector<std::string> ChangedTensors(const std::string& a, const std::string& b,
+                                        const std::string& prefix) {
+  const TensorArchiveReader ra(a), rb(b);
+  std::vector<std::string> changed;
+  for (const std::string& name : TensorNames(a, prefix)) {
+    const ArchiveTensor& x = ra.Get(name);
+    const bool same = rb.Contains(name) && rb.Get(name).length == x.length &&
+                      std::memcmp(rb.Get(name).data, x.data, x.length) == 0;
+    if (!same) changed.push_back(name);
+  }
+  return changed;
+}
+
+double MaxFloat32Difference(const std::string& a, const std::string& b, const std::string& prefix) {
+  const TensorArchiveReader ra(a), rb(b);
+  double worst = 0;
+  for (const std::string& name : TensorNames(a, prefix)) {
+    const ArchiveTensor& x = ra.Get(name);
+    if (x.dtype != DType::kFloat32) continue;
+    const std::span<const float> p = ra.Float32(name, x.shape), q = rb.Float32(name, x.shape);
+    for (size_t i = 0; i < p.size(); ++i) {
+      worst = std::max<double>(worst, std::abs(p[i] - q[i]));
+    }
+  }
+  return worst;
 }
 
 void FlipByte(const std::string& file, uint64_t offset) {

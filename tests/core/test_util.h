@@ -4,6 +4,7 @@
 #include <functional>
 #include <random>
 #include <string>
+#include <vector>
 
 #include "core/episode.h"
 #include "core/tokens/token_dataset.h"
@@ -39,6 +40,14 @@ std::string BinDir();
 
 // The message of the wm::Error that f() throws, or "(no error)".
 std::string ErrorText(const std::function<void()>& f);
+
+// Two tensor archives compared by tensor-name prefix (the fine-tuning tests): the names under
+// `prefix` in `archive`; those whose bytes differ in `b` (or that `b` lacks); and the largest
+// |a - b| over the float32 ones.
+std::vector<std::string> TensorNames(const std::string& archive, const std::string& prefix);
+std::vector<std::string> ChangedTensors(const std::string& a, const std::string& b,
+                                        const std::string& prefix);
+double MaxFloat32Difference(const std::string& a, const std::string& b, const std::string& prefix);
 
 void FlipByte(const std::string& file, uint64_t offset);
 void Truncate(const std::string& file, uint64_t new_size);
