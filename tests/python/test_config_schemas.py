@@ -9,7 +9,8 @@ reads and writes:
   rejects the very same files (exit 1, naming the file and the key);
 - `wm-tokenize train --steps 2` and `wm-train --steps 1` record the loaders' defaults in
   checkpoint.json exactly as the schemas' "default"s say; the tokenizer's checkpoint.json validates
-  (hashes and shard list checked too) and mutated copies do not;
+  (hashes and shard list checked too) and mutated copies do not, and so does a fine-tune's
+  (`--init-from --freeze encoder`: init_from records the parent, config_hash includes it);
 - `wm-metrics` JSON validates for lpips_style + fvd_style with --per-frame (null per-frame
   fvd_style), for identical frames (PSNR "inf") and for the default metrics.
 Needs the built tools (WM_BIN_DIR); about 20 s on 2 cores."""
@@ -340,6 +341,45 @@ class TokenizerCheckpoint(unittest.TestCase):
                    lambda d: d["data"][0].update(weight=1.5),
                    lambda d: d.update(data=[])):
             self.assertFalse(self.validator.is_valid(mutated(fn)))
+
+
+class TokenizerFineTune(unittest.TestCase):
+    """`wm-tokenize train --init-from --freeze encoder`: checkpoint.json validates, records the
+    parent by hash (init_from) and hashes it into config_hash."""
+
+    @classmethod
+    def setUpClass(cls):
+        cls.run_dir = os.path.join(FIX["tmp"], "tok_ft")
+        config = os.path.join(FIX["tmp"], "tok.yaml")
+        r = tool("wm-tokenize", "train", "--config", config, "--data", FIX["shards"], "--out",
+                 cls.run_dir, "--steps", 2, "--threads", 1, "--init-from", FIX["tok"],
+                 "--freeze", "encoder")
+        assert r.returncode == 0, r.stderr
+        with open(os.path.join(cls.run_dir, "checkpoint.json"), encoding="utf-8") as f:
+            cls.manifest = json.load(f)
+
+    def test_valid_and_records_the_parent(self):
+        m = self.manifest
+        validator("tokenizer-checkpoint").validate(m)
+        with open(os.path.join(FIX["tok"], "checkpoint.json"), encoding="utf-8") as f:
+            parent = json.load(f)
+        self.assertEqual(m["init_from"], {
+            "checkpoint_sha256": sha256_file(os.path.join(FIX["tok"], "checkpoint.wmt")),
+            "config_hash": parent["config_hash"], "step": 2, "freeze": ["encoder"]})
+        hashed = dict(m["config"], init_from=m["init_from"])
+        compact = json.dumps(hashed, sort_keys=True, separators=(",", ":"))
+        self.assertEqual(m["config_hash"], hashlib.sha256(compact.encode()).hexdigest())
+        self.assertNotIn(FIX["tmp"], json.dumps(m))  # no paths
+
+    def test_rejects_mutated_init_from(self):
+        v = validator("tokenizer-checkpoint")
+        for fn in (lambda d: d["init_from"].pop("step"),
+                   lambda d: d["init_from"].update(run=FIX["tok"]),
+                   lambda d: d["init_from"].update(freeze=["decoder"]),
+                   lambda d: d["init_from"].update(checkpoint_sha256="x")):
+            doc = copy.deepcopy(self.manifest)
+            fn(doc)
+            self.assertFalse(v.is_valid(doc))
 
 
 class DynamicsDefaults(unittest.TestCase):

@@ -1,5 +1,6 @@
 #!/usr/bin/python3
-"""wm-train end to end: --help/--version/exit codes, config errors naming the key, and data
+"""wm-train end to end: --help/--version/exit codes, config errors naming the key, fine-tuning
+(--init-from, --freeze: provenance and the schema, one-line shape errors), and data
 parallelism: `--nproc 2` (two processes, each sampling half of the global batch, gradients
 all-reduced) follows the single-process loss curve and ends at the same weights within float
 tolerance."""
@@ -42,6 +43,39 @@ def run(args, **kw):
 def losses(run_dir):
     rows = open(os.path.join(run_dir, "metrics.csv")).read().split("\n")[1:]
     return np.array([[float(x) for x in r.split(",")[1:8]] for r in rows if r])
+
+
+def fine_tune(tmp, cfg, tokens, parent):
+    """--init-from PARENT --freeze policy: runs, records the parent, validates; shape errors and
+    --freeze without --init-from are one-line errors."""
+    ft = os.path.join(tmp, "ft")
+    r = run(["--config", cfg, "--tokens", tokens, "--out", ft, "--steps", "5",
+             "--init-from", parent, "--freeze", "policy"])
+    check(r.returncode == 0, "--init-from --freeze policy runs" + r.stderr[-300:])
+    if r.returncode != 0:
+        return
+    manifest = json.load(open(os.path.join(ft, "checkpoint.json")))
+    schema = json.load(open(os.path.join(SRC, "schemas", "dynamics-checkpoint.schema.json")))
+    try:
+        jsonschema.validate(manifest, schema)
+        check(True, "a fine-tune's checkpoint.json validates")
+    except jsonschema.ValidationError as e:
+        check(False, "fine-tune checkpoint.json: %s" % e.message)
+    init = manifest.get("init_from", {})
+    parent_json = json.load(open(os.path.join(parent, "checkpoint.json")))
+    check(init.get("checkpoint_sha256") == parent_json["checkpoint"]["sha256"]
+          and init.get("freeze") == ["policy"] and init.get("step") == 30,
+          "init_from records the parent's checkpoint sha256, step and --freeze")
+    wide = os.path.join(tmp, "wide.yaml")
+    open(wide, "w").write(CONFIG.replace("d_model: 32", "d_model: 64"))
+    r = run(["--config", wide, "--tokens", tokens, "--out", os.path.join(tmp, "w"),
+             "--init-from", parent])
+    check(r.returncode == 1 and r.stderr.count("\n") == 1 and
+          "model.d_model is 32 in the parent, 64 here" in r.stderr,
+          "shape mismatch: one line naming the key and both values (%r)" % r.stderr.strip())
+    r = run(["--config", cfg, "--tokens", tokens, "--out", os.path.join(tmp, "f"),
+             "--freeze", "policy"])
+    check(r.returncode != 0 and "--init-from" in r.stderr, "--freeze needs --init-from")
 
 
 def main():
@@ -89,6 +123,7 @@ def main():
                     check(True, "checkpoint.json validates against %s.schema.json" % name)
                 except jsonschema.ValidationError as e:
                     check(False, "checkpoint.json, %s.schema.json: %s" % (name, e.message))
+            fine_tune(tmp, cfg, tokens, one)
     print("%d passed, %d failed" % (len(checks) - len(failures), len(failures)))
     return 1 if failures else 0
 
