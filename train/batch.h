@@ -28,7 +28,7 @@ SegmentBatch MakeSegmentBatch(const DynamicsConfig& config, const SegmentData& d
                               const torch::Device& device);
 
 // Decoding of the frame after `tokens` [B, Tc, N] (Tc < context_frames) with actions
-// [B, Tc, 7] (normalised; the last one leads to the new frame) and z [B, Tc, z_dim] (undefined
+// [B, Tc, D] (normalised, padding zeroed; the last one leads to the new frame) and z [B, Tc, z_dim] (undefined
 // without policy conditioning): `steps` rounds, each sampling every masked token (temperature
 // 0 = argmax) and keeping the most confident so that cos(pi/2 * (s+1)/steps) of the frame stays
 // masked ("masked" objective; a "next_frame" model samples every token in one pass and ignores
