@@ -55,9 +55,8 @@ std::vector<EpisodeRollout> PerturbedRollout(const train::DynamicsModel& model,
   options.samples = 1;  // only sample 0 is scored against the plain rollout
   std::vector<std::vector<float>> actions;
   for (int64_t k : episodes) {
-    actions.push_back(
-        PerturbActions(data.actions(k), data.action_dim(), data.episode(k).num_frames, p,
-                       options.seed, k));
+    actions.push_back(PerturbActions(data.actions(k), data.action_dim(), data.episode(k).num_frames,
+                                     p, options.seed, k));
   }
   return Rollout(model, data, episodes, RolloutMode::kPlain, options, &actions);
 }

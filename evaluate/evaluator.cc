@@ -256,7 +256,8 @@ void WriteReport(const EvalOptions& o, const std::string& name, const std::strin
                      tok.image_size());
   WriteScoreCsvs(dir, name, t, o.resamples, o.rollout.seed);
   WriteFileAtomically((fs::path(dir) / "values.csv").string(), values);
-  WriteFileAtomically((fs::path(dir) / "contexts.csv").string(), ContextsCsv(name, o.modes, records, data.action_dim()));
+  WriteFileAtomically((fs::path(dir) / "contexts.csv").string(),
+                      ContextsCsv(name, o.modes, records, data.action_dim()));
   WriteEvalManifest(dir, name, checkpoint, o, model, tok, data, shards);
 }
 

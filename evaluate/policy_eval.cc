@@ -187,12 +187,13 @@ std::vector<std::string> EvaluatePolicies(const EvalOptions& o) {
   tokenize::Tokenizer tok(o.tokenizer, o.device);
   shard::DatasetReader shards(o.data_dir);
   CheckInputsBelongTogether(data, tok, shards);
-  Check(!o.policy_eval.loop.clamp_tabletop ||
-            shard::IsCanonicalAction(data.action_dim(), data.index().action_space),
-        "--clamp-actions tabletop clamps the tabletop world's 7-dim eef_delta action, but dataset '" +
-            data.index().dataset + "' has " + std::to_string(data.action_dim()) + "-dim " +
-            data.index().action_space + " actions (pass --clamp-actions none)",
-        {.file = data.dir(), .key = "--clamp-actions"});
+  Check(
+      !o.policy_eval.loop.clamp_tabletop ||
+          shard::IsCanonicalAction(data.action_dim(), data.index().action_space),
+      "--clamp-actions tabletop clamps the tabletop world's 7-dim eef_delta action, but dataset '" +
+          data.index().dataset + "' has " + std::to_string(data.action_dim()) + "-dim " +
+          data.index().action_space + " actions (pass --clamp-actions none)",
+      {.file = data.dir(), .key = "--clamp-actions"});
   Check(o.policy_eval.loop.horizon >= 1 && o.policy_eval.loop.rollouts >= 1,
         "--policy-horizon and --policy-rollouts must be at least 1", {.key = "--policy-horizon"});
   std::vector<Clip> logged;

@@ -34,12 +34,13 @@ struct DynamicsModel::State {
               std::to_string(n));
     const int64_t A = norm.dim(), D = config.model.action_dim;
     const auto got = static_cast<int64_t>(c.actions.size());
-    Check(got == B * T * A,
-          got % (B * T) == 0
-              ? "context has " + std::to_string(got / (B * T)) + "-dim actions, the model takes " +
-                    std::to_string(A) + "-dim ones"
-              : "context has " + std::to_string(got) + " action values, expected batch x frames x " +
-                    std::to_string(A) + " = " + std::to_string(B * T * A));
+    Check(got == B * T * A, got % (B * T) == 0
+                                ? "context has " + std::to_string(got / (B * T)) +
+                                      "-dim actions, the model takes " + std::to_string(A) +
+                                      "-dim ones"
+                                : "context has " + std::to_string(got) +
+                                      " action values, expected batch x frames x " +
+                                      std::to_string(A) + " = " + std::to_string(B * T * A));
     std::vector<float> normed(static_cast<size_t>(B * T * D), 0.f);
     norm.Apply(c.actions.data(), normed.data(), B * T, D);
     const int64_t first = std::max<int64_t>(0, T - keep);

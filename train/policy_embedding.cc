@@ -24,7 +24,7 @@ torch::Tensor GaussianNll(const torch::Tensor& a, const torch::Tensor& mean,
   const double half_log_2pi = 0.5 * std::log(2.0 * std::numbers::pi);
   torch::Tensor z = (a - mean) * torch::exp(-log_std);
   torch::Tensor per_dim = 0.5 * z.pow(2) + log_std + half_log_2pi;  // [..., A]
-  return (mask.defined() ? per_dim * mask : per_dim).sum(-1);        // [...]
+  return (mask.defined() ? per_dim * mask : per_dim).sum(-1);       // [...]
 }
 
 PolicyEmbeddingImpl::PolicyEmbeddingImpl(const ModelConfig& m, const PolicyConfig& p) : config(p) {

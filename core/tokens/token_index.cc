@@ -146,19 +146,19 @@ json TokenIndexToJson(const TokenIndex& x) {
   for (const auto& e : x.episodes) episodes.push_back(EpisodeToJson(e));
   const bool canonical = shard::IsCanonicalAction(x.action_dim, x.action_space);
   json j = {{"format", kTokenFormatName},
-          {"format_version", canonical ? kTokenFormatVersion : kTokenIndexVersionAnyAction},
-          {"dataset", x.dataset},
-          {"split", x.split},
-          {"tokenizer", TokenizerToJson(x.tokenizer)},
-          {"token_dtype", x.token_dtype},
-          {"source", x.source},
-          {"action_stats", shard::StatsToJson(x.action_stats)},
-          {"num_parts", x.num_parts},
-          {"parts", parts},
-          {"num_episodes", x.episodes.size()},
-          {"num_frames", x.num_frames},
-          {"episodes", episodes},
-          {"provenance", x.provenance}};
+            {"format_version", canonical ? kTokenFormatVersion : kTokenIndexVersionAnyAction},
+            {"dataset", x.dataset},
+            {"split", x.split},
+            {"tokenizer", TokenizerToJson(x.tokenizer)},
+            {"token_dtype", x.token_dtype},
+            {"source", x.source},
+            {"action_stats", shard::StatsToJson(x.action_stats)},
+            {"num_parts", x.num_parts},
+            {"parts", parts},
+            {"num_episodes", x.episodes.size()},
+            {"num_frames", x.num_frames},
+            {"episodes", episodes},
+            {"provenance", x.provenance}};
   if (!canonical) {  // version 1 (canonical) keeps its bytes: the keys are implied there
     j["action_dim"] = x.action_dim;
     j["action_space"] = x.action_space;
@@ -173,8 +173,8 @@ TokenIndex TokenIndexFromJson(const json& j, const std::string& file) {
   const json version = j.contains("format_version") ? j["format_version"] : json();
   const bool any_action =
       version.is_number_unsigned() && version.get<uint32_t>() == kTokenIndexVersionAnyAction;
-  Check(any_action || (version.is_number_unsigned() &&
-                       version.get<uint32_t>() == kTokenFormatVersion),
+  Check(any_action ||
+            (version.is_number_unsigned() && version.get<uint32_t>() == kTokenFormatVersion),
         "unknown format_version " + version.dump() + " (this build reads versions " +
             std::to_string(kTokenFormatVersion) + " and " +
             std::to_string(kTokenIndexVersionAnyAction) + ")",

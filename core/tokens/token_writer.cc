@@ -45,8 +45,12 @@ struct TokenPartWriter::State {
   bool finished = false;
 
   State(std::string d, int p, int n, std::string key, const TokenIndex& base)
-      : dir(std::move(d)), part(p), num_parts(n), run_key(std::move(key)),
-        tokenizer(base.tokenizer), action_dim(base.action_dim),
+      : dir(std::move(d)),
+        part(p),
+        num_parts(n),
+        run_key(std::move(key)),
+        tokenizer(base.tokenizer),
+        action_dim(base.action_dim),
         token_bytes(base.tokenizer.num_codes > 65536 ? 4 : 2),
         file((std::filesystem::path(CreatedDir(dir)) / PartFileName(p)).string()) {}
 
@@ -72,10 +76,9 @@ struct TokenPartWriter::State {
   }
 };
 
-TokenPartWriter::TokenPartWriter(std::string dir, int part, int num_parts,
-                                 const TokenIndex& base)
-    : state_(std::make_unique<State>(std::move(dir), part, num_parts, RunKey(base, num_parts),
-                                     base)) {
+TokenPartWriter::TokenPartWriter(std::string dir, int part, int num_parts, const TokenIndex& base)
+    : state_(
+          std::make_unique<State>(std::move(dir), part, num_parts, RunKey(base, num_parts), base)) {
   std::string header = PartHeader(state_->token_bytes, base.tokenizer);
   state_->Write(header.data(), header.size());
 }
@@ -93,9 +96,10 @@ void TokenPartWriter::AddEpisode(const TokenEpisode& meta, const std::vector<uin
         "episode has " + std::to_string(steps.action_dim) + "-dim actions, the dataset " +
             std::to_string(s.action_dim),
         {.file = where});
-  Check(steps.actions.size() == n * static_cast<size_t>(s.action_dim) && steps.rewards.size() == n &&
-            steps.discounts.size() == n && steps.is_first.size() == n &&
-            steps.is_last.size() == n && steps.is_terminal.size() == n,
+  Check(steps.actions.size() == n * static_cast<size_t>(s.action_dim) &&
+            steps.rewards.size() == n && steps.discounts.size() == n &&
+            steps.is_first.size() == n && steps.is_last.size() == n &&
+            steps.is_terminal.size() == n,
         "per-step arrays do not have num_frames rows", {.file = where});
   Check(steps.num_steps == meta.num_frames &&
             static_cast<int64_t>(tokens.size()) == meta.num_frames * per_frame,
@@ -142,7 +146,8 @@ PartInfo TokenPartWriter::Finish() {
   for (size_t i = 0; i < std::size(kStepSections); ++i) {
     const StepSectionSpec& spec = kStepSections[i];
     size_t bytes = DtypeSize(spec.dtype);
-    for (int64_t d : StepSectionShape(spec, s.frames, s.action_dim)) bytes *= static_cast<size_t>(d);
+    for (int64_t d : StepSectionShape(spec, s.frames, s.action_dim))
+      bytes *= static_cast<size_t>(d);
     info.sections[spec.name] = s.AppendSection(data[i], bytes, spec);
   }
   info.bytes = s.file.bytes_written();

@@ -90,9 +90,8 @@ int main(int argc, char** argv) {
     const uint64_t seed = std::stoull(argv[7]);
     const int64_t action_dim = argc == 9 ? std::stoll(argv[8]) : wm::kActionDim;
     std::filesystem::create_directories(dir);  // the part writer expects an existing directory
-    auto written =
-        wm::test::MakeTokenDataset(dir, episodes, parts, grid_h, grid_w, num_codes, seed,
-                                   action_dim);
+    auto written = wm::test::MakeTokenDataset(dir, episodes, parts, grid_h, grid_w, num_codes, seed,
+                                              action_dim);
     wm::tokens::TokenDataset d(dir);
     json out = {{"token_dtype", d.index().token_dtype},
                 {"num_parts", d.index().num_parts},

@@ -59,8 +59,11 @@ TEST(PerturbActions, ShuffledIsTheDocumentedSeededFisherYatesPerEpisode) {
   std::sort(sorted.begin(), sorted.end());
   EXPECT_EQ(sorted, Order(a));  // a permutation: the same actions in another order
   EXPECT_NE(Order(s), Order(a));
-  EXPECT_EQ(PerturbActions(a.data(), kActionDim, 10, Perturbation::kShuffled, 7, 3), s);  // seeded
-  EXPECT_NE(PerturbActions(a.data(), kActionDim, 10, Perturbation::kShuffled, 7, 4), s);  // per episode
+  const auto shuffled = [&](int64_t episode) {
+    return PerturbActions(a.data(), kActionDim, 10, Perturbation::kShuffled, 7, episode);
+  };
+  EXPECT_EQ(shuffled(3), s);  // seeded
+  EXPECT_NE(shuffled(4), s);  // per episode
 }
 
 TEST(Perturbation, NamesRoundTripAndUnknownNamesAreErrors) {

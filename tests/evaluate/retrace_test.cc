@@ -1,8 +1,9 @@
 // Retracing rollout context construction (whale-x.txt section 3.4) on hand-written sequences.
+#include "evaluate/retrace.h"
+
 #include <gtest/gtest.h>
 
 #include "core/tokens/token_dataset.h"
-#include "evaluate/retrace.h"
 #include "evaluate/rollout.h"
 #include "tests/core/test_util.h"
 
@@ -62,8 +63,7 @@ TEST(Retrace, EqualsPlainWhileFrameZeroIsStillInTheWindow) {
     EXPECT_EQ(Frames(p), Frames(r)) << t;
   }
   // First divergence: t = C, where the plain window drops frame 0.
-  EXPECT_EQ(Frames(RetraceContext(a.data(), kActionDim, 4, 4)),
-            (std::vector<int64_t>{0, 2, 3, 4}));
+  EXPECT_EQ(Frames(RetraceContext(a.data(), kActionDim, 4, 4)), (std::vector<int64_t>{0, 2, 3, 4}));
   EXPECT_EQ(RetraceContext(a.data(), kActionDim, 4, 4)[0].action[0], 3.f);  // a_0 + a_1 = 1 + 2
 }
 

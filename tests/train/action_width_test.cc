@@ -96,8 +96,9 @@ TEST_F(ActionWidthTest, MixturePadsToTheWidestWithAMask) {
   const SegmentSampler one({dir_ / "eef"}, 4);
   one.Fill(one.Draw(0, 0, 2), 0, 2, single);
   EXPECT_TRUE(single.action_mask.empty());
-  EXPECT_NE(ErrorText([&] { SegmentSampler({dir_ / "wide"}, 4, "", 7); })
-                .find("actions have 14 values, the model takes 7"),
+  EXPECT_NE(ErrorText([&] {
+              SegmentSampler({dir_ / "wide"}, 4, "", 7);
+            }).find("actions have 14 values, the model takes 7"),
             std::string::npos);
 }
 
