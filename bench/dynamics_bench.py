@@ -39,7 +39,8 @@ def twin_tokens_per_s(cfg, steps, threads):
     def batch():
         mask = torch.rand(b, tt, n) < 0.5
         mask[:, 0] = False
-        return (torch.randint(m["num_codes"], (b, tt, n)), torch.randn(b, tt, 7), torch.rand(b, tt),
+        return (torch.randint(m["num_codes"], (b, tt, n)),
+                torch.randn(b, tt, dynamics_twin.action_dim(m)), torch.rand(b, tt),
                 (torch.rand(b, tt) > 0.9).float(), mask,
                 torch.rand(b, p["categories"], p["classes"]))
 

@@ -33,7 +33,7 @@ ClosedLoopRollout ImagineClosedLoop(const train::DynamicsModel& model,
     r.actions.insert(r.actions.end(), action.begin(), action.end());
     // The policy z is left to the prior, which infers it from this rollout's own context.
     const ImaginedFrame next = ImagineNextFrame(
-        model, r.tokens, PlainContext(r.actions.data(), t, context), {},
+        model, r.tokens, PlainContext(r.actions.data(), model.action_dim(), t, context), {},
         ImaginationSeed(o.imagination.seed, start.episode, rollout, t), o.imagination);
     r.tokens.insert(r.tokens.end(), next.tokens.begin(), next.tokens.end());
     r.rewards.push_back(next.reward);

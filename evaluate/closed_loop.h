@@ -50,7 +50,7 @@ struct ClosedLoopRollout {
   uint64_t episode_seed = 0, policy_seed = 0;
   int64_t steps = 0;                           // actions taken = imagined frames
   std::vector<int64_t> tokens;                 // [(steps + 1) * N]; frame 0 is the real one
-  std::vector<float> actions;                  // [steps, 7], as the model got them (clamped)
+  std::vector<float> actions;                  // [steps, D], as the model got them (clamped)
   std::vector<float> rewards, terminal_probs;  // [steps]: the heads' view of each step
   Clip frames;                // frame 0 (real) and the imagined frames 1..steps, decoded
   bool success = false;       // some step's reward > success_threshold

@@ -28,9 +28,9 @@ Perturbation ParsePerturbation(const std::string& name) {
               {.key = "--controllability"});
 }
 
-std::vector<float> PerturbActions(const float* actions, int64_t num_frames, Perturbation p,
-                                  uint64_t seed, int64_t episode) {
-  std::vector<float> out(actions, actions + num_frames * kActionDim);
+std::vector<float> PerturbActions(const float* actions, int64_t dim, int64_t num_frames,
+                                  Perturbation p, uint64_t seed, int64_t episode) {
+  std::vector<float> out(actions, actions + num_frames * dim);
   const int64_t n = std::max<int64_t>(num_frames - 1, 0);  // actions that lead to a next frame
   std::vector<int64_t> order(static_cast<size_t>(n));
   for (int64_t i = 0; i < n; ++i) order[i] = i;
@@ -43,7 +43,7 @@ std::vector<float> PerturbActions(const float* actions, int64_t num_frames, Pert
     }
   }
   for (int64_t i = 0; i < n; ++i) {
-    std::copy_n(actions + order[i] * kActionDim, kActionDim, out.begin() + i * kActionDim);
+    std::copy_n(actions + order[i] * dim, dim, out.begin() + i * dim);
   }
   return out;
 }
@@ -55,8 +55,8 @@ std::vector<EpisodeRollout> PerturbedRollout(const train::DynamicsModel& model,
   options.samples = 1;  // only sample 0 is scored against the plain rollout
   std::vector<std::vector<float>> actions;
   for (int64_t k : episodes) {
-    actions.push_back(
-        PerturbActions(data.actions(k), data.episode(k).num_frames, p, options.seed, k));
+    actions.push_back(PerturbActions(data.actions(k), data.action_dim(), data.episode(k).num_frames,
+                                     p, options.seed, k));
   }
   return Rollout(model, data, episodes, RolloutMode::kPlain, options, &actions);
 }

@@ -20,15 +20,15 @@ const char* PerturbationName(Perturbation p);  // "off", "reversed", "shuffled"
 // Throws wm::Error naming `--controllability` for any other name.
 Perturbation ParsePerturbation(const std::string& name);
 
-// Episode `episode`'s actions ([num_frames, 7], row-major) with the T - 1 that lead to a next
+// Episode `episode`'s actions ([num_frames, dim], row-major) with the T - 1 that lead to a next
 // frame (rows 0 .. num_frames - 2) permuted by `p`; the last row, which leads nowhere, unchanged.
 // The whole episode, not only the evaluated horizon: reversing a few similar actions at the
 // start (an arm approaching at a steady speed) would change little, and a horizon of 1 not at
 // all. Permuting the episode's own actions keeps them in its distribution; only which action
 // leads from which frame is wrong. Shuffling is a Fisher-Yates pass with its own
 // std::mt19937_64 stream per (seed, episode), so a shard job draws what a single job draws.
-std::vector<float> PerturbActions(const float* actions, int64_t num_frames, Perturbation p,
-                                  uint64_t seed, int64_t episode);
+std::vector<float> PerturbActions(const float* actions, int64_t dim, int64_t num_frames,
+                                  Perturbation p, uint64_t seed, int64_t episode);
 
 // The plain rollout of `episodes` again, fed PerturbActions(...) of each (sample 0 only, with
 // the plain rollout's sampling seeds, so that the actions are the only difference).

@@ -187,8 +187,10 @@ std::vector<EpisodeRecord> ScoreEpisodes(const EvalOptions& o, const std::string
 
 // contexts.csv: the frames and actions the model was given at every step of sample 0.
 std::string ContextsCsv(const std::string& name, const std::vector<RolloutMode>& modes,
-                        const std::vector<EpisodeRecord>& records) {
-  std::string csv = "checkpoint,rollout,episode,step,slot,frame,a0,a1,a2,a3,a4,a5,a6\n";
+                        const std::vector<EpisodeRecord>& records, int64_t action_dim) {
+  std::string csv = "checkpoint,rollout,episode,step,slot,frame";
+  for (int64_t d = 0; d < action_dim; ++d) csv += ",a" + std::to_string(d);
+  csv += "\n";
   for (RolloutMode mode : modes) {
     for (const EpisodeRecord& rec : records) {
       for (const auto& row : rec.contexts.at(RolloutName(mode))) {
@@ -254,7 +256,8 @@ void WriteReport(const EvalOptions& o, const std::string& name, const std::strin
                      tok.image_size());
   WriteScoreCsvs(dir, name, t, o.resamples, o.rollout.seed);
   WriteFileAtomically((fs::path(dir) / "values.csv").string(), values);
-  WriteFileAtomically((fs::path(dir) / "contexts.csv").string(), ContextsCsv(name, o.modes, records));
+  WriteFileAtomically((fs::path(dir) / "contexts.csv").string(),
+                      ContextsCsv(name, o.modes, records, data.action_dim()));
   WriteEvalManifest(dir, name, checkpoint, o, model, tok, data, shards);
 }
 
@@ -310,6 +313,15 @@ std::optional<std::vector<EpisodeRecord>> GatherParts(const std::string& dir,
 
 }  // namespace
 
+std::unique_ptr<train::DynamicsModel> LoadModelFor(const EvalOptions& o,
+                                                   const std::string& checkpoint,
+                                                   const tokens::TokenDataset& data) {
+  const std::string& dataset = data.index().dataset;
+  return train::DynamicsModel::Load(
+      checkpoint, o.device,
+      train::DynamicsModel::HasActionDataset(checkpoint, dataset) ? dataset : "", o.threads);
+}
+
 std::vector<std::string> EvaluateCheckpoints(const EvalOptions& o) {
   Check(o.num_shards >= 1 && o.shard_index >= 0 && o.shard_index < o.num_shards,
         "--shard-index must be in [0, --num-shards)", {.key = "--shard-index"});
@@ -317,6 +329,7 @@ std::vector<std::string> EvaluateCheckpoints(const EvalOptions& o) {
   tokenize::Tokenizer tok(o.tokenizer, o.device);
   shard::DatasetReader shards(o.data_dir);
   CheckInputsBelongTogether(data, tok, shards);
+  for (RolloutMode mode : o.modes) CheckRolloutModeFits(mode, data);
   std::vector<int64_t> episodes, mine;
   std::vector<size_t> positions;
   for (int64_t k = 0; k < data.num_episodes(); ++k) {
@@ -338,7 +351,7 @@ std::vector<std::string> EvaluateCheckpoints(const EvalOptions& o) {
     // manifest.json is written last and marks a complete report: a killed run leaves none, so
     // wm-report refuses the folder instead of mixing old and new files.
     fs::remove(fs::path(dir) / "manifest.json");
-    auto model = train::DynamicsModel::Load(o.checkpoints[c], o.device, "", o.threads);
+    auto model = LoadModelFor(o, o.checkpoints[c], data);
     if (o.rollout.samples >= 2 && model->DecodeTemperature(o.rollout.temperature) == 0) {
       spdlog::warn("{}: --samples {} with argmax decoding (temperature 0) imagines {} identical "
                    "rollouts: uncertainty is 0 and uncertainty_error_corr undefined; pass "

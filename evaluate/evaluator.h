@@ -3,6 +3,7 @@
 // decode, score against the real frames with the baselines beside them, and write the report
 // directory of each checkpoint (docs/reports.md).
 #include <cstdint>
+#include <memory>
 #include <string>
 #include <vector>
 
@@ -49,5 +50,12 @@ struct EvalOptions {
 // parts missing). Throws wm::Error naming the file when the tokenizer, token data and shard data
 // do not belong together, or a part belongs to another run.
 std::vector<std::string> EvaluateCheckpoints(const EvalOptions& options);
+
+// The model of `checkpoint` for `data`: raw actions are normalised with the statistics of the
+// data's dataset when the model was trained on it (one of a mixture, maybe narrower than the
+// model), else with those of its first dataset.
+std::unique_ptr<train::DynamicsModel> LoadModelFor(const EvalOptions& options,
+                                                   const std::string& checkpoint,
+                                                   const tokens::TokenDataset& data);
 
 }  // namespace wm::evaluate

@@ -74,7 +74,7 @@ PolicyRun RunPolicy(const EvalOptions& o, const policy::PolicySpec& spec,
   const PolicyEvalOptions& p = o.policy_eval;
   policy::PolicyProcess process({.name = spec.name,
                                  .command = spec.command,
-                                 .action_dim = kActionDim,
+                                 .action_dim = model.action_dim(),
                                  .image_height = tok.image_size(),
                                  .image_width = tok.image_size(),
                                  .start_timeout_s = p.start_timeout_s,
@@ -187,6 +187,13 @@ std::vector<std::string> EvaluatePolicies(const EvalOptions& o) {
   tokenize::Tokenizer tok(o.tokenizer, o.device);
   shard::DatasetReader shards(o.data_dir);
   CheckInputsBelongTogether(data, tok, shards);
+  Check(
+      !o.policy_eval.loop.clamp_tabletop ||
+          shard::IsCanonicalAction(data.action_dim(), data.index().action_space),
+      "--clamp-actions tabletop clamps the tabletop world's 7-dim eef_delta action, but dataset '" +
+          data.index().dataset + "' has " + std::to_string(data.action_dim()) + "-dim " +
+          data.index().action_space + " actions (pass --clamp-actions none)",
+      {.file = data.dir(), .key = "--clamp-actions"});
   Check(o.policy_eval.loop.horizon >= 1 && o.policy_eval.loop.rollouts >= 1,
         "--policy-horizon and --policy-rollouts must be at least 1", {.key = "--policy-horizon"});
   std::vector<Clip> logged;
@@ -197,7 +204,7 @@ std::vector<std::string> EvaluatePolicies(const EvalOptions& o) {
     const std::string dir = (fs::path(o.out_dir) / name).string();
     fs::create_directories(dir);
     for (const char* f : kReportFiles) fs::remove(fs::path(dir) / f);
-    auto model = train::DynamicsModel::Load(o.checkpoints[c], o.device, "", o.threads);
+    auto model = LoadModelFor(o, o.checkpoints[c], data);
     CheckModelFitsTokens(*model, data);
     std::vector<PolicyRun> runs;
     for (const policy::PolicySpec& spec : o.policy_eval.policies) {

@@ -1,7 +1,9 @@
 #include "evaluate/rollout.h"
 
 #include <algorithm>
+#include <filesystem>
 
+#include "core/atomic_file.h"
 #include "core/error.h"
 #include "core/tokens/token_dataset.h"
 #include "evaluate/retrace.h"
@@ -32,7 +34,7 @@ std::vector<std::vector<float>> PolicyEmbeddings(const train::DynamicsModel& mod
     train::FrameContext c{.batch = 1, .frames = frames};
     c.tokens.resize(static_cast<size_t>(frames * n));
     data.CopyTokens(k, 0, frames, c.tokens.data());
-    c.actions.assign(data.actions(k), data.actions(k) + frames * kActionDim);
+    c.actions.assign(data.actions(k), data.actions(k) + frames * data.action_dim());
     z.push_back(model.PolicyEmbedding(c));
   }
   return z;
@@ -68,7 +70,7 @@ ImaginedFrame ImagineNextFrame(const train::DynamicsModel& model,
   // The reward and terminal flag of the new frame's step, from the context extended by it.
   c.frames += 1;
   c.tokens.insert(c.tokens.end(), out.tokens.begin(), out.tokens.end());
-  c.actions.insert(c.actions.end(), kActionDim, 0.f);  // unused last action
+  c.actions.insert(c.actions.end(), model.action_dim(), 0.f);  // unused last action
   const train::RewardPrediction r = model.PredictRewards(c);
   out.reward = r.reward.back();
   out.terminal_prob = r.terminal_prob.back();
@@ -83,6 +85,29 @@ void CheckModelFitsTokens(const train::DynamicsModel& model, const tokens::Token
             std::to_string(model.config().model.num_codes) + " codes per frame; this data has " +
             std::to_string(n) + " of " + std::to_string(data.index().tokenizer.num_codes),
         {.file = data.dir()});
+  Check(model.action_dim() == data.action_dim(),
+        "the model takes " + std::to_string(model.action_dim()) + "-dim actions of dataset '" +
+            data.index().dataset + "'? this data's are " + std::to_string(data.action_dim()) +
+            "-dim",
+        {.file = data.dir()});
+}
+
+void CheckRolloutModeFits(RolloutMode mode, const tokens::TokenDataset& data) {
+  const std::string& space = data.index().action_space;
+  Check(mode != RolloutMode::kRetrace || space == "eef_delta",
+        "retrace (WHALE eq. 6) sums end-effector deltas, but dataset '" + data.index().dataset +
+            "' has " + space + " actions (use --rollout plain)",
+        {.file = data.dir()});
+}
+
+std::vector<RolloutMode> AutoRolloutModes(const std::string& tokens_dir) {
+  const std::string path = (std::filesystem::path(tokens_dir) / "index.json").string();
+  const auto j = nlohmann::json::parse(ReadFile(path), nullptr, /*allow_exceptions=*/false);
+  Check(!j.is_discarded(), "index.json is not valid JSON", {.file = path});
+  if (tokens::TokenIndexFromJson(j, path).action_space == "eef_delta") {
+    return {RolloutMode::kPlain, RolloutMode::kRetrace};
+  }
+  return {RolloutMode::kPlain};
 }
 
 const char* RolloutName(RolloutMode mode) {
@@ -95,7 +120,8 @@ std::vector<EpisodeRollout> Rollout(const train::DynamicsModel& model,
                                     const RolloutOptions& o,
                                     const std::vector<std::vector<float>>* actions_given) {
   CheckModelFitsTokens(model, data);
-  const int64_t n = data.tokens_per_frame();
+  CheckRolloutModeFits(mode, data);
+  const int64_t n = data.tokens_per_frame(), dim = data.action_dim();
   const int64_t context = ContextFrames(model, o.context);
   const auto z = PolicyEmbeddings(model, data, episodes, o.policy_prefix);
   std::vector<EpisodeRollout> out;
@@ -117,8 +143,8 @@ std::vector<EpisodeRollout> Rollout(const train::DynamicsModel& model,
     for (int s = 0; s < o.samples; ++s) {
       std::vector<int64_t>& frames = r.tokens[s];
       for (int64_t t = 0; t < r.steps; ++t) {
-        auto slots = mode == RolloutMode::kPlain ? PlainContext(actions, t, context)
-                                                 : RetraceContext(actions, t, context);
+        auto slots = mode == RolloutMode::kPlain ? PlainContext(actions, dim, t, context)
+                                                 : RetraceContext(actions, dim, t, context);
         if (s == 0) r.contexts.push_back(slots);
         const ImaginedFrame next = ImagineNextFrame(model, frames, slots, policy_z,
                                                     ImaginationSeed(o.seed, r.episode, s, t), o);

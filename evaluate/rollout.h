@@ -42,18 +42,26 @@ struct EpisodeRollout {
 
 // Rolls out every episode in `episodes`, one (episode, sample) row at a time with its own
 // sampling seed, so an episode's result does not depend on which other episodes are rolled out.
-// `actions`, when given, holds per episode of `episodes` the actions ([num_frames, 7]) to feed
+// `actions`, when given, holds per episode of `episodes` the actions ([num_frames, D]) to feed
 // instead of the logged ones (controllability.h); the policy prior still sees the logged ones.
-// Throws wm::Error when the model and the token data disagree on grid or codebook.
+// Throws wm::Error when the model and the token data disagree on grid, codebook or action width,
+// and for a retracing rollout of actions that are not end-effector deltas.
 std::vector<EpisodeRollout> Rollout(const train::DynamicsModel& model,
                                     const tokens::TokenDataset& data,
                                     const std::vector<int64_t>& episodes, RolloutMode mode,
                                     const RolloutOptions& options,
                                     const std::vector<std::vector<float>>* actions = nullptr);
 
-// Throws wm::Error naming the token dataset when the model and the token data disagree on grid
-// or codebook.
+// Throws wm::Error naming the token dataset when the model and the token data disagree on grid,
+// codebook or action width.
 void CheckModelFitsTokens(const train::DynamicsModel& model, const tokens::TokenDataset& data);
+
+// Retracing (WHALE eq. 6) sums end-effector deltas: it throws a one-line wm::Error naming the
+// dataset and its action space when `mode` is kRetrace and the data's actions are not eef_delta.
+void CheckRolloutModeFits(RolloutMode mode, const tokens::TokenDataset& data);
+// wm-eval --rollout auto: plain and retrace when the token dataset in `tokens_dir` has
+// end-effector-delta actions, else plain only (reads its index.json).
+std::vector<RolloutMode> AutoRolloutModes(const std::string& tokens_dir);
 
 // SplitMix64 finaliser: a seed derived from (seed, counter), for independent random streams.
 uint64_t MixSeed(uint64_t seed, int64_t counter);

@@ -34,12 +34,21 @@ std::string FrameName(int64_t step) {
 }
 
 // actions.csv rows of steps [first, first + count): the logged action taken at each frame.
+// The canonical action has its names (docs/folder-format.md); another width a0, a1, ... (such
+// an export is for wm-metrics or a judge: the folder reader takes 7-dim actions only).
 std::string ActionsCsv(const Episode& ep, int64_t first, int64_t count) {
-  std::string csv = "dx,dy,dz,droll,dpitch,dyaw,gripper\n";
+  const int64_t dim = ep.action_dim;
+  std::string csv;
+  for (int64_t d = 0; d < dim; ++d) {
+    csv += (d ? "," : "") + (dim == kActionDim && ep.action_space == "eef_delta"
+                                 ? std::string(kActionNames[d])
+                                 : "a" + std::to_string(d));
+  }
+  csv += "\n";
   for (int64_t t = first; t < first + count; ++t) {
-    for (int d = 0; d < kActionDim; ++d) {
+    for (int64_t d = 0; d < dim; ++d) {
       char cell[32];
-      std::snprintf(cell, sizeof(cell), "%.9g", ep.actions.at(t * kActionDim + d));
+      std::snprintf(cell, sizeof(cell), "%.9g", ep.actions.at(t * dim + d));
       csv += (d ? "," : "") + std::string(cell);
     }
     csv += "\n";

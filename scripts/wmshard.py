@@ -1,5 +1,5 @@
 #!/usr/bin/python3
-"""Independent reader/verifier for wmkit shard format v1 and token format v1, written from
+"""Independent reader/verifier for wmkit shard format v1 and token format v1 (index v1/v2), written from
 docs/shard-format.md and docs/token-format.md alone so tests can cross-check it against the C++
 readers and writers.
 
@@ -26,6 +26,7 @@ VERSION = 1
 # index.json versions: 2 marks actions other than the canonical 7-dim eef_delta
 # (docs/shard-format.md, "Action width"); shard files stay version 1.
 INDEX_VERSIONS = (1, 2)
+ACTION_SPACES = ("eef_delta", "joint_position", "other")
 HEADER = struct.Struct("<8sII")  # magic, version, CRC32C of bytes 0..11
 RECORD = struct.Struct("<4sIQQ")  # magic, CRC32C of bytes 8..end, meta_length, body_length
 ENTRY = struct.Struct("<QQII")  # record offset, record length, num_steps, reserved
@@ -358,8 +359,7 @@ def action_dim(idx, where):
         fail(where, f"features.action.dim is {dim!r}: format_version 1 means the 7-dim action")
     if not is_int(dim) or dim < 1:
         fail(where, f"features.action.dim is {dim!r}, expected a positive integer")
-    if idx["format_version"] == 2 and action.get("space") not in ("eef_delta", "joint_position",
-                                                                  "other"):
+    if idx["format_version"] == 2 and action.get("space") not in ACTION_SPACES:
         fail(where, f"features.action.space is {action.get('space')!r}, expected eef_delta, "
              "joint_position or other")
     return dim
@@ -386,8 +386,9 @@ TOKEN_FORMAT, TOKEN_MAGIC, TOKEN_ALIGN = "wmkit-tokens", b"WMTOKEN1", 64
 # magic, version, token bytes (2|4), grid_h, grid_w, 36 zero bytes, CRC32C of bytes 0..59
 TOKEN_HEADER = struct.Struct("<8sIIII36sI")
 TOKEN_DTYPES = {"uint16": "<u2", "uint32": "<u4"}
-# Per-step sections, in file order after "tokens": name -> (numpy dtype, shape after F).
-STEP_SECTIONS = {"actions": ("<f4", [7]), "rewards": ("<f4", []), "discounts": ("<f4", []),
+# Per-step sections, in file order after "tokens": name -> (numpy dtype, shape after F); None:
+# [D], the dataset's action width (index.json action_dim; 7 in version 1).
+STEP_SECTIONS = {"actions": ("<f4", None), "rewards": ("<f4", []), "discounts": ("<f4", []),
                  "is_first": ("|u1", []), "is_last": ("|u1", []), "is_terminal": ("|u1", [])}
 TOKEN_EPISODE_TYPES = {"part": int, "frame_offset": int, "num_frames": int, "source_episode": int,
                        "episode_key": str, "policy_id": str, "language_instruction": str}
@@ -399,9 +400,17 @@ def check_token_index(idx, where):
     index is a named error rather than a crash."""
     if not isinstance(idx, dict) or idx.get("format") != TOKEN_FORMAT:
         fail(where, f"not a JSON object with format '{TOKEN_FORMAT}'")
-    if idx.get("format_version") != VERSION:
+    if idx.get("format_version") not in INDEX_VERSIONS:
         fail(where, f"unknown format_version {idx.get('format_version')!r}, this reader supports "
-             f"{VERSION}")
+             f"{' and '.join(map(str, INDEX_VERSIONS))}")
+    dim = token_action_dim(idx)
+    if not (is_int(dim, 1) and idx.get("action_space", "eef_delta") in ACTION_SPACES):
+        fail(where, f"action_dim {dim!r} / action_space {idx.get('action_space')!r}: version 2 "
+             "needs a positive action_dim and one of " + ", ".join(ACTION_SPACES))
+    stats = idx.get("action_stats")
+    if not (isinstance(stats, dict) and all(isinstance(stats.get(k), list) and len(stats[k]) == dim
+                                            for k in ("mean", "std", "min", "max", "q01", "q99"))):
+        fail(where, f"action_stats must hold mean, std, min, max, q01, q99 of {dim} values each")
     tok = idx.get("tokenizer") if isinstance(idx.get("tokenizer"), dict) else {}
     grid = tok.get("grid")
     if not (is_int(tok.get("num_codes"), 1) and isinstance(grid, list) and len(grid) == 2
@@ -440,15 +449,21 @@ def check_token_index(idx, where):
              f"{idx.get('num_frames')!r}, the episodes hold {len(episodes)} / {frames}")
 
 
+def token_action_dim(idx):
+    """Values per action: index.json action_dim in version 2; version 1 means the canonical 7."""
+    return idx.get("action_dim") if idx["format_version"] == 2 else 7
+
+
 class TokenPart:
     """One memory-mapped part file. Opening checks its size against index.json, the header, and
     every section's place, shape, dtype and CRC32C; arrays are views into the mapping."""
 
-    def __init__(self, directory, entry, token_dtype, grid):
+    def __init__(self, directory, entry, token_dtype, grid, action_dim):
         self.path, self.entry = os.path.join(directory, entry["file"]), entry
         F = entry["num_frames"]
         self.expected = {"tokens": (TOKEN_DTYPES[token_dtype], [F] + grid),
-                         **{name: (dt, [F] + tail) for name, (dt, tail) in STEP_SECTIONS.items()}}
+                         **{name: (dt, [F] + ([action_dim] if tail is None else tail))
+                            for name, (dt, tail) in STEP_SECTIONS.items()}}
         self.size = size = os.path.getsize(self.path) if os.path.isfile(self.path) else None
         if size is None:
             fail(self.path, "part file is missing")
@@ -542,7 +557,7 @@ class TokenDataset:
         if j not in self._parts:
             idx = self.index
             self._parts[j] = TokenPart(self.dir, idx["parts"][j], idx["token_dtype"],
-                                       idx["tokenizer"]["grid"])
+                                       idx["tokenizer"]["grid"], token_action_dim(idx))
         return self._parts[j]
 
     def episode(self, k):

@@ -42,6 +42,8 @@ tokens::TokenIndex BaseIndex(const Tokenizer& tok, const shard::DatasetIndex& so
               {"num_episodes", source.num_episodes},
               {"shards", shards}};
   x.action_stats = source.action_stats;
+  x.action_dim = shard::ActionDimOf(source.features);
+  x.action_space = shard::ActionSpaceOf(source.features);
   // The same for every part job, so whichever job finishes last writes the same index.json.
   x.provenance =
       MakeProvenance("wm-tokenize encode",

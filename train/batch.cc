@@ -31,7 +31,12 @@ SegmentBatch MakeSegmentBatch(const DynamicsConfig& c, const SegmentData& d, con
   };
   SegmentBatch b;
   b.tokens = host(d.tokens, {B, T, N}, torch::kInt64);
-  b.actions = host(d.actions, {B, T, 7}, torch::kFloat);
+  const int64_t D = c.model.action_dim;
+  Check(static_cast<int64_t>(d.actions.size()) == B * T * D,
+        "segments have " + std::to_string(d.actions.size() / std::max<int64_t>(B * T, 1)) +
+            " action values per step, the model takes " + std::to_string(D));
+  b.actions = host(d.actions, {B, T, D}, torch::kFloat);
+  if (!d.action_mask.empty()) b.action_mask = host(d.action_mask, {B, 1, D}, torch::kFloat);
   b.rewards = host(d.rewards, {B, T}, torch::kFloat);
   b.terminals = host(d.terminals, {B, T}, torch::kFloat);
   torch::Tensor global_mask;  // [Bg, T, N]

@@ -28,12 +28,12 @@ SegmentBatch MakeSegmentBatch(const DynamicsConfig& config, const SegmentData& d
                               const torch::Device& device);
 
 // Decoding of the frame after `tokens` [B, Tc, N] (Tc < context_frames) with actions
-// [B, Tc, 7] (normalised; the last one leads to the new frame) and z [B, Tc, z_dim] (undefined
-// without policy conditioning): `steps` rounds, each sampling every masked token (temperature
-// 0 = argmax) and keeping the most confident so that cos(pi/2 * (s+1)/steps) of the frame stays
-// masked ("masked" objective; a "next_frame" model samples every token in one pass and ignores
-// `steps`). Row b samples with its own CPU generator seeded `row_seeds[b]`, so a row's frame does
-// not depend on the other rows of the batch (sharded evaluation reproduces a whole run).
+// [B, Tc, D] (normalised, padding zeroed; the last one leads to the new frame) and z [B, Tc, z_dim]
+// (undefined without policy conditioning): `steps` rounds, each sampling every masked token
+// (temperature 0 = argmax) and keeping the most confident so that cos(pi/2 * (s+1)/steps) of the
+// frame stays masked ("masked" objective; a "next_frame" model samples every token in one pass and
+// ignores `steps`). Row b samples with its own CPU generator seeded `row_seeds[b]`, so a row's
+// frame does not depend on the other rows of the batch (sharded evaluation reproduces a whole run).
 // Returns [B, N] int64.
 torch::Tensor DecodeNextFrame(WorldModel& model, const torch::Tensor& tokens,
                               const torch::Tensor& actions, const torch::Tensor& z, int steps,

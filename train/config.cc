@@ -7,6 +7,7 @@
 #include <set>
 
 #include "core/atomic_file.h"
+#include "core/episode.h"
 #include "core/error.h"
 #include "core/sectioned_yaml.h"
 #include "trainkit/train_fields.h"
@@ -73,11 +74,17 @@ DynamicsConfig LoadDynamicsConfig(const std::string& path) {
 }
 
 nlohmann::json ConfigToJson(const DynamicsConfig& config) {
-  return SectionedToJson(config, [](auto& c, auto&& f) { VisitFields(c, f); });
+  nlohmann::json j = SectionedToJson(config, [](auto& c, auto&& f) { VisitFields(c, f); });
+  if (config.model.action_dim != kActionDim) j["model"]["action_dim"] = config.model.action_dim;
+  return j;
 }
 
 DynamicsConfig ConfigFromJson(const nlohmann::json& j) {
-  return SectionedFromJson<DynamicsConfig>(j, [](auto& c, auto&& f) { VisitFields(c, f); });
+  auto c = SectionedFromJson<DynamicsConfig>(j, [](auto& c, auto&& f) { VisitFields(c, f); });
+  if (j.contains("model") && j["model"].contains("action_dim")) {
+    j["model"]["action_dim"].get_to(c.model.action_dim);
+  }
+  return c;
 }
 
 void ValidateConfig(const DynamicsConfig& c, const std::string& file) {
@@ -102,6 +109,8 @@ void ValidateConfig(const DynamicsConfig& c, const std::string& file) {
           "must be 'masked' or 'next_frame'");
   require(m.decode_steps > 0, "model.decode_steps", "must be > 0");
   require(m.decode_temperature >= 0, "model.decode_temperature", "must be >= 0");
+  require(m.action_dim >= 1 && m.action_dim <= kMaxActionDim, "model.action_dim",
+          "must be in [1, " + std::to_string(kMaxActionDim) + "]");
   const PolicyConfig& p = c.policy;
   require(p.num_heads > 0, "policy.num_heads", "must be > 0");
   require(p.d_model > 0 && p.d_model % p.num_heads == 0, "policy.d_model",

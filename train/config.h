@@ -34,6 +34,11 @@ struct ModelConfig {
   bool copy_prior = false;
   int decode_steps = 8;             // MaskGIT iterations per predicted frame at inference
   double decode_temperature = 1.0;  // sampling temperature at inference (0 = argmax)
+  // Values per action the model takes (D). Not a YAML key: wm-train sets it from the token data
+  // (the widest dataset of a mixture; narrower ones are zero-padded and masked). Stored in the
+  // checkpoint's config as model.action_dim only when it is not 7, so 7-dim configs, hashes and
+  // checkpoints keep their bytes and older checkpoints (without the key) load as 7.
+  int action_dim = 7;
 };
 
 // The policy embedding model (WHALE Table 5; one width for posterior, prior and decoder).

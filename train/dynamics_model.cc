@@ -23,7 +23,8 @@ struct DynamicsModel::State {
   int64_t N() const { return int64_t{config.model.grid_h} * config.model.grid_w; }
 
   // The context's last `keep` frames as tensors: tokens [B, Tk, N], normalised actions
-  // [B, Tk, 7], z [B, Tk, Z] (undefined without policy conditioning).
+  // [B, Tk, D] (a narrower action dataset's zero-padded, as in training), z [B, Tk, Z]
+  // (undefined without policy conditioning).
   void Tensors(const FrameContext& c, int64_t keep, torch::Tensor& tokens, torch::Tensor& actions,
                torch::Tensor& z) {
     const int64_t B = c.batch, T = c.frames, n = N();
@@ -31,17 +32,23 @@ struct DynamicsModel::State {
     Check(static_cast<int64_t>(c.tokens.size()) == B * T * n,
           "context has " + std::to_string(c.tokens.size()) + " tokens, expected batch x frames x " +
               std::to_string(n));
-    Check(static_cast<int64_t>(c.actions.size()) == B * T * 7,
-          "context has " + std::to_string(c.actions.size()) + " action values, expected " +
-              std::to_string(B * T * 7));
-    std::vector<float> normed(c.actions.size());
-    norm.Apply(c.actions.data(), normed.data(), B * T);
+    const int64_t A = norm.dim(), D = config.model.action_dim;
+    const auto got = static_cast<int64_t>(c.actions.size());
+    Check(got == B * T * A, got % (B * T) == 0
+                                ? "context has " + std::to_string(got / (B * T)) +
+                                      "-dim actions, the model takes " + std::to_string(A) +
+                                      "-dim ones"
+                                : "context has " + std::to_string(got) +
+                                      " action values, expected batch x frames x " +
+                                      std::to_string(A) + " = " + std::to_string(B * T * A));
+    std::vector<float> normed(static_cast<size_t>(B * T * D), 0.f);
+    norm.Apply(c.actions.data(), normed.data(), B * T, D);
     const int64_t first = std::max<int64_t>(0, T - keep);
     tokens = torch::tensor(c.tokens, torch::kInt64).view({B, T, n}).slice(1, first, T);
     Check(
         tokens.min().item<int64_t>() >= 0 && tokens.max().item<int64_t>() < config.model.num_codes,
         "context token outside [0, num_codes)");
-    actions = torch::tensor(normed).view({B, T, 7}).slice(1, first, T);
+    actions = torch::tensor(normed).view({B, T, D}).slice(1, first, T);
     tokens = tokens.contiguous().to(device);
     actions = actions.contiguous().to(device);
     if (!model->policy) {
@@ -90,6 +97,10 @@ std::unique_ptr<DynamicsModel> DynamicsModel::Load(const std::string& path,
   Check(meta.action_norms.contains(name),
         "model was not trained on dataset '" + name + "' (no action statistics)", {.file = file});
   s.norm = ActionNorm::FromJson(meta.action_norms[name]);
+  Check(s.norm.dim() <= s.config.model.action_dim,
+        "dataset '" + name + "' has " + std::to_string(s.norm.dim()) +
+            " action values, the model takes " + std::to_string(s.config.model.action_dim),
+        {.file = file, .key = "meta.action_norms"});
   s.model = WorldModel(s.config);
   LoadCheckpoint(file, s.model, nullptr);
   s.model->to(s.device);
@@ -99,6 +110,11 @@ std::unique_ptr<DynamicsModel> DynamicsModel::Load(const std::string& path,
 
 const DynamicsConfig& DynamicsModel::config() const { return state_->config; }
 int64_t DynamicsModel::tokens_per_frame() const { return state_->N(); }
+int64_t DynamicsModel::action_dim() const { return state_->norm.dim(); }
+bool DynamicsModel::HasActionDataset(const std::string& path, const std::string& dataset) {
+  const CheckpointMeta meta = ReadCheckpointMeta(CheckpointFileIn(path));
+  return meta.action_norms.is_object() && meta.action_norms.contains(dataset);
+}
 int64_t DynamicsModel::step() const { return state_->step; }
 const std::string& DynamicsModel::checkpoint_file() const { return state_->file; }
 int64_t DynamicsModel::max_context_frames() const {

@@ -17,7 +17,7 @@ namespace wm::train {
 struct FrameContext {
   int64_t batch = 1, frames = 0;
   std::vector<int64_t> tokens;  // [batch, frames, grid_h * grid_w] codes in [0, num_codes)
-  std::vector<float> actions;   // [batch, frames, 7] raw actions (normalised inside)
+  std::vector<float> actions;   // [batch, frames, action_dim()] raw actions (normalised inside)
   // Optional [batch, categories * classes] class probabilities (or one-hots) used as z for
   // every step instead of the prior's inference; empty = the prior p(z | tau_h) (WHALE eq. 5).
   std::vector<float> policy_z;
@@ -42,8 +42,15 @@ class DynamicsModel {
                                              int threads = 0);
   ~DynamicsModel();
 
+  // Whether the checkpoint at `path` was trained on `dataset` (has its action statistics).
+  static bool HasActionDataset(const std::string& path, const std::string& dataset);
+
   const DynamicsConfig& config() const;
   int64_t tokens_per_frame() const;
+  // Values per raw action FrameContext::actions holds: the action dataset's width. It is the
+  // model's config().model.action_dim, or less for a narrower dataset of a mixture (zero-padded
+  // and masked inside, as in training). Another width is an error naming both.
+  int64_t action_dim() const;
   int64_t step() const;  // training step of the checkpoint
   const std::string& checkpoint_file() const;  // the checkpoint.wmt that was loaded
   // Longest context PredictNextFrame takes (context_frames - 1); longer contexts keep their

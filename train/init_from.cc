@@ -9,8 +9,8 @@ namespace {
 
 // The keys that shape the parameters or what they compute (the token grid, the codebook, widths,
 // layer and head counts, which heads exist). The others (objective, masking, decoding, loss
-// weights, the schedule) may change in a fine-tune. The action width is fixed (kActionDim) and is
-// checked with every tensor's shape when the weights load.
+// weights, the schedule) may change in a fine-tune. The action width (model.action_dim, set from
+// the data) is checked on its own, so the message can say which data it came from.
 const std::vector<std::string> kShapeKeys = {"model.grid_h",
                                              "model.grid_w",
                                              "model.num_codes",
@@ -42,8 +42,14 @@ std::optional<trainkit::Parent> ReadDynamicsParent(const TrainOptions& o) {
   } catch (const Error& e) {
     throw trainkit::ParentError(parent, e.what());
   }
-  trainkit::CheckSameShapes(parent, ConfigToJson(ConfigFromJson(meta.config)),
-                            ConfigToJson(o.config), kShapeKeys);
+  const DynamicsConfig theirs = ConfigFromJson(meta.config);
+  trainkit::CheckSameShapes(parent, ConfigToJson(theirs), ConfigToJson(o.config), kShapeKeys);
+  if (theirs.model.action_dim != o.config.model.action_dim) {
+    throw trainkit::ParentError(parent, "the parent takes " +
+                                            std::to_string(theirs.model.action_dim) +
+                                            "-dim actions, this token data has " +
+                                            std::to_string(o.config.model.action_dim));
+  }
   return parent;
 }
 

@@ -20,21 +20,22 @@ torch::Tensor CategoricalKl(const torch::Tensor& q_logits, const torch::Tensor& 
 }
 
 torch::Tensor GaussianNll(const torch::Tensor& a, const torch::Tensor& mean,
-                          const torch::Tensor& log_std) {
+                          const torch::Tensor& log_std, const torch::Tensor& mask) {
   const double half_log_2pi = 0.5 * std::log(2.0 * std::numbers::pi);
   torch::Tensor z = (a - mean) * torch::exp(-log_std);
-  return (0.5 * z.pow(2) + log_std + half_log_2pi).sum(-1);  // [..., A] -> [...]
+  torch::Tensor per_dim = 0.5 * z.pow(2) + log_std + half_log_2pi;  // [..., A]
+  return (mask.defined() ? per_dim * mask : per_dim).sum(-1);       // [...]
 }
 
 PolicyEmbeddingImpl::PolicyEmbeddingImpl(const ModelConfig& m, const PolicyConfig& p) : config(p) {
   const int64_t d = p.d_model, zdim = int64_t{p.categories} * p.classes;
-  const int64_t N = int64_t{m.grid_h} * m.grid_w;
+  const int64_t N = int64_t{m.grid_h} * m.grid_w, A = m.action_dim;
   token_embed = register_module("token_embed", torch::nn::Embedding(m.num_codes, d));
   spatial_pos = register_parameter("spatial_pos", torch::randn({N, d}) * 0.02);
   temporal_pos = register_parameter("temporal_pos", torch::randn({m.context_frames, d}) * 0.02);
-  posterior_action = register_module("posterior_action", torch::nn::Linear(kActionDim, d));
-  prior_action = register_module("prior_action", torch::nn::Linear(kActionDim, d));
-  decoder_prev_action = register_module("decoder_prev_action", torch::nn::Linear(kActionDim, d));
+  posterior_action = register_module("posterior_action", torch::nn::Linear(A, d));
+  prior_action = register_module("prior_action", torch::nn::Linear(A, d));
+  decoder_prev_action = register_module("decoder_prev_action", torch::nn::Linear(A, d));
   decoder_z = register_module("decoder_z", torch::nn::Linear(zdim, d));
   decoder_start = register_parameter("decoder_start", torch::randn({d}) * 0.02);
   StBlockOptions o{.dim = d,
@@ -49,7 +50,7 @@ PolicyEmbeddingImpl::PolicyEmbeddingImpl(const ModelConfig& m, const PolicyConfi
   decoder = register_module("decoder", StTransformer(o, p.decoder_layers));
   posterior_head = register_module("posterior_head", torch::nn::Linear(d, zdim));
   prior_head = register_module("prior_head", torch::nn::Linear(d, zdim));
-  decoder_head = register_module("decoder_head", torch::nn::Linear(d, 2 * kActionDim));
+  decoder_head = register_module("decoder_head", torch::nn::Linear(d, 2 * A));
   InitWeights(*this);
 }
 
@@ -82,16 +83,16 @@ PolicyOutput PolicyEmbeddingImpl::forward(const torch::Tensor& tokens, const tor
       1);                                                               // [B, T, Dp]
   torch::Tensor extra = prev + decoder_z->forward(out.z).unsqueeze(1);  // [B, T, Dp]
   torch::Tensor hd = decoder->forward(Embed(tokens, extra)).mean(2);    // [B, T, Dp]
-  auto mean_logstd = decoder_head->forward(hd).chunk(2, -1);            // 2x [B,T,7]
+  auto mean_logstd = decoder_head->forward(hd).chunk(2, -1);            // 2x [B,T,D]
   out.action_mean = mean_logstd[0];
   out.action_log_std = mean_logstd[1].clamp(config.log_std_min, config.log_std_max);
   return out;
 }
 
-PolicyLosses PolicyEmbeddingImpl::Losses(const PolicyOutput& out,
-                                         const torch::Tensor& actions) const {
+PolicyLosses PolicyEmbeddingImpl::Losses(const PolicyOutput& out, const torch::Tensor& actions,
+                                         const torch::Tensor& action_mask) const {
   PolicyLosses l;
-  l.nll = GaussianNll(actions, out.action_mean, out.action_log_std).sum(1).mean();
+  l.nll = GaussianNll(actions, out.action_mean, out.action_log_std, action_mask).sum(1).mean();
   const int64_t T = out.prior_logits.size(1);
   torch::Tensor q = out.posterior_logits.unsqueeze(1).expand({-1, T, -1, -1});  // [B, T, C, K]
   l.kl = CategoricalKl(q, out.prior_logits).sum(1).mean();  // sum_h KL(q || p_h), eq. 4

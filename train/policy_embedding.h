@@ -11,14 +11,12 @@
 
 namespace wm::train {
 
-inline constexpr int64_t kActionDim = 7;
-
 struct PolicyOutput {
   torch::Tensor posterior_logits;  // [B, C, K] of q(z | tau_H)
   torch::Tensor prior_logits;      // [B, T, C, K] of p(z | tau_h), h = 0..T-1
   torch::Tensor z;                 // [B, C*K] straight-through sample of q (forward: one-hot)
-  torch::Tensor action_mean;       // [B, T, 7] of pi(a_h | ...)
-  torch::Tensor action_log_std;    // [B, T, 7], clamped to [log_std_min, log_std_max]
+  torch::Tensor action_mean;       // [B, T, D] of pi(a_h | ...), D = model.action_dim
+  torch::Tensor action_log_std;    // [B, T, D], clamped to [log_std_min, log_std_max]
 };
 
 struct PolicyLosses {
@@ -35,20 +33,23 @@ torch::Tensor StraightThroughSample(const torch::Tensor& logits, const torch::Te
 // sum over categories of KL(Cat(q) || Cat(p)) from logits [..., C, K] -> [...].
 torch::Tensor CategoricalKl(const torch::Tensor& q_logits, const torch::Tensor& p_logits);
 
-// -log N(a; mean, exp(log_std)) summed over the last axis: [..., A] -> [...].
+// -log N(a; mean, exp(log_std)) summed over the last axis: [..., A] -> [...]. With `mask`
+// (broadcastable to [..., A], 1 = a real value, 0 = padding), only the real dimensions count.
 torch::Tensor GaussianNll(const torch::Tensor& a, const torch::Tensor& mean,
-                          const torch::Tensor& log_std);
+                          const torch::Tensor& log_std, const torch::Tensor& mask = {});
 
 struct PolicyEmbeddingImpl : torch::nn::Module {
   PolicyEmbeddingImpl(const ModelConfig& model, const PolicyConfig& policy);
 
-  // tokens [B, T, N] int64 (no mask tokens), actions [B, T, 7] normalised, noise [B, C, K]
-  // uniform for the posterior sample.
+  // tokens [B, T, N] int64 (no mask tokens), actions [B, T, D] normalised (padding zeroed),
+  // noise [B, C, K] uniform for the posterior sample.
   PolicyOutput forward(const torch::Tensor& tokens, const torch::Tensor& actions,
                        const torch::Tensor& noise);
   // Only the prior: [B, T, C, K] logits; what the dynamics model is conditioned on.
   torch::Tensor Prior(const torch::Tensor& tokens, const torch::Tensor& actions);
-  PolicyLosses Losses(const PolicyOutput& out, const torch::Tensor& actions) const;
+  // `action_mask` [B, 1, D] (undefined = every dimension real): padding stays out of the NLL.
+  PolicyLosses Losses(const PolicyOutput& out, const torch::Tensor& actions,
+                      const torch::Tensor& action_mask = {}) const;
 
   // token + spatial + temporal embedding (+ `extra` [B, T, D] per frame): [B, T, N, Dp].
   torch::Tensor Embed(const torch::Tensor& tokens, const torch::Tensor& extra);

@@ -11,10 +11,6 @@
 #include "trainkit/mixture.h"
 
 namespace wm::train {
-namespace {
-constexpr int kActionDim = 7;
-}  // namespace
-
 uint64_t MixSeed(uint64_t seed, uint64_t counter) {
   uint64_t z = seed + 0x9E3779B97F4A7C15ull * (counter + 1);
   z = (z ^ (z >> 30)) * 0xBF58476D1CE4E5B9ull;
@@ -22,11 +18,12 @@ uint64_t MixSeed(uint64_t seed, uint64_t counter) {
   return z ^ (z >> 31);
 }
 
-void ActionNorm::Apply(const float* raw, float* out, int64_t steps) const {
+void ActionNorm::Apply(const float* raw, float* out, int64_t steps, int64_t out_stride) const {
+  const int64_t D = dim(), stride = out_stride > 0 ? out_stride : D;
   for (int64_t t = 0; t < steps; ++t) {
-    for (int i = 0; i < kActionDim; ++i) {
+    for (int64_t i = 0; i < D; ++i) {
       const double s = std[i] < 1e-6 ? 1.0 : std[i];
-      out[t * kActionDim + i] = static_cast<float>((raw[t * kActionDim + i] - mean[i]) / s);
+      out[t * stride + i] = static_cast<float>((raw[t * D + i] - mean[i]) / s);
     }
   }
 }
@@ -35,8 +32,8 @@ nlohmann::json ActionNorm::ToJson() const { return {{"mean", mean}, {"std", std}
 
 ActionNorm ActionNorm::FromJson(const nlohmann::json& j) {
   ActionNorm n{j.at("mean").get<std::vector<double>>(), j.at("std").get<std::vector<double>>()};
-  Check(n.mean.size() == kActionDim && n.std.size() == kActionDim,
-        "action statistics must have 7 values", {.key = "action_norm"});
+  Check(!n.mean.empty() && n.std.size() == n.mean.size(),
+        "action statistics must have as many (>= 1) std as mean values", {.key = "action_norm"});
   return n;
 }
 
@@ -50,7 +47,7 @@ struct SegmentSampler::Source {
 };
 
 SegmentSampler::SegmentSampler(const std::vector<std::string>& dirs, int context_frames,
-                               const std::string& mixture_file)
+                               const std::string& mixture_file, int64_t action_dim)
     : context_frames_(context_frames) {
   Check(!dirs.empty(), "no token datasets given (--tokens)");
   std::vector<double> sizes;
@@ -82,6 +79,7 @@ SegmentSampler::SegmentSampler(const std::vector<std::string>& dirs, int context
     names.push_back(index.dataset);
     sources_.push_back(std::move(s));
   }
+  SetActionWidth(action_dim);
   const std::vector<double> weights = trainkit::MixtureWeights(
       mixture_file.empty() ? std::map<std::string, double>{} : trainkit::LoadMixture(mixture_file),
       mixture_file, names, sizes);
@@ -95,6 +93,19 @@ SegmentSampler::SegmentSampler(const std::vector<std::string>& dirs, int context
 }
 
 SegmentSampler::~SegmentSampler() = default;
+
+void SegmentSampler::SetActionWidth(int64_t requested) {
+  int64_t widest = 0;
+  for (const auto& s : sources_) widest = std::max(widest, s->norm.dim());
+  action_dim_ = requested > 0 ? requested : widest;
+  for (const auto& s : sources_) {
+    Check(s->norm.dim() <= action_dim_,
+          "actions have " + std::to_string(s->norm.dim()) + " values, the model takes " +
+              std::to_string(action_dim_),
+          {.file = s->data->dir(), .key = "action_dim"});
+    mixed_widths_ = mixed_widths_ || s->norm.dim() < action_dim_;
+  }
+}
 
 std::vector<SegmentRef> SegmentSampler::Draw(uint64_t seed, int64_t step, int batch) const {
   std::mt19937_64 rng(MixSeed(seed, static_cast<uint64_t>(step)));
@@ -120,15 +131,18 @@ void SegmentSampler::Fill(const std::vector<SegmentRef>& refs, size_t first, siz
   const int64_t T = context_frames_, N = tokens_per_frame();
   out.batch = static_cast<int64_t>(count);
   out.tokens.resize(count * T * N);
-  out.actions.resize(count * T * kActionDim);
+  const int64_t D = action_dim_;
+  out.actions.assign(count * T * D, 0.f);  // a narrower dataset's padding stays 0
+  out.action_mask.assign(mixed_widths_ ? count * D : 0, 0.f);
   out.rewards.resize(count * T);
   out.terminals.resize(count * T);
   for (size_t b = 0; b < count; ++b) {
     const SegmentRef& r = refs[first + b];
     const Source& s = *sources_[r.dataset];
     s.data->CopyTokens(r.episode, r.start, T, out.tokens.data() + b * T * N);
-    s.norm.Apply(s.data->actions(r.episode) + r.start * kActionDim,
-                 out.actions.data() + b * T * kActionDim, T);
+    s.norm.Apply(s.data->actions(r.episode) + r.start * s.norm.dim(),
+                 out.actions.data() + b * T * D, T, D);
+    if (mixed_widths_) std::fill_n(out.action_mask.begin() + b * D, s.norm.dim(), 1.f);
     const float* rewards = s.data->rewards(r.episode) + r.start;
     const uint8_t* terminal = s.data->is_terminal(r.episode) + r.start;
     for (int64_t t = 0; t < T; ++t) {
@@ -146,6 +160,7 @@ int64_t SegmentSampler::num_codes() const {
 }
 int SegmentSampler::grid_h() const { return sources_.front()->data->index().tokenizer.grid_h; }
 int SegmentSampler::grid_w() const { return sources_.front()->data->index().tokenizer.grid_w; }
+int64_t SegmentSampler::action_dim() const { return action_dim_; }
 
 nlohmann::json SegmentSampler::ActionNorms() const {
   nlohmann::json out = nlohmann::json::object();

@@ -22,8 +22,10 @@ namespace wm::train {
 
 // Per-dataset action normalisation: (a - mean) / std, with std < 1e-6 treated as 1.
 struct ActionNorm {
-  std::vector<double> mean, std;  // 7 each
-  void Apply(const float* raw, float* out, int64_t steps) const;
+  std::vector<double> mean, std;  // D each: the dataset's action width
+  int64_t dim() const { return static_cast<int64_t>(mean.size()); }
+  // raw [steps, D] -> out rows of `out_stride` >= D values (the first D written; 0 = D).
+  void Apply(const float* raw, float* out, int64_t steps, int64_t out_stride = 0) const;
   nlohmann::json ToJson() const;
   static ActionNorm FromJson(const nlohmann::json& j);
 };
@@ -37,7 +39,9 @@ struct SegmentRef {
 struct SegmentData {
   int64_t batch = 0;
   std::vector<int64_t> tokens;   // [B, T, N]
-  std::vector<float> actions;    // [B, T, 7] normalised
+  std::vector<float> actions;    // [B, T, D] normalised, zero-padded to the sampler's D
+  // [B, D] 1/0: which values of a row are real (not padding); empty when every dataset has D.
+  std::vector<float> action_mask;
   std::vector<float> rewards;    // [B, T]
   std::vector<float> terminals;  // [B, T] 0/1
 };
@@ -46,9 +50,10 @@ class SegmentSampler {
  public:
   // `mixture_file`: configs/mixtures/*.yaml (trainkit/mixture.h), empty = weight by size.
   // Throws wm::Error when a dataset has no episode of at least `context_frames` frames, when
-  // datasets disagree on the tokenizer, or when the mixture misses a dataset.
+  // datasets disagree on the tokenizer, or when the mixture misses a dataset. `action_dim`: the
+  // width D segments are padded to (0 = the widest dataset's; a wider dataset is an error).
   SegmentSampler(const std::vector<std::string>& dirs, int context_frames,
-                 const std::string& mixture_file = "");
+                 const std::string& mixture_file = "", int64_t action_dim = 0);
   ~SegmentSampler();
 
   // The `batch` segments of global step `step`.
@@ -61,6 +66,7 @@ class SegmentSampler {
   int64_t num_codes() const;
   int grid_h() const;
   int grid_w() const;
+  int64_t action_dim() const;  // D of every segment's actions
   // By dataset name, for checkpoints (the public model API normalises raw actions with these).
   nlohmann::json ActionNorms() const;
   // Per dataset: {"dataset", "split", "index_sha256", "tokenizer_checkpoint_sha256",
@@ -72,6 +78,9 @@ class SegmentSampler {
   std::vector<std::unique_ptr<Source>> sources_;
   std::vector<double> cumulative_weight_;  // normalised, last = 1
   int context_frames_;
+  void SetActionWidth(int64_t requested);  // action_dim_ and mixed_widths_ from the sources
+  int64_t action_dim_ = 0;
+  bool mixed_widths_ = false;  // some dataset is narrower than action_dim_: Fill writes the mask
 };
 
 // SplitMix64 of (seed, counter): the seed of every counter-based generator here.

@@ -288,22 +288,28 @@ double LearningRateAt(const TrainConfig& t, int64_t step) {
   return trainkit::LearningRateAt(trainkit::ScheduleOf(t), step);
 }
 
-TrainSummary TrainDynamics(const TrainOptions& o) {
-  const TrainConfig& tc = o.config.train;
-  ValidateConfig(o.config, "(config)");
-  trainkit::CheckDevice(o.device);
-  const torch::Device device(o.device);
-  Check(tc.batch_size % o.world_size == 0,
+TrainSummary TrainDynamics(const TrainOptions& options) {
+  const TrainConfig& tc = options.config.train;
+  ValidateConfig(options.config, "(config)");
+  trainkit::CheckDevice(options.device);
+  const torch::Device device(options.device);
+  Check(tc.batch_size % options.world_size == 0,
         "train.batch_size " + std::to_string(tc.batch_size) + " is not divisible by " +
-            std::to_string(o.world_size) + " data-parallel ranks",
+            std::to_string(options.world_size) + " data-parallel ranks",
         {.key = "train.batch_size"});
-  const bool writer = o.rank == 0;
-  const trainkit::RunDir run(o.out_dir, o.resume, /*create=*/writer);
-  const SegmentSampler sampler(o.token_dirs, o.config.model.context_frames, o.config.data.mixture);
-  CheckTokensFit(sampler, o.config.model);
+  const bool writer = options.rank == 0;
+  const trainkit::RunDir run(options.out_dir, options.resume, /*create=*/writer);
+  const SegmentSampler sampler(options.token_dirs, options.config.model.context_frames,
+                               options.config.data.mixture);
+  CheckTokensFit(sampler, options.config.model);
+  // The model takes the data's action width (the widest dataset's; docs/dynamics.md).
+  TrainOptions o = options;
+  o.config.model.action_dim = static_cast<int>(sampler.action_dim());
   std::optional<SegmentSampler> val;
-  if (!o.val_dir.empty())
-    val.emplace(std::vector<std::string>{o.val_dir}, o.config.model.context_frames);
+  if (!o.val_dir.empty()) {
+    val.emplace(std::vector<std::string>{o.val_dir}, o.config.model.context_frames, "",
+                sampler.action_dim());
+  }
   const std::optional<trainkit::Parent> parent = ReadDynamicsParent(o);
   trainkit::SetUpTorch(tc.threads, tc.seed, device.is_cuda());
   Trainee trainee(o.config, device, FrozenPrefixes(o));

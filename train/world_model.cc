@@ -28,7 +28,7 @@ DynamicsNetImpl::DynamicsNetImpl(const ModelConfig& m, int64_t z_dim) : config(m
   spatial_pos = register_parameter("spatial_pos", torch::randn({N, d}) * 0.02);
   temporal_pos = register_parameter("temporal_pos", torch::randn({m.context_frames, d}) * 0.02);
   action_start = register_parameter("action_start", torch::randn({d}) * 0.02);
-  action_in = register_module("action_in", torch::nn::Linear(kActionDim, d));
+  action_in = register_module("action_in", torch::nn::Linear(m.action_dim, d));
   if (z_dim > 0) z_in = register_module("z_in", torch::nn::Linear(z_dim, d));
   transformer =
       register_module("transformer", StTransformer(StBlockOptions{.dim = d,
@@ -137,17 +137,20 @@ torch::Tensor WorldModelImpl::NextFrameLogits(const torch::Tensor& context,
 WorldModelLosses WorldModelImpl::Losses(const SegmentBatch& b) {
   WorldModelLosses l;
   const int64_t T = b.tokens.size(1), K = config.model.num_codes;
+  // A narrower dataset's padding is zeroed whatever it holds, so it reaches no action layer
+  // (W * 0 adds nothing), and stays out of the policy NLL (Octo's action padding mask).
+  const torch::Tensor actions = b.action_mask.defined() ? b.actions * b.action_mask : b.actions;
   torch::Tensor z;
   if (policy) {
-    PolicyOutput po = policy->forward(b.tokens, b.actions, b.z_noise);
-    l.policy = policy->Losses(po, b.actions);
+    PolicyOutput po = policy->forward(b.tokens, actions, b.z_noise);
+    l.policy = policy->Losses(po, actions, b.action_mask);
     z = torch::softmax(po.prior_logits.detach(), -1).flatten(2);  // [B, T, C*K], stop-gradient
   }
   const bool shifted = dynamics->next_frame();
   // MaskGIT: the masked tokens are the input's holes and the targets. Next-frame: the input is
   // clean and position j's logits are scored against frame j+1.
   torch::Tensor input = shifted ? b.tokens : b.tokens.masked_fill(b.mask, K);  // [B, T, N]
-  DynamicsOutput out = dynamics->forward(input, b.actions, z);
+  DynamicsOutput out = dynamics->forward(input, actions, z);
   torch::Tensor logits = shifted ? out.logits.slice(1, 0, T - 1) : out.logits;
   torch::Tensor target = shifted ? b.tokens.slice(1, 1, T) : b.tokens;
   torch::Tensor is_target = shifted ? b.mask.slice(1, 1, T) : b.mask;

@@ -21,7 +21,10 @@ namespace wm::train {
 // One training segment batch; every tensor on the model's device.
 struct SegmentBatch {
   torch::Tensor tokens;         // [B, T, N] int64 codes (clean)
-  torch::Tensor actions;        // [B, T, 7] float, normalised with the dataset's statistics
+  torch::Tensor actions;        // [B, T, D] float, normalised with the dataset's statistics
+  // [B, 1, D] float: 1 = a real action value, 0 = padding of a dataset narrower than the model's
+  // D (a mixture of widths); undefined when every row's dataset has the model's width.
+  torch::Tensor action_mask;
   torch::Tensor rewards;        // [B, T] float: r_t of (o_t, a_t)
   torch::Tensor terminals;      // [B, T] float 0/1: is_terminal of step t
   // [B, T, N] bool: the target tokens, frame 0 never. "masked": replaced by the mask token;
@@ -46,7 +49,7 @@ struct WorldModelLosses {
 
 struct DynamicsNetImpl : torch::nn::Module {
   explicit DynamicsNetImpl(const ModelConfig& config, int64_t z_dim);
-  // tokens [B, T, N] (value num_codes = mask), actions [B, T, 7], z [B, T, z_dim] (z_h at h) or
+  // tokens [B, T, N] (value num_codes = mask), actions [B, T, D], z [B, T, z_dim] (z_h at h) or
   // undefined when policy conditioning is off.
   DynamicsOutput forward(const torch::Tensor& tokens, const torch::Tensor& actions,
                          const torch::Tensor& z);
@@ -77,7 +80,7 @@ struct WorldModelImpl : torch::nn::Module {
   DynamicsOutput Dynamics(const torch::Tensor& tokens, const torch::Tensor& actions,
                           const torch::Tensor& z);
   // Logits [B, N, num_codes] of the frame after the clean `context` [B, Tc, N] (Tc <
-  // context_frames), actions [B, Tc, 7] (the last leads to the new frame), z [B, Tc, z_dim]
+  // context_frames), actions [B, Tc, D] (the last leads to the new frame), z [B, Tc, z_dim]
   // (undefined without policy conditioning). "masked": the first MaskGIT round (the new frame
   // fully masked); "next_frame": the last position of the context. With "masked", `partial`
   // [B, N] (mask token where still unknown) replaces the fully masked frame.

@@ -163,15 +163,26 @@ int64_t ActionDimOf(const json& features) {
   return a.is_object() && a.contains("dim") ? JsonInt<int64_t>(a["dim"]) : kActionDim;
 }
 
-bool IsCanonicalAction(const json& features) {
+std::string ActionSpaceOf(const json& features) {
   const json& a = features.contains("action") ? features["action"] : json();
-  return ActionDimOf(features) == kActionDim && !(a.is_object() && a.contains("space") &&
-                                                  a["space"] != "eef_delta");
+  return a.is_object() && a.contains("space") ? a["space"].get<std::string>() : "eef_delta";
+}
+
+bool IsCanonicalAction(const json& features) {
+  return IsCanonicalAction(ActionDimOf(features), ActionSpaceOf(features));
+}
+
+bool IsCanonicalAction(int64_t dim, const std::string& space) {
+  return dim == kActionDim && space == "eef_delta";
+}
+
+bool IsKnownActionSpace(const std::string& space) {
+  return space == "eef_delta" || space == "joint_position" || space == "other";
 }
 
 json FeaturesOf(const Episode& e) {
   json action;
-  if (e.action_dim == kActionDim && e.action_space == "eef_delta") {
+  if (IsCanonicalAction(e.action_dim, e.action_space)) {
     action = {{"dim", kActionDim}, {"names", kActionNames}};  // the version-1 form, unchanged
   } else {
     std::vector<std::string> names;

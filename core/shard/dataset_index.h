@@ -57,8 +57,15 @@ void WriteIndex(const std::string& dir, const DatasetIndex& index);  // atomic
 ActionStats ComputeActionStats(const std::vector<float>& actions, int64_t dim = kActionDim);
 // features.action.dim (7 for indexes that predate other widths).
 int64_t ActionDimOf(const nlohmann::json& features);
+// features.action.space: "eef_delta", "joint_position" or "other" ("eef_delta" for indexes that
+// predate other widths, whose action is the canonical one).
+std::string ActionSpaceOf(const nlohmann::json& features);
 // Whether the dataset's action is the canonical 7-dim eef_delta one (index.json version 1).
 bool IsCanonicalAction(const nlohmann::json& features);
+// Whether (dim, space) is the canonical 7-dim eef_delta action.
+bool IsCanonicalAction(int64_t dim, const std::string& space);
+// Whether `space` is one of the action spaces a dataset may declare.
+bool IsKnownActionSpace(const std::string& space);
 
 // The `features` block describing an episode's streams (action layout, image shapes).
 nlohmann::json FeaturesOf(const Episode& episode);

@@ -3,7 +3,7 @@
 //
 //   TOKENS_DIR/index.json          what the dataset holds: tokenizer, source, parts, episodes
 //   TOKENS_DIR/part-NNNNN.wmtok    one part per encode job: a 64-byte header, then raw
-//                                  little-endian arrays (tokens [F, h, w], actions [F, 7], ...)
+//                                  little-endian arrays (tokens [F, h, w], actions [F, D], ...)
 //                                  at 64-byte aligned offsets that numpy can memmap
 //   TOKENS_DIR/part-NNNNN.json     the part's index entry and episodes (assembled into index.json)
 //
@@ -22,7 +22,12 @@
 namespace wm::tokens {
 
 inline constexpr const char* kTokenFormatName = "wmkit-tokens";
+// Part files, and index.json of datasets with the canonical 7-dim eef_delta action (whose bytes
+// stay those of the first version).
 inline constexpr uint32_t kTokenFormatVersion = 1;
+// index.json of any other action: it records action_dim and action_space, so that a version-1
+// reader (which assumes 7 end-effector deltas) refuses it.
+inline constexpr uint32_t kTokenIndexVersionAnyAction = 2;
 
 // Which tokenizer produced the tokens; the dynamics model checks it matches its own.
 struct TokenizerInfo {
@@ -57,7 +62,7 @@ struct PartInfo {
   uint64_t bytes = 0;
   std::string sha256;
   int64_t num_episodes = 0, num_frames = 0;
-  // "tokens" [F, h, w], "actions" [F, 7], "rewards" [F], "discounts" [F], "is_first" [F],
+  // "tokens" [F, h, w], "actions" [F, D], "rewards" [F], "discounts" [F], "is_first" [F],
   // "is_last" [F], "is_terminal" [F].
   std::map<std::string, Section> sections;
 };
@@ -67,7 +72,11 @@ struct TokenIndex {
   TokenizerInfo tokenizer;
   std::string token_dtype = "uint16";  // "uint32" only when num_codes > 65536
   nlohmann::json source = nlohmann::json::object();  // source shard dataset: name, hashes
-  shard::ActionStats action_stats;                   // copied from the source index
+  shard::ActionStats action_stats;                   // copied from the source index (D each)
+  // The action's width D and space, copied from the source shard index (features.action);
+  // version-1 indexes, which predate other widths, read as 7 / "eef_delta".
+  int64_t action_dim = kActionDim;
+  std::string action_space = "eef_delta";
   int num_parts = 1;
   std::vector<PartInfo> parts;
   std::vector<TokenEpisode> episodes;  // in source order
@@ -128,7 +137,8 @@ class TokenDataset {
   // Copies frames [first, first + count) of episode k: tokens to out[count * h * w] (either
   // token dtype), widening to int64 for torch.
   void CopyTokens(int64_t k, int64_t first, int64_t count, int64_t* out) const;
-  // Per-step arrays of episode k, [num_frames(, 7)], pointing into the mapping.
+  int64_t action_dim() const;  // D, values per action (index().action_dim)
+  // Per-step arrays of episode k, [num_frames(, D)], pointing into the mapping.
   const float* actions(int64_t k) const;
   const float* rewards(int64_t k) const;
   const float* discounts(int64_t k) const;

@@ -15,15 +15,20 @@ inline constexpr size_t kPartHeaderSize = 64;
 inline constexpr size_t kSectionAlignment = 64;
 inline constexpr const char* kTokenIndexFileName = "index.json";
 
-// The per-step sections, in file order after "tokens": name, numpy dtype, values per frame.
+// The per-step sections, in file order after "tokens": name, numpy dtype, values per frame
+// (0: the dataset's action width D, always a second axis).
 struct StepSectionSpec {
   const char* name;
   const char* dtype;
   int per_frame;
 };
 inline constexpr StepSectionSpec kStepSections[] = {
-    {"actions", "<f4", 7},  {"rewards", "<f4", 1}, {"discounts", "<f4", 1},
+    {"actions", "<f4", 0},  {"rewards", "<f4", 1}, {"discounts", "<f4", 1},
     {"is_first", "|u1", 1}, {"is_last", "|u1", 1}, {"is_terminal", "|u1", 1}};
+
+// A step section's shape in a part of `frames` frames: [F] or [F, D].
+std::vector<int64_t> StepSectionShape(const StepSectionSpec& spec, int64_t frames,
+                                      int64_t action_dim);
 
 // "part-00003.json": the part's entry and episodes, merged into index.json.
 std::string PartJsonName(int part);

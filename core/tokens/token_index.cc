@@ -123,6 +123,13 @@ std::optional<uint64_t> SectionByteSize(const std::string& dtype,
   return bytes;
 }
 
+std::vector<int64_t> StepSectionShape(const StepSectionSpec& spec, int64_t frames,
+                                      int64_t action_dim) {
+  if (spec.per_frame == 0) return {frames, action_dim};
+  if (spec.per_frame == 1) return {frames};
+  return {frames, spec.per_frame};
+}
+
 std::string RunKey(const TokenIndex& base, int num_parts) {
   return ConfigHash({{"tokenizer", TokenizerToJson(base.tokenizer)},
                      {"source", base.source},
@@ -137,20 +144,26 @@ json TokenIndexToJson(const TokenIndex& x) {
   json parts = json::array(), episodes = json::array();
   for (const auto& p : x.parts) parts.push_back(PartToJson(p));
   for (const auto& e : x.episodes) episodes.push_back(EpisodeToJson(e));
-  return {{"format", kTokenFormatName},
-          {"format_version", kTokenFormatVersion},
-          {"dataset", x.dataset},
-          {"split", x.split},
-          {"tokenizer", TokenizerToJson(x.tokenizer)},
-          {"token_dtype", x.token_dtype},
-          {"source", x.source},
-          {"action_stats", shard::StatsToJson(x.action_stats)},
-          {"num_parts", x.num_parts},
-          {"parts", parts},
-          {"num_episodes", x.episodes.size()},
-          {"num_frames", x.num_frames},
-          {"episodes", episodes},
-          {"provenance", x.provenance}};
+  const bool canonical = shard::IsCanonicalAction(x.action_dim, x.action_space);
+  json j = {{"format", kTokenFormatName},
+            {"format_version", canonical ? kTokenFormatVersion : kTokenIndexVersionAnyAction},
+            {"dataset", x.dataset},
+            {"split", x.split},
+            {"tokenizer", TokenizerToJson(x.tokenizer)},
+            {"token_dtype", x.token_dtype},
+            {"source", x.source},
+            {"action_stats", shard::StatsToJson(x.action_stats)},
+            {"num_parts", x.num_parts},
+            {"parts", parts},
+            {"num_episodes", x.episodes.size()},
+            {"num_frames", x.num_frames},
+            {"episodes", episodes},
+            {"provenance", x.provenance}};
+  if (!canonical) {  // version 1 (canonical) keeps its bytes: the keys are implied there
+    j["action_dim"] = x.action_dim;
+    j["action_space"] = x.action_space;
+  }
+  return j;
 }
 
 TokenIndex TokenIndexFromJson(const json& j, const std::string& file) {
@@ -158,13 +171,21 @@ TokenIndex TokenIndexFromJson(const json& j, const std::string& file) {
         std::string("not a wmkit token index (format must be \"") + kTokenFormatName + "\")",
         {.file = file, .key = "format"});
   const json version = j.contains("format_version") ? j["format_version"] : json();
-  Check(version.is_number_unsigned() && version.get<uint32_t>() == kTokenFormatVersion,
-        "unknown format_version " + version.dump() +
-            " (this build reads version " + std::to_string(kTokenFormatVersion) + ")",
+  const bool any_action =
+      version.is_number_unsigned() && version.get<uint32_t>() == kTokenIndexVersionAnyAction;
+  Check(any_action ||
+            (version.is_number_unsigned() && version.get<uint32_t>() == kTokenFormatVersion),
+        "unknown format_version " + version.dump() + " (this build reads versions " +
+            std::to_string(kTokenFormatVersion) + " and " +
+            std::to_string(kTokenIndexVersionAnyAction) + ")",
         {.file = file, .key = "format_version"});
   TokenIndex x;
   std::string key;
   try {
+    if (any_action) {
+      key = "action_dim", x.action_dim = JsonInt<int64_t>(j.at(key));
+      key = "action_space", x.action_space = j.at(key).get<std::string>();
+    }
     key = "dataset", x.dataset = j.at(key).get<std::string>();
     key = "split", x.split = j.at(key).get<std::string>();
     key = "tokenizer", x.tokenizer = TokenizerFromJson(j.at(key));
@@ -181,6 +202,17 @@ TokenIndex TokenIndexFromJson(const json& j, const std::string& file) {
   } catch (const json::exception& e) {
     throw Error(std::string("malformed token index: ") + e.what(), {.file = file, .key = key});
   }
+  Check(x.action_dim >= 1 && x.action_dim <= kMaxActionDim,
+        "action_dim must be in [1, " + std::to_string(kMaxActionDim) + "], got " +
+            std::to_string(x.action_dim),
+        {.file = file, .key = "action_dim"});
+  Check(shard::IsKnownActionSpace(x.action_space),
+        "action_space must be eef_delta, joint_position or other, got '" + x.action_space + "'",
+        {.file = file, .key = "action_space"});
+  Check(static_cast<int64_t>(x.action_stats.mean.size()) == x.action_dim,
+        "action_stats has " + std::to_string(x.action_stats.mean.size()) +
+            " values per vector, action_dim is " + std::to_string(x.action_dim),
+        {.file = file, .key = "action_stats"});
   Check(x.token_dtype == "uint16" || x.token_dtype == "uint32",
         "token_dtype must be uint16 or uint32", {.file = file, .key = "token_dtype"});
   Check(static_cast<int>(x.parts.size()) == x.num_parts, "parts has not num_parts entries",

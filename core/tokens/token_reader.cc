@@ -86,9 +86,9 @@ TokenDataset::TokenDataset(const std::string& dir) : state_(std::make_unique<Sta
     arrays.tokens = CheckSection(*mapped, part, "tokens", {part.num_frames, t.grid_h, t.grid_w},
                                  s.token_bytes == 2 ? "<u2" : "<u4");
     for (const StepSectionSpec& spec : kStepSections) {
-      std::vector<int64_t> shape = {part.num_frames};
-      if (spec.per_frame > 1) shape.push_back(spec.per_frame);
-      arrays.steps[spec.name] = CheckSection(*mapped, part, spec.name, shape, spec.dtype);
+      arrays.steps[spec.name] =
+          CheckSection(*mapped, part, spec.name,
+                       StepSectionShape(spec, part.num_frames, s.index.action_dim), spec.dtype);
     }
     s.parts.push_back(arrays);
     s.files.push_back(std::move(mapped));
@@ -145,8 +145,11 @@ const uint8_t* TokenDataset::StepBytes(int64_t k, const char* name, size_t frame
   return state_->parts[e.part].steps.at(name) + static_cast<size_t>(e.frame_offset) * frame_bytes;
 }
 
+int64_t TokenDataset::action_dim() const { return state_->index.action_dim; }
+
 const float* TokenDataset::actions(int64_t k) const {
-  return reinterpret_cast<const float*>(StepBytes(k, "actions", kActionDim * sizeof(float)));
+  return reinterpret_cast<const float*>(
+      StepBytes(k, "actions", static_cast<size_t>(action_dim()) * sizeof(float)));
 }
 const float* TokenDataset::rewards(int64_t k) const {
   return reinterpret_cast<const float*>(StepBytes(k, "rewards", sizeof(float)));

@@ -33,6 +33,7 @@ struct TokenPartWriter::State {
   int part = 0, num_parts = 1;
   std::string run_key;
   TokenizerInfo tokenizer;
+  int64_t action_dim = kActionDim;
   size_t token_bytes = 2;
   AtomicFileWriter file;
   Sha256 sha;
@@ -43,9 +44,14 @@ struct TokenPartWriter::State {
   std::vector<uint8_t> is_first, is_last, is_terminal;
   bool finished = false;
 
-  State(std::string d, int p, int n, std::string key, const TokenizerInfo& t)
-      : dir(std::move(d)), part(p), num_parts(n), run_key(std::move(key)), tokenizer(t),
-        token_bytes(t.num_codes > 65536 ? 4 : 2),
+  State(std::string d, int p, int n, std::string key, const TokenIndex& base)
+      : dir(std::move(d)),
+        part(p),
+        num_parts(n),
+        run_key(std::move(key)),
+        tokenizer(base.tokenizer),
+        action_dim(base.action_dim),
+        token_bytes(base.tokenizer.num_codes > 65536 ? 4 : 2),
         file((std::filesystem::path(CreatedDir(dir)) / PartFileName(p)).string()) {}
 
   static std::string CreatedDir(const std::string& d) {
@@ -66,16 +72,13 @@ struct TokenPartWriter::State {
                       kSectionAlignment;
     PadTo(offset);
     Write(data, bytes);
-    std::vector<int64_t> shape = {frames};
-    if (spec.per_frame > 1) shape.push_back(spec.per_frame);
-    return {offset, spec.dtype, shape, Crc32c(data, bytes)};
+    return {offset, spec.dtype, StepSectionShape(spec, frames, action_dim), Crc32c(data, bytes)};
   }
 };
 
-TokenPartWriter::TokenPartWriter(std::string dir, int part, int num_parts,
-                                 const TokenIndex& base)
-    : state_(std::make_unique<State>(std::move(dir), part, num_parts, RunKey(base, num_parts),
-                                     base.tokenizer)) {
+TokenPartWriter::TokenPartWriter(std::string dir, int part, int num_parts, const TokenIndex& base)
+    : state_(
+          std::make_unique<State>(std::move(dir), part, num_parts, RunKey(base, num_parts), base)) {
   std::string header = PartHeader(state_->token_bytes, base.tokenizer);
   state_->Write(header.data(), header.size());
 }
@@ -89,9 +92,14 @@ void TokenPartWriter::AddEpisode(const TokenEpisode& meta, const std::vector<uin
   const std::string& where = meta.episode_key;
   Check(meta.num_frames > 0, "an episode needs at least one frame", {.file = where});
   const auto n = static_cast<size_t>(meta.num_frames);
-  Check(steps.actions.size() == n * kActionDim && steps.rewards.size() == n &&
-            steps.discounts.size() == n && steps.is_first.size() == n &&
-            steps.is_last.size() == n && steps.is_terminal.size() == n,
+  Check(steps.action_dim == s.action_dim,
+        "episode has " + std::to_string(steps.action_dim) + "-dim actions, the dataset " +
+            std::to_string(s.action_dim),
+        {.file = where});
+  Check(steps.actions.size() == n * static_cast<size_t>(s.action_dim) &&
+            steps.rewards.size() == n && steps.discounts.size() == n &&
+            steps.is_first.size() == n && steps.is_last.size() == n &&
+            steps.is_terminal.size() == n,
         "per-step arrays do not have num_frames rows", {.file = where});
   Check(steps.num_steps == meta.num_frames &&
             static_cast<int64_t>(tokens.size()) == meta.num_frames * per_frame,
@@ -137,7 +145,9 @@ PartInfo TokenPartWriter::Finish() {
                         s.is_first.data(), s.is_last.data(), s.is_terminal.data()};
   for (size_t i = 0; i < std::size(kStepSections); ++i) {
     const StepSectionSpec& spec = kStepSections[i];
-    size_t bytes = static_cast<size_t>(s.frames) * spec.per_frame * DtypeSize(spec.dtype);
+    size_t bytes = DtypeSize(spec.dtype);
+    for (int64_t d : StepSectionShape(spec, s.frames, s.action_dim))
+      bytes *= static_cast<size_t>(d);
     info.sections[spec.name] = s.AppendSection(data[i], bytes, spec);
   }
   info.bytes = s.file.bytes_written();

@@ -89,7 +89,7 @@ std::vector<std::string> Evaluate(wm::evaluate::EvalOptions& o, const PolicyArgs
 int main(int argc, char** argv) {
   wm::KeepLargeAllocationsInHeap();
   wm::evaluate::EvalOptions o;
-  std::string rollout = "both", controllability = "reversed";
+  std::string rollout = "auto", controllability = "reversed";
   CLI::App app{"wm-eval: open-loop rollouts of world-model checkpoints, scored per step"};
   app.footer(kFooter);
   app.set_version_flag("--version", wm::VersionString("wm-eval"));
@@ -111,8 +111,10 @@ int main(int argc, char** argv) {
       ->capture_default_str();
   app.add_option("--context", o.rollout.context, "Context frames (0: the model's maximum)")
       ->capture_default_str();
-  app.add_option("--rollout", rollout, "plain, retrace or both")
-      ->check(CLI::IsMember({"plain", "retrace", "both"}))
+  app.add_option("--rollout", rollout,
+                 "plain, retrace, both, or auto: both for end-effector-delta actions, else plain "
+                 "(retrace sums end-effector deltas, WHALE eq. 6)")
+      ->check(CLI::IsMember({"plain", "retrace", "both", "auto"}))
       ->capture_default_str();
   app.add_option("--controllability", controllability,
                  "delta_tpsnr: plain again with the episode's actions reversed or shuffled, or off")
@@ -166,6 +168,7 @@ int main(int argc, char** argv) {
   if (rollout == "retrace") o.modes = {RolloutMode::kRetrace};
   o.controllability = wm::evaluate::ParsePerturbation(controllability);
   try {
+    if (rollout == "auto") o.modes = wm::evaluate::AutoRolloutModes(o.tokens_dir);
     for (const auto& dir : Evaluate(o, policy_args)) {
       spdlog::info("wrote {}", dir);
     }

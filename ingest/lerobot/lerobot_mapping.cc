@@ -6,6 +6,7 @@
 
 #include "core/error.h"
 #include "core/sectioned_yaml.h"
+#include "core/shard/dataset_index.h"
 
 namespace wm::ingest {
 namespace fs = std::filesystem;
@@ -50,8 +51,7 @@ LeRobotMapping LoadLeRobotMapping(const std::string& file) {
     text("camera", m.camera);
     text("action", m.action);
     text("action_space", m.action_space);
-    Check(m.action_space == "eef_delta" || m.action_space == "joint_position" ||
-              m.action_space == "other",
+    Check(shard::IsKnownActionSpace(m.action_space),
           "must be eef_delta, joint_position or other, got '" + m.action_space + "'");
     optional("state", m.state);
     text("timestamp", m.timestamp);

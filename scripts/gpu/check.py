@@ -78,7 +78,7 @@ def dynamics_flops(checkpoint, batch):
     T, N, k = m["context_frames"], m["grid_h"] * m["grid_w"], m["num_codes"]
     g = torch.Generator(device="cuda").manual_seed(0)
     tokens = torch.randint(k, (batch, T, N), device="cuda", generator=g)
-    actions = torch.randn(batch, T, 7, device="cuda", generator=g)
+    actions = torch.randn(batch, T, dynamics_twin.action_dim(m), device="cuda", generator=g)
     rewards, terminals = torch.rand(batch, T, device="cuda"), torch.zeros(batch, T, device="cuda")
     mask = torch.rand(batch, T, N, device="cuda", generator=g) < 0.5
     z_noise = torch.rand(batch, p["categories"], p["classes"], device="cuda")

@@ -56,13 +56,19 @@ Episode MakeEpisode(int steps, uint64_t seed, const std::string& key) {
 
 std::vector<std::vector<uint32_t>> MakeTokenDataset(const std::string& dir, int episodes,
                                                     int num_parts, int grid_h, int grid_w,
-                                                    int64_t num_codes, uint64_t seed) {
+                                                    int64_t num_codes, uint64_t seed,
+                                                    int64_t action_dim) {
   tokens::TokenIndex base;
   base.dataset = "unit";
   base.split = "train";
   base.tokenizer = {.checkpoint_sha256 = "ckpt", .config_hash = "cfg", .num_codes = num_codes,
                     .grid_h = grid_h, .grid_w = grid_w, .image_size = 8 * grid_h};
   base.token_dtype = num_codes > 65536 ? "uint32" : "uint16";
+  if (action_dim != kActionDim) {
+    base.action_dim = action_dim;
+    base.action_space = "joint_position";
+    base.action_stats = shard::ComputeActionStats({}, action_dim);
+  }
   std::mt19937_64 rng(seed);
   std::vector<std::vector<uint32_t>> all;
   for (int part = 0; part < num_parts; ++part) {
@@ -71,6 +77,12 @@ std::vector<std::vector<uint32_t>> MakeTokenDataset(const std::string& dir, int 
     for (int64_t k = first; k < last; ++k) {
       Episode e = MakeEpisode(3 + static_cast<int>(k % 4), seed + k, "ep" + std::to_string(k));
       e.policy_id = "policy" + std::to_string(k % 2);
+      if (action_dim != kActionDim) {
+        e.action_dim = action_dim;
+        e.action_space = base.action_space;
+        e.actions.resize(static_cast<size_t>(e.num_steps * action_dim));
+        for (size_t i = 0; i < e.actions.size(); ++i) e.actions[i] = k + i / 100.0f;
+      }
       std::vector<uint32_t> t(static_cast<size_t>(e.num_steps * grid_h * grid_w));
       for (auto& v : t) v = static_cast<uint32_t>(rng() % static_cast<uint64_t>(num_codes));
       writer.AddEpisode({.num_frames = e.num_steps, .source_episode = k,

@@ -109,6 +109,72 @@ TEST(TokenDataset, RejectsOutOfRangeTokens) {
   EXPECT_NE(err.find("at least one frame"), std::string::npos) << err;
 }
 
+nlohmann::json StatsToJsonOf7() { return shard::StatsToJson(shard::ActionStats{}); }
+
+nlohmann::json ReadIndexJson(const fs::path& dir) {
+  return nlohmann::json::parse(ReadFile((dir / "index.json").string()));
+}
+
+void WriteIndexJson(const fs::path& dir, const nlohmann::json& j) {
+  WriteFileAtomically((dir / "index.json").string(), j.dump(2) + "\n");
+}
+
+TEST(TokenDataset, JointActionsKeepTheirWidthInVersion2) {
+  test::TempDir dir;
+  MakeTokenDataset(dir.path().string(), 3, 2, 2, 2, 16, 1, /*action_dim=*/6);
+  const nlohmann::json j = ReadIndexJson(dir.path());
+  EXPECT_EQ(j["format_version"], 2);
+  EXPECT_EQ(j["action_dim"], 6);
+  EXPECT_EQ(j["action_space"], "joint_position");
+  EXPECT_EQ(j["parts"][1]["sections"]["actions"]["shape"][1], 6);
+  TokenDataset d(dir.path().string());
+  EXPECT_EQ(d.action_dim(), 6);
+  EXPECT_EQ(d.index().action_space, "joint_position");
+  for (int64_t k = 0; k < 3; ++k) {
+    for (int64_t i = 0; i < d.episode(k).num_frames * 6; ++i) {
+      EXPECT_EQ(d.actions(k)[i], k + i / 100.0f);
+    }
+  }
+}
+
+TEST(TokenDataset, CanonicalActionsKeepTheVersion1Index) {
+  test::TempDir dir;
+  MakeTokenDataset(dir.path().string(), 2, 1, 2, 2, 16, 1);
+  const nlohmann::json j = ReadIndexJson(dir.path());
+  EXPECT_EQ(j["format_version"], 1);
+  EXPECT_FALSE(j.contains("action_dim") || j.contains("action_space"));
+  TokenDataset d(dir.path().string());  // version 1 reads as 7 / eef_delta
+  EXPECT_EQ(d.action_dim(), 7);
+  EXPECT_EQ(d.index().action_space, "eef_delta");
+}
+
+TEST(TokenDataset, ActionWidthErrorsNameTheKey) {
+  test::TempDir dir;
+  MakeTokenDataset(dir.path().string(), 2, 1, 2, 2, 16, 1, /*action_dim=*/6);
+  const nlohmann::json good = ReadIndexJson(dir.path());
+  auto error_with = [&](const char* key, const nlohmann::json& value) {
+    nlohmann::json j = good;
+    j[key] = value;
+    WriteIndexJson(dir.path(), j);
+    return ErrorText([&] { TokenDataset d(dir.path().string()); });
+  };
+  std::string err = error_with("action_space", "cartesian");
+  EXPECT_NE(err.find("action_space must be eef_delta, joint_position or other"), std::string::npos)
+      << err;
+  err = error_with("action_dim", 7);  // the stats (and sections) have 6
+  EXPECT_NE(err.find("action_stats has 6 values per vector, action_dim is 7"), std::string::npos)
+      << err;
+  err = error_with("format_version", 3);
+  EXPECT_NE(err.find("reads versions 1 and 2"), std::string::npos) << err;
+  // A version-1 index means 7 values per action: this one's 6-wide sections are refused.
+  nlohmann::json v1 = good;
+  v1["format_version"] = 1;
+  v1["action_stats"] = StatsToJsonOf7();
+  WriteIndexJson(dir.path(), v1);
+  err = ErrorText([&] { TokenDataset d(dir.path().string()); });
+  EXPECT_NE(err.find("actions"), std::string::npos) << err;
+}
+
 TEST(PartEpisodeRange, CoversEveryEpisodeOnce) {
   for (int n : {1, 2, 3, 7}) {
     int64_t next = 0;

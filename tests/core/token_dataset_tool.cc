@@ -2,10 +2,10 @@
 // what it wrote and what the C++ reader returns, so tests/python/test_wmshard_tokens.py can
 // cross-check scripts/wmshard.py (an independent reader written from docs/token-format.md).
 //
-//   token_dataset_tool DIR EPISODES PARTS GRID_H GRID_W NUM_CODES SEED
+//   token_dataset_tool DIR EPISODES PARTS GRID_H GRID_W NUM_CODES SEED [ACTION_DIM]
 //
 // stdout: {"token_dtype", "num_parts", "episodes": [{"tokens" [F][h][w] as written,
-//          "tokens_read" (the same, through TokenDataset::CopyTokens), "actions" [F][7],
+//          "tokens_read" (the same, through TokenDataset::CopyTokens), "actions" [F][D],
 //          "rewards", "discounts", "is_first", "is_last", "is_terminal", "part",
 //          "frame_offset", "num_frames", "source_episode", "episode_key", "policy_id",
 //          "language_instruction", "episode_seed"}]}
@@ -52,7 +52,7 @@ json EpisodeJson(const wm::tokens::TokenDataset& d, int64_t k,
   d.CopyTokens(k, 0, e.num_frames, read.data());
   json actions = json::array();
   for (int64_t f = 0; f < e.num_frames; ++f) {
-    actions.push_back(Array(d.actions(k) + f * wm::kActionDim, wm::kActionDim));
+    actions.push_back(Array(d.actions(k) + f * d.action_dim(), d.action_dim()));
   }
   return {{"tokens", Grid(written, e.num_frames, t.grid_h, t.grid_w)},
           {"tokens_read", Grid(read, e.num_frames, t.grid_h, t.grid_w)},
@@ -75,9 +75,10 @@ json EpisodeJson(const wm::tokens::TokenDataset& d, int64_t k,
 }  // namespace
 
 int main(int argc, char** argv) {
-  if (argc != 8) {
+  if (argc != 8 && argc != 9) {
     std::fprintf(stderr,
-                 "usage: token_dataset_tool DIR EPISODES PARTS GRID_H GRID_W NUM_CODES SEED\n"
+                 "usage: token_dataset_tool DIR EPISODES PARTS GRID_H GRID_W NUM_CODES SEED "
+                 "[ACTION_DIM]\n"
                  "example: token_dataset_tool /tmp/tok 5 3 2 3 1024 7\n");
     return 2;
   }
@@ -87,9 +88,10 @@ int main(int argc, char** argv) {
     const int grid_h = std::stoi(argv[4]), grid_w = std::stoi(argv[5]);
     const int64_t num_codes = std::stoll(argv[6]);
     const uint64_t seed = std::stoull(argv[7]);
+    const int64_t action_dim = argc == 9 ? std::stoll(argv[8]) : wm::kActionDim;
     std::filesystem::create_directories(dir);  // the part writer expects an existing directory
-    auto written =
-        wm::test::MakeTokenDataset(dir, episodes, parts, grid_h, grid_w, num_codes, seed);
+    auto written = wm::test::MakeTokenDataset(dir, episodes, parts, grid_h, grid_w, num_codes, seed,
+                                              action_dim);
     wm::tokens::TokenDataset d(dir);
     json out = {{"token_dtype", d.index().token_dtype},
                 {"num_parts", d.index().num_parts},

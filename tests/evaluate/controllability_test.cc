@@ -6,6 +6,7 @@
 #include <algorithm>
 #include <random>
 
+#include "core/episode.h"
 #include "core/error.h"
 
 namespace wm::evaluate {
@@ -32,21 +33,21 @@ std::vector<int> Order(const std::vector<float>& actions) {
 
 TEST(PerturbActions, ReversedReversesEveryActionThatLeadsToAFrame) {
   const auto a = Ramp(6);  // 6 frames: actions 0..4 lead to frames 1..5, action 5 nowhere
-  const auto r = PerturbActions(a.data(), 6, Perturbation::kReversed, 0, 0);
+  const auto r = PerturbActions(a.data(), kActionDim, 6, Perturbation::kReversed, 0, 0);
   EXPECT_EQ(Order(r), (std::vector<int>{4, 3, 2, 1, 0, 5}));
   EXPECT_EQ(std::vector<float>(r.begin(), r.begin() + kActionDim),
             std::vector<float>(a.begin() + 4 * kActionDim, a.begin() + 5 * kActionDim));
-  EXPECT_EQ(PerturbActions(a.data(), 6, Perturbation::kOff, 0, 0), a);
+  EXPECT_EQ(PerturbActions(a.data(), kActionDim, 6, Perturbation::kOff, 0, 0), a);
   // Two frames: one action leads anywhere, nothing to reorder.
-  EXPECT_EQ(PerturbActions(a.data(), 2, Perturbation::kReversed, 0, 0),
+  EXPECT_EQ(PerturbActions(a.data(), kActionDim, 2, Perturbation::kReversed, 0, 0),
             std::vector<float>(a.begin(), a.begin() + 2 * kActionDim));
-  EXPECT_EQ(PerturbActions(a.data(), 2, Perturbation::kShuffled, 0, 0),
+  EXPECT_EQ(PerturbActions(a.data(), kActionDim, 2, Perturbation::kShuffled, 0, 0),
             std::vector<float>(a.begin(), a.begin() + 2 * kActionDim));
 }
 
 TEST(PerturbActions, ShuffledIsTheDocumentedSeededFisherYatesPerEpisode) {
   const auto a = Ramp(10);
-  const auto s = PerturbActions(a.data(), 10, Perturbation::kShuffled, 7, 3);
+  const auto s = PerturbActions(a.data(), kActionDim, 10, Perturbation::kShuffled, 7, 3);
   // docs/reports.md: std::mt19937_64 seeded with MixSeed(MixSeed(seed, episode), -1); for i from
   // T-2 down to 1 swap rows i and rng() % (i + 1).
   std::mt19937_64 rng(MixSeed(MixSeed(7, 3), -1));
@@ -58,8 +59,11 @@ TEST(PerturbActions, ShuffledIsTheDocumentedSeededFisherYatesPerEpisode) {
   std::sort(sorted.begin(), sorted.end());
   EXPECT_EQ(sorted, Order(a));  // a permutation: the same actions in another order
   EXPECT_NE(Order(s), Order(a));
-  EXPECT_EQ(PerturbActions(a.data(), 10, Perturbation::kShuffled, 7, 3), s);  // seeded
-  EXPECT_NE(PerturbActions(a.data(), 10, Perturbation::kShuffled, 7, 4), s);  // per episode
+  const auto shuffled = [&](int64_t episode) {
+    return PerturbActions(a.data(), kActionDim, 10, Perturbation::kShuffled, 7, episode);
+  };
+  EXPECT_EQ(shuffled(3), s);  // seeded
+  EXPECT_NE(shuffled(4), s);  // per episode
 }
 
 TEST(Perturbation, NamesRoundTripAndUnknownNamesAreErrors) {

@@ -1,7 +1,10 @@
 // Retracing rollout context construction (whale-x.txt section 3.4) on hand-written sequences.
+#include "evaluate/retrace.h"
+
 #include <gtest/gtest.h>
 
-#include "evaluate/retrace.h"
+#include "core/tokens/token_dataset.h"
+#include "evaluate/rollout.h"
 #include "tests/core/test_util.h"
 
 namespace wm::evaluate {
@@ -25,19 +28,19 @@ std::vector<int64_t> Frames(const std::vector<ContextSlot>& slots) {
 
 TEST(Retrace, ActionSumsDeltasAndKeepsTheLastGripper) {
   auto a = Ramp(4);
-  Action r = RetraceAction(a.data(), 3);  // actions 1, 2, 3 (1-based values)
+  Action r = RetraceAction(a.data(), kActionDim, 3);  // actions 1, 2, 3 (1-based values)
   EXPECT_EQ(r, (Action{6, 60, 0, 0, 0, -6, 0}));  // gripper of action index 2 = 2 % 2 = 0
-  EXPECT_EQ(RetraceAction(a.data(), 4)[6], 1.f);
-  EXPECT_EQ(RetraceAction(a.data(), 1), (Action{1, 10, 0, 0, 0, -1, 0}));
-  EXPECT_NE(test::ErrorText([&] { RetraceAction(a.data(), 0); }), "(no error)");
+  EXPECT_EQ(RetraceAction(a.data(), kActionDim, 4)[6], 1.f);
+  EXPECT_EQ(RetraceAction(a.data(), kActionDim, 1), (Action{1, 10, 0, 0, 0, -1, 0}));
+  EXPECT_NE(test::ErrorText([&] { RetraceAction(a.data(), kActionDim, 0); }), "(no error)");
 }
 
 TEST(Retrace, PlainWindowSlides) {
   auto a = Ramp(10);
-  EXPECT_EQ(Frames(PlainContext(a.data(), 0, 4)), (std::vector<int64_t>{0}));
-  EXPECT_EQ(Frames(PlainContext(a.data(), 2, 4)), (std::vector<int64_t>{0, 1, 2}));
-  EXPECT_EQ(Frames(PlainContext(a.data(), 7, 4)), (std::vector<int64_t>{4, 5, 6, 7}));
-  EXPECT_EQ(PlainContext(a.data(), 7, 4)[0].action[0], 5.f);  // action index 4
+  EXPECT_EQ(Frames(PlainContext(a.data(), kActionDim, 0, 4)), (std::vector<int64_t>{0}));
+  EXPECT_EQ(Frames(PlainContext(a.data(), kActionDim, 2, 4)), (std::vector<int64_t>{0, 1, 2}));
+  EXPECT_EQ(Frames(PlainContext(a.data(), kActionDim, 7, 4)), (std::vector<int64_t>{4, 5, 6, 7}));
+  EXPECT_EQ(PlainContext(a.data(), kActionDim, 7, 4)[0].action[0], 5.f);  // action index 4
 }
 
 TEST(Retrace, MatchesThePapersExample) {
@@ -45,7 +48,7 @@ TEST(Retrace, MatchesThePapersExample) {
   // o_{t-2}, a_{t-2}, o_{t-1}, a_{t-1}, o_t, a_t). 0-based with t = 7: frame 0 with
   // retrace(a_0..a_4), then frames 5, 6, 7.
   auto a = Ramp(10);
-  auto slots = RetraceContext(a.data(), 7, 4);
+  auto slots = RetraceContext(a.data(), kActionDim, 7, 4);
   EXPECT_EQ(Frames(slots), (std::vector<int64_t>{0, 5, 6, 7}));
   EXPECT_EQ(slots[0].action, (Action{15, 150, 0, 0, 0, -15, 0}));  // 1+2+3+4+5; a_4 gripper 0
   EXPECT_EQ(slots[1].action[0], 6.f);
@@ -55,12 +58,40 @@ TEST(Retrace, MatchesThePapersExample) {
 TEST(Retrace, EqualsPlainWhileFrameZeroIsStillInTheWindow) {
   auto a = Ramp(10);
   for (int64_t t = 0; t < 4; ++t) {
-    auto p = PlainContext(a.data(), t, 4), r = RetraceContext(a.data(), t, 4);
+    auto p = PlainContext(a.data(), kActionDim, t, 4);
+    auto r = RetraceContext(a.data(), kActionDim, t, 4);
     EXPECT_EQ(Frames(p), Frames(r)) << t;
   }
   // First divergence: t = C, where the plain window drops frame 0.
-  EXPECT_EQ(Frames(RetraceContext(a.data(), 4, 4)), (std::vector<int64_t>{0, 2, 3, 4}));
-  EXPECT_EQ(RetraceContext(a.data(), 4, 4)[0].action[0], 3.f);  // a_0 + a_1 = 1 + 2
+  EXPECT_EQ(Frames(RetraceContext(a.data(), kActionDim, 4, 4)), (std::vector<int64_t>{0, 2, 3, 4}));
+  EXPECT_EQ(RetraceContext(a.data(), kActionDim, 4, 4)[0].action[0], 3.f);  // a_0 + a_1 = 1 + 2
+}
+
+TEST(Retrace, SumsEveryDeltaButTheLastValueAtAnyWidth) {
+  const std::vector<float> a = {1, 2, 1, 3, 4, 0};  // two 3-value eef_delta actions
+  EXPECT_EQ(RetraceAction(a.data(), 3, 2), (Action{4, 6, 0}));
+  EXPECT_EQ(PlainContext(a.data(), 3, 1, 4)[1].action, (Action{3, 4, 0}));
+}
+
+// WHALE eq. 6 adds end-effector deltas; summing joint positions means nothing, so wm-eval
+// refuses a retracing rollout of such data with one line naming the dataset and its space.
+TEST(Retrace, RefusesActionsThatAreNotEndEffectorDeltas) {
+  test::TempDir dir;
+  test::MakeTokenDataset(dir.path().string(), 2, 1, 2, 2, 16, 1, /*action_dim=*/6);
+  const tokens::TokenDataset joints(dir.path().string());
+  const std::string err =
+      test::ErrorText([&] { CheckRolloutModeFits(RolloutMode::kRetrace, joints); });
+  EXPECT_NE(err.find("retrace (WHALE eq. 6) sums end-effector deltas, but dataset 'unit' has "
+                     "joint_position actions (use --rollout plain)"),
+            std::string::npos)
+      << err;
+  EXPECT_EQ(err.find('\n'), std::string::npos);
+  CheckRolloutModeFits(RolloutMode::kPlain, joints);
+  EXPECT_EQ(AutoRolloutModes(dir.path().string()), std::vector<RolloutMode>{RolloutMode::kPlain});
+  test::TempDir eef;
+  test::MakeTokenDataset(eef.path().string(), 2, 1, 2, 2, 16, 1);
+  EXPECT_EQ(AutoRolloutModes(eef.path().string()),
+            (std::vector<RolloutMode>{RolloutMode::kPlain, RolloutMode::kRetrace}));
 }
 
 }  // namespace

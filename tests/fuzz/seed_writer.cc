@@ -71,12 +71,16 @@ void WriteShard(const fs::path& out) {
 }
 
 // index.json, a NUL byte, part-00000.wmtok: the input format of tokens_fuzz.cc.
+// Two seeds: the canonical 7-dim action (index version 1) and 6-dim joint actions (version 2).
 void WriteTokens(const fs::path& out) {
-  test::TempDir dir;
-  test::MakeTokenDataset(dir.path().string(), 2, 1, 2, 2, 16, 7);
-  WriteFileAtomically(
-      (out / "tokens" / "two_episodes.bin").string(),
-      ReadFile(dir / "index.json") + std::string(1, '\0') + ReadFile(dir / "part-00000.wmtok"));
+  for (const auto& [name, action_dim] :
+       {std::pair{"two_episodes.bin", 7}, {"joint_actions.bin", 6}}) {
+    test::TempDir dir;
+    test::MakeTokenDataset(dir.path().string(), 2, 1, 2, 2, 16, 7, action_dim);
+    WriteFileAtomically(
+        (out / "tokens" / name).string(),
+        ReadFile(dir / "index.json") + std::string(1, '\0') + ReadFile(dir / "part-00000.wmtok"));
+  }
 }
 
 void WriteHdf5Dataset(hid_t loc, const char* name, hid_t type, std::vector<hsize_t> dims,

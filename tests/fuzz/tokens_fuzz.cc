@@ -53,7 +53,7 @@ void ReadAll(const std::string& index, const std::string& part) {
       std::vector<int64_t> codes(static_cast<size_t>(frames * tokens.tokens_per_frame()));
       tokens.CopyTokens(k, 0, frames, codes.data());
       for (int64_t c : codes) sum += static_cast<uint64_t>(c);
-      for (int64_t i = 0; i < frames * kActionDim; ++i) sum += tokens.actions(k)[i] > 0;
+      for (int64_t i = 0; i < frames * tokens.action_dim(); ++i) sum += tokens.actions(k)[i] > 0;
       for (int64_t i = 0; i < frames; ++i) {
         sum += (tokens.rewards(k)[i] > 0) + (tokens.discounts(k)[i] > 0) + tokens.is_first(k)[i] +
                tokens.is_last(k)[i] + tokens.is_terminal(k)[i];

@@ -31,11 +31,12 @@ TOOL = Path(os.environ.get("WM_BIN_DIR", ROOT / "build" / "bin")) / "token_datas
 STEP_KEYS = ("actions", "rewards", "discounts", "is_first", "is_last", "is_terminal")
 META_KEYS = ("part", "frame_offset", "num_frames", "source_episode", "episode_key", "policy_id",
              "language_instruction", "episode_seed")
-# (episodes, parts, grid_h, grid_w, num_codes, seed, expected token_dtype)
+# (episodes, parts, grid_h, grid_w, num_codes, seed, expected token_dtype[, action_dim])
 CONFIGS = [(4, 1, 2, 3, 1024, 5, "uint16"),
            (7, 3, 3, 2, 65536, 11, "uint16"),   # the largest codebook that fits uint16
            (5, 3, 2, 2, 100000, 3, "uint32"),   # codes > 65536: 4-byte tokens
-           (2, 3, 1, 4, 70000, 9, "uint32")]    # more parts than episodes: part 0 is empty
+           (2, 3, 1, 4, 70000, 9, "uint32"),    # more parts than episodes: part 0 is empty
+           (3, 2, 2, 2, 16, 13, "uint16", 26)]  # joint actions of 26 values: index version 2
 
 
 def run(*args):
@@ -45,8 +46,8 @@ def run(*args):
 
 def write_dataset(directory, config):
     """Runs the C++ writer; returns its JSON report (what it wrote and what C++ read back)."""
-    episodes, parts, gh, gw, codes, seed, _ = config
-    args = [TOOL, directory, episodes, parts, gh, gw, codes, seed]
+    episodes, parts, gh, gw, codes, seed = config[:6]
+    args = [TOOL, directory, episodes, parts, gh, gw, codes, seed, *config[7:]]
     r = subprocess.run(list(map(str, args)), capture_output=True, text=True, timeout=120)
     if r.returncode != 0:
         raise AssertionError(f"{TOOL} failed ({r.returncode}): {r.stderr}")
@@ -164,7 +165,10 @@ class TokenCrossCheck(unittest.TestCase):
 
         p0 = lambda x: x["parts"][0]  # noqa: E731
         bad_index = {
-            "format_version": lambda x: x.update(format_version=2),
+            "format_version 3": lambda x: x.update(format_version=3),
+            "version 2 without action_dim": lambda x: x.update(format_version=2,
+                                                               action_space="other"),
+            "version 1 with action_dim": lambda x: x.update(action_dim=7),
             "unknown key": lambda x: x.update(future_key=1),
             "token_dtype for 65536 codes": lambda x: x.update(token_dtype="uint32"),
             "uint16 for 65537 codes": lambda x: x["tokenizer"].update(num_codes=65537),
@@ -187,6 +191,13 @@ class TokenCrossCheck(unittest.TestCase):
         }
         for what, fn in bad_index.items():
             self.assertFalse(index_v.is_valid(mutated(fn)), what)
+        wide = json.loads((Path(self.tmp) / "c13" / "index.json").read_text())  # 26-dim, v2
+        self.assertEqual((wide["format_version"], wide["action_dim"], wide["action_space"]),
+                         (2, 26, "joint_position"))
+        for what, fn in {"action_space": lambda x: x.update(action_space="cartesian"),
+                         "no action_dim": lambda x: x.pop("action_dim"),
+                         "version 1": lambda x: x.update(format_version=1)}.items():
+            self.assertFalse(index_v.is_valid(mutated(fn, wide)), "v2 " + what)
         self.assertTrue(part_v.is_valid(part_json))
         bad_part = {"no tokenizer_sha256": lambda x: x.pop("tokenizer_sha256"),
                     "extra key": lambda x: x.update(index=0),
@@ -267,10 +278,16 @@ class TokenCrossCheck(unittest.TestCase):
             fn(doc)
             index_path.write_text(json.dumps(doc))
 
-        write(lambda x: x.update(format_version=2))
+        write(lambda x: x.update(format_version=3))
         for args in (["--verify"], ["--info"], ["--episode", 0]):
-            self.assertFails(["--tokens", d, *args], "index.json", "format_version 2",
-                             "supports 1")
+            self.assertFails(["--tokens", d, *args], "index.json", "format_version 3",
+                             "supports 1 and 2")
+        write(lambda x: x.update(format_version=2))  # version 2 must say its action
+        self.assertFails(["--tokens", d, "--info"], "index.json", "action_dim None")
+        write(lambda x: x.update(format_version=2, action_dim=6, action_space="other"))
+        self.assertFails(["--tokens", d, "--info"], "index.json", "action_stats", "6 values")
+        write(lambda x: x.update(format_version=2, action_dim=7, action_space="cartesian"))
+        self.assertFails(["--tokens", d, "--info"], "index.json", "action_space 'cartesian'")
         write(lambda x: x.update(num_frames=x["num_frames"] + 1))
         self.assertFails(["--tokens", d, "--info"], "index.json", "num_frames")
         write(lambda x: x["episodes"][1].update(num_frames=x["episodes"][1]["num_frames"] + 99,

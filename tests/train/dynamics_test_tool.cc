@@ -1,6 +1,9 @@
 // dynamics_test_tool: fixtures for the Python checks of the dynamics model.
 //   make-tokens --out DIR ...        a moving-block token dataset (tests/train/moving_block.h)
 //   reference --out FILE [--rmsnorm] [--no-policy] [--tied] [--copy-prior] [--next-frame]
+//             [--action-dim D] [--padded K]
+//                                    (--padded: row 1 is a K-dim dataset's, padded to D and
+//                                    masked, its padding filled with noise that must not matter)
 //                                    a tensor archive with random weights ("model/..."), inputs
 //                                    ("input/...") and the C++ outputs ("output/...") of one
 //                                    forward + losses, for the PyTorch twin (dynamics_twin.py)
@@ -24,6 +27,7 @@ using namespace wm::train;
 
 struct ReferenceFlags {
   bool rmsnorm = false, no_policy = false, tied = false, copy_prior = false, next_frame = false;
+  int action_dim = 7, padded = 0;
 };
 
 void WriteReference(const std::string& path, const ReferenceFlags& f, uint64_t seed) {
@@ -33,6 +37,7 @@ void WriteReference(const std::string& path, const ReferenceFlags& f, uint64_t s
   c.model.tied_token_head = f.tied;
   c.model.copy_prior = f.copy_prior;
   c.model.objective = f.next_frame ? "next_frame" : "masked";
+  c.model.action_dim = f.action_dim;
   c.train.reward_weight = 0.7;
   c.train.terminal_weight = 0.3;
   c.train.policy_weight = 0.9;
@@ -49,7 +54,11 @@ void WriteReference(const std::string& path, const ReferenceFlags& f, uint64_t s
   const int64_t B = 2, T = c.model.context_frames, N = int64_t{c.model.grid_h} * c.model.grid_w;
   SegmentBatch b;
   b.tokens = torch::randint(c.model.num_codes, {B, T, N}, torch::kInt64);
-  b.actions = torch::randn({B, T, 7});
+  b.actions = torch::randn({B, T, f.action_dim});
+  if (f.padded > 0) {  // row 1 comes from a narrower dataset
+    b.action_mask = torch::ones({B, 1, f.action_dim});
+    b.action_mask[1].slice(-1, f.padded).fill_(0);
+  }
   b.rewards = torch::rand({B, T});
   b.terminals = (torch::rand({B, T}) > 0.7).to(torch::kFloat);
   b.mask = TrainingMask(torch::rand({B, T}), torch::rand({B, T, N}), torch::rand({B, T}), 0.7);
@@ -67,6 +76,7 @@ void WriteReference(const std::string& path, const ReferenceFlags& f, uint64_t s
   wm::trainkit::AddTensor(w, "input/terminals", b.terminals);
   wm::trainkit::AddTensor(w, "input/mask", b.mask.to(torch::kInt64));
   wm::trainkit::AddTensor(w, "input/z_noise", b.z_noise);
+  if (b.action_mask.defined()) wm::trainkit::AddTensor(w, "input/action_mask", b.action_mask);
   torch::NoGradGuard no_grad;
   torch::Tensor masked = f.next_frame ? b.tokens : b.tokens.masked_fill(b.mask, c.model.num_codes);
   torch::Tensor z = m->DynamicsZ(b.tokens, b.actions);
@@ -104,11 +114,12 @@ void EvalNextFrame(const std::string& run, const std::string& dir, int frames, i
       std::vector<int64_t> all((frames + 1) * N);
       data.CopyTokens(k, t - frames, frames + 1, all.data());
       c.tokens.assign(all.begin(), all.begin() + frames * N);
-      c.actions.assign(data.actions(k) + (t - frames) * 7, data.actions(k) + t * 7);
+      const int64_t A = data.action_dim();
+      c.actions.assign(data.actions(k) + (t - frames) * A, data.actions(k) + t * A);
       const auto next = model->PredictNextFrame(c, 0, 0, 0.0);
       // Action sensitivity: the same context with the last move's x/y direction reversed.
       FrameContext mirrored = c;
-      for (int d : {0, 1}) mirrored.actions[(frames - 1) * 7 + d] *= -1;
+      for (int d : {0, 1}) mirrored.actions[(frames - 1) * A + d] *= -1;
       const auto other = model->PredictNextFrame(mirrored, 0, 0, 0.0);
       for (int64_t i = 0; i < N; ++i) flipped += next[i] != other[i];
       for (int64_t i = 0; i < N; ++i) {
@@ -153,6 +164,8 @@ int main(int argc, char** argv) {
   ref->add_flag("--tied", flags.tied);
   ref->add_flag("--copy-prior", flags.copy_prior);
   ref->add_flag("--next-frame", flags.next_frame);
+  ref->add_option("--action-dim", flags.action_dim);
+  ref->add_option("--padded", flags.padded);
   ref->add_option("--seed", seed);
   std::string eval_run, eval_tokens;
   int eval_frames = 5, eval_windows = 200;

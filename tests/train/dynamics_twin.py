@@ -12,7 +12,11 @@ import torch
 import torch.nn.functional as F
 from torch import nn
 
-ACTION_DIM = 7
+
+
+def action_dim(m):
+    """model.action_dim: the data's action width; configs without the key take 7."""
+    return m.get("action_dim", 7)
 
 
 def read_archive(path):
@@ -101,9 +105,10 @@ class PolicyEmbedding(nn.Module):
         self.token_embed = nn.Embedding(m["num_codes"], d)
         self.spatial_pos = nn.Parameter(torch.zeros(n, d))
         self.temporal_pos = nn.Parameter(torch.zeros(m["context_frames"], d))
-        self.posterior_action = nn.Linear(ACTION_DIM, d)
-        self.prior_action = nn.Linear(ACTION_DIM, d)
-        self.decoder_prev_action = nn.Linear(ACTION_DIM, d)
+        a = action_dim(m)
+        self.posterior_action = nn.Linear(a, d)
+        self.prior_action = nn.Linear(a, d)
+        self.decoder_prev_action = nn.Linear(a, d)
         self.decoder_z = nn.Linear(zdim, d)
         self.decoder_start = nn.Parameter(torch.zeros(d))
         args = (d, p["num_heads"], m["mlp_ratio"], rms)
@@ -112,7 +117,7 @@ class PolicyEmbedding(nn.Module):
         self.decoder = StTransformer(*args, p["decoder_layers"])
         self.posterior_head = nn.Linear(d, zdim)
         self.prior_head = nn.Linear(d, zdim)
-        self.decoder_head = nn.Linear(d, 2 * ACTION_DIM)
+        self.decoder_head = nn.Linear(d, 2 * a)
 
     def embed(self, tokens, extra):
         t = tokens.shape[1]
@@ -149,7 +154,7 @@ class DynamicsNet(nn.Module):
         self.spatial_pos = nn.Parameter(torch.zeros(n, d))
         self.temporal_pos = nn.Parameter(torch.zeros(m["context_frames"], d))
         self.action_start = nn.Parameter(torch.zeros(d))
-        self.action_in = nn.Linear(ACTION_DIM, d)
+        self.action_in = nn.Linear(action_dim(m), d)
         if z_dim:
             self.z_in = nn.Linear(z_dim, d)
         self.transformer = StTransformer(d, m["num_heads"], m["mlp_ratio"],
@@ -207,14 +212,18 @@ class WorldModel(nn.Module):
         with torch.no_grad():
             return self.policy.prior_logits(tokens, actions).softmax(-1).flatten(2)
 
-    def losses(self, tokens, actions, rewards, terminals, mask, z_noise):
-        """The training objective (WHALE eq. 4 + eq. 5 + reward terms) as the C++ computes it."""
+    def losses(self, tokens, actions, rewards, terminals, mask, z_noise, action_mask=None):
+        """The training objective (WHALE eq. 4 + eq. 5 + reward terms) as the C++ computes it.
+        `action_mask` [B, 1, D] (1 real, 0 padding of a narrower dataset): padding is zeroed
+        before every action layer and left out of the policy NLL."""
         t_cfg, k = self.config["train"], self.config["model"]["num_codes"]
         out, z = {}, None
+        keep = torch.ones_like(actions) if action_mask is None else action_mask.expand_as(actions)
+        actions = actions * keep
         if self.policy is not None:
             post, prior, mean, log_std = self.policy(tokens, actions, z_noise)
-            nll = (0.5 * ((actions - mean) * torch.exp(-log_std)).pow(2) + log_std +
-                   0.5 * math.log(2 * math.pi)).sum(-1).sum(1).mean()
+            nll = ((0.5 * ((actions - mean) * torch.exp(-log_std)).pow(2) + log_std +
+                    0.5 * math.log(2 * math.pi)) * keep).sum(-1).sum(1).mean()
             log_q = post.log_softmax(-1).unsqueeze(1)
             log_p = prior.log_softmax(-1)
             kl = (log_q.exp() * (log_q - log_p)).sum((-2, -1)).sum(1).mean()

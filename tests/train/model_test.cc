@@ -143,6 +143,44 @@ TEST(PolicyLosses, ElboSumsOverStepsAndWeightsKlByBeta) {
   EXPECT_NEAR(l.loss.item<double>(), nll + 0.5 * kl, 1e-5);
 }
 
+// A mixture of widths pads the narrower dataset's actions and masks them (Octo): whatever the
+// padding holds changes no loss and no gradient, while a real value does.
+TEST(ActionMask, PaddingChangesNoLossOrGradient) {
+  DynamicsConfig c = test::TinyConfig(true);
+  c.model.action_dim = 14;
+  torch::manual_seed(3);
+  WorldModel m(c);
+  const int64_t B = 2, T = c.model.context_frames, N = int64_t{c.model.grid_h} * c.model.grid_w;
+  SegmentBatch b;
+  b.tokens = torch::randint(c.model.num_codes, {B, T, N}, torch::kInt64);
+  b.actions = torch::randn({B, T, 14});
+  b.rewards = torch::rand({B, T});
+  b.terminals = torch::zeros({B, T});
+  b.mask = TrainingMask(torch::rand({B, T}), torch::rand({B, T, N}), torch::rand({B, T}), 0.7);
+  b.z_noise = torch::rand({B, c.policy.categories, c.policy.classes});
+  b.action_mask = torch::ones({B, 1, 14});
+  b.action_mask[1].slice(-1, 7).fill_(0);  // row 1: a 7-dim dataset's, padded to 14
+  auto losses_and_grads = [&](const SegmentBatch& batch) {
+    m->zero_grad();
+    WorldModelLosses l = m->Losses(batch);
+    l.total.backward();
+    std::vector<torch::Tensor> out = {l.total.detach(), l.policy->nll.detach()};
+    for (const auto& p : m->parameters()) out.push_back(p.grad().clone());
+    return out;
+  };
+  const auto base = losses_and_grads(b);
+  SegmentBatch noisy = b;
+  noisy.actions = b.actions.clone();
+  noisy.actions[1].slice(-1, 7).copy_(torch::randn({T, 7}) * 100);
+  const auto with_noise = losses_and_grads(noisy);
+  ASSERT_EQ(base.size(), with_noise.size());
+  for (size_t i = 0; i < base.size(); ++i) EXPECT_TRUE(torch::equal(base[i], with_noise[i])) << i;
+  SegmentBatch real = b;
+  real.actions = b.actions.clone();
+  real.actions[1][0][3] += 1;  // a real value of the same row
+  EXPECT_FALSE(torch::equal(losses_and_grads(real)[1], base[1]));
+}
+
 TEST(StraightThrough, ForwardIsOneHotAndGradientIsSoftmaxGradient) {
   torch::manual_seed(7);
   torch::Tensor logits = torch::randn({3, 5}, torch::requires_grad());

@@ -18,6 +18,8 @@ void WriteMovingBlockTokens(const std::string& dir, const MovingBlockOptions& o)
                     .grid_w = o.grid_w,
                     .image_size = 8 * o.grid_h};
   base.token_dtype = o.num_codes > 65536 ? "uint32" : "uint16";
+  base.action_dim = o.action_dim;
+  base.action_space = o.action_dim == kActionDim ? "eef_delta" : "joint_position";
   std::mt19937_64 rng(o.seed);
   auto uniform = [&] { return static_cast<double>(rng() >> 11) * 0x1.0p-53; };
   const int N = o.grid_h * o.grid_w;
@@ -31,6 +33,8 @@ void WriteMovingBlockTokens(const std::string& dir, const MovingBlockOptions& o)
     Episode e;
     e.episode_key = "block" + std::to_string(k);
     e.policy_id = eager ? "eager" : "wander";
+    e.action_dim = o.action_dim;
+    e.action_space = base.action_space;
     std::vector<uint32_t> frames;
     for (int t = 0; t < o.steps; ++t) {
       for (int i = 0; i < N; ++i) {
@@ -43,8 +47,11 @@ void WriteMovingBlockTokens(const std::string& dir, const MovingBlockOptions& o)
         dx = static_cast<int>(rng() % 3) - 1;
         dy = static_cast<int>(rng() % 3) - 1;
       }
-      float action[7] = {0.04f * dx, 0.04f * dy, 0, 0, 0, 0, eager ? 1.f : 0.f};
-      e.actions.insert(e.actions.end(), action, action + 7);
+      std::vector<float> action(o.action_dim, 0.f);
+      action[0] = 0.04f * dx;
+      action[1] = 0.04f * dy;
+      action.back() = eager ? 1.f : 0.f;
+      e.actions.insert(e.actions.end(), action.begin(), action.end());
       x = std::clamp(x + dx, 0, o.grid_w - 1);
       y = std::clamp(y + dy, 0, o.grid_h - 1);
       const bool done = x == o.grid_w - 1 || t == o.steps - 1;
@@ -64,7 +71,7 @@ void WriteMovingBlockTokens(const std::string& dir, const MovingBlockOptions& o)
                       frames, e);
   }
   writer.Finish();
-  base.action_stats = shard::ComputeActionStats(all_actions);
+  base.action_stats = shard::ComputeActionStats(all_actions, o.action_dim);
   tokens::AssembleIndexIfComplete(dir, 1, base);
 }
 

@@ -20,6 +20,9 @@ struct MovingBlockOptions {
   // next is only knowable from the action (the action-sensitivity check).
   bool uniform_moves = false;
   std::string tokenizer_sha256 = "moving-block-tokenizer";
+  // Values per action: 7 writes the canonical eef_delta action; another width a
+  // "joint_position" one with dx, dy first and the policy flag last (the rest 0).
+  int action_dim = 7;
 };
 
 // Writes a one-part token dataset (index.json + part-00000) into `dir`.

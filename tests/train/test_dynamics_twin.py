@@ -48,7 +48,7 @@ def check_case(tool, flags, tmp):
             compare("action_mean", mean, tensors["output/action_mean"])
             compare("action_log_std", log_std, tensors["output/action_log_std"])
         losses = model.losses(t["tokens"], t["actions"], t["rewards"], t["terminals"], mask,
-                              t["z_noise"])
+                              t["z_noise"], t.get("action_mask"))
         for name, want in meta["losses"].items():
             compare("loss " + name, losses[name], np.float64(want))
     return failures
@@ -60,7 +60,9 @@ def main():
     failures = []
     with tempfile.TemporaryDirectory() as tmp:
         for flags in ([], ["--rmsnorm"], ["--no-policy"], ["--tied"], ["--tied", "--copy-prior"],
-                      ["--next-frame"], ["--tied", "--copy-prior", "--next-frame"]):
+                      ["--next-frame"], ["--tied", "--copy-prior", "--next-frame"],
+                      ["--action-dim", "26"],  # a G1-wide joint action
+                      ["--action-dim", "14", "--padded", "7"]):  # a 7 + 14 mixture's padding
             failures += check_case(tool, flags, tmp)
     if failures:
         print("FAILED:\n  " + "\n  ".join(failures))
