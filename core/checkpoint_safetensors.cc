@@ -28,8 +28,8 @@ std::map<std::string, std::string> ExportedNames(const TensorArchiveReader& arch
   for (const std::string& name : archive.Names()) {
     if (auto exported = ExportedName(name, all_tensors)) out[name] = *exported;
   }
-  Check(!out.empty(), std::string("the checkpoint has no ") +
-                          (all_tensors ? "tensors" : "model/ tensors"),
+  Check(!out.empty(),
+        std::string("the checkpoint has no ") + (all_tensors ? "tensors" : "model/ tensors"),
         {.file = archive.path()});
   return out;
 }
@@ -46,21 +46,25 @@ void CheckSameTensors(const std::map<std::string, std::string>& wanted,
     const ErrorContext context{.file = file.path(), .key = name};
     const ArchiveTensor& want = like.Get(archive_name);
     const auto it = tensors.find(name);
-    Check(it != tensors.end(), "missing tensor (" + like.path() + " has " +
-                                   SafetensorsDTypeCode(want.dtype) + " " +
-                                   ShapeString(want.shape) + ")", context);
-    Check(it->second.dtype == want.dtype, "dtype " + SafetensorsDTypeCode(it->second.dtype) +
-                                              ", expected " + SafetensorsDTypeCode(want.dtype),
+    Check(it != tensors.end(),
+          "missing tensor (" + like.path() + " has " + SafetensorsDTypeCode(want.dtype) + " " +
+              ShapeString(want.shape) + ")",
           context);
-    Check(it->second.shape == want.shape, "shape " + ShapeString(it->second.shape) +
-                                              ", expected " + ShapeString(want.shape), context);
+    Check(it->second.dtype == want.dtype,
+          "dtype " + SafetensorsDTypeCode(it->second.dtype) + ", expected " +
+              SafetensorsDTypeCode(want.dtype),
+          context);
+    Check(it->second.shape == want.shape,
+          "shape " + ShapeString(it->second.shape) + ", expected " + ShapeString(want.shape),
+          context);
   }
   if (tensors.size() == wanted.size()) return;
   std::set<std::string> known;
   for (const auto& [archive_name, name] : wanted) known.insert(name);
   for (const auto& [name, t] : tensors) {
-    Check(known.count(name) > 0, "tensor is not in " + like.path() + "'s exported set" +
-                                     " (an `export --all` file needs `import --all`)",
+    Check(known.count(name) > 0,
+          "tensor is not in " + like.path() + "'s exported set" +
+              " (an `export --all` file needs `import --all`)",
           {.file = file.path(), .key = name});
   }
 }

@@ -15,17 +15,17 @@ inline constexpr const char* kSafetensorsWmkitMetaKey = "wmkit";
 inline constexpr const char* kSafetensorsWmkitTensorsKey = "wmkit_tensors";
 
 struct SafetensorsExportOptions {
-  std::string checkpoint;    // a run directory or a .wmt file
-  std::string out;           // the .safetensors file to write
+  std::string checkpoint;  // a run directory or a .wmt file
+  std::string out;         // the .safetensors file to write
   // false: only "model/" tensors, named without the prefix (the PyTorch state_dict names);
   // true: every tensor under its archive name.
   bool all_tensors = false;
 };
 
 struct SafetensorsImportOptions {
-  std::string safetensors;  // the file to read
-  std::string like;         // run directory or .wmt whose other tensors and meta are kept
-  std::string out;          // the new .wmt checkpoint
+  std::string safetensors;   // the file to read
+  std::string like;          // run directory or .wmt whose other tensors and meta are kept
+  std::string out;           // the new .wmt checkpoint
   bool all_tensors = false;  // the file names every archive tensor (an `export --all` file)
 };
 

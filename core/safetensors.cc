@@ -96,24 +96,28 @@ void CheckTiling(const std::map<std::string, SafetensorsTensor>& tensors, std::s
     return static_cast<uint64_t>(t->bytes.data() - buffer.data());
   };
   std::stable_sort(order.begin(), order.end(), [&](auto* a, auto* b) {
-    return begin_of(a) != begin_of(b) ? begin_of(a) < begin_of(b) : a->bytes.size() < b->bytes.size();
+    return begin_of(a) != begin_of(b) ? begin_of(a) < begin_of(b)
+                                      : a->bytes.size() < b->bytes.size();
   });
   uint64_t covered = 0;  // the buffer is tiled up to here
   for (const SafetensorsTensor* t : order) {
     ErrorContext at = context;
     at.key = t->name;
     const uint64_t begin = begin_of(t);
-    Check(begin >= covered, "data_offsets " + Range(begin, begin + t->bytes.size()) +
-                                " overlap the previous tensor, which ends at " +
-                                std::to_string(covered), at);
-    Check(begin == covered, "data_offsets " + Range(begin, begin + t->bytes.size()) +
-                                " leave a hole: the previous tensor ends at " +
-                                std::to_string(covered), at);
+    Check(begin >= covered,
+          "data_offsets " + Range(begin, begin + t->bytes.size()) +
+              " overlap the previous tensor, which ends at " + std::to_string(covered),
+          at);
+    Check(begin == covered,
+          "data_offsets " + Range(begin, begin + t->bytes.size()) +
+              " leave a hole: the previous tensor ends at " + std::to_string(covered),
+          at);
     covered = begin + t->bytes.size();
   }
-  Check(covered == buffer.size(), "the byte buffer has " + std::to_string(buffer.size()) +
-                                      " bytes but the tensors cover only " +
-                                      std::to_string(covered), context);
+  Check(covered == buffer.size(),
+        "the byte buffer has " + std::to_string(buffer.size()) +
+            " bytes but the tensors cover only " + std::to_string(covered),
+        context);
 }
 
 uint64_t ReadLength(std::string_view file) {
@@ -155,8 +159,8 @@ DType ParseSafetensorsDType(const std::string& code) {
 
 SafetensorsContents ParseSafetensors(std::string_view file, const std::string& path) {
   const ErrorContext context{.file = path};
-  Check(file.size() >= kLengthFieldSize, "truncated: " + std::to_string(file.size()) +
-                                             " bytes, expected an 8-byte header length",
+  Check(file.size() >= kLengthFieldSize,
+        "truncated: " + std::to_string(file.size()) + " bytes, expected an 8-byte header length",
         context);
   const uint64_t header_length = ReadLength(file);
   Check(header_length <= file.size() - kLengthFieldSize,
@@ -164,8 +168,7 @@ SafetensorsContents ParseSafetensors(std::string_view file, const std::string& p
             " bytes, the file has " + std::to_string(file.size() - kLengthFieldSize) + " after it",
         context);
   Check(header_length <= kSafetensorsMaxHeaderBytes,
-        "header of " + std::to_string(header_length) + " bytes exceeds the spec's 100 MB",
-        context);
+        "header of " + std::to_string(header_length) + " bytes exceeds the spec's 100 MB", context);
   const std::string_view text = file.substr(kLengthFieldSize, header_length);
   Check(!text.empty() && text.front() == '{', "header is not a JSON object (expected '{')",
         context);

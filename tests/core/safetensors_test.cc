@@ -39,12 +39,11 @@ TEST(Safetensors, RoundTripKeepsBytesAndAlignsEachTensor) {
   auto view = [](const auto& v) {
     return std::string_view(reinterpret_cast<const char*>(v.data()), v.size() * sizeof(v[0]));
   };
-  const std::vector<SafetensorsTensor> tensors = {
-      {"bytes", DType::kUInt8, {5}, view(u8)},
-      {"w.weight", DType::kFloat32, {1, 3}, view(f32)},
-      {"steps", DType::kInt64, {2}, view(i64)},
-      {"scale", DType::kFloat64, {}, view(f64)},
-      {"empty", DType::kFloat32, {0, 4}, {}}};
+  const std::vector<SafetensorsTensor> tensors = {{"bytes", DType::kUInt8, {5}, view(u8)},
+                                                  {"w.weight", DType::kFloat32, {1, 3}, view(f32)},
+                                                  {"steps", DType::kInt64, {2}, view(i64)},
+                                                  {"scale", DType::kFloat64, {}, view(f64)},
+                                                  {"empty", DType::kFloat32, {0, 4}, {}}};
   const std::map<std::string, std::string> metadata = {{"format", "pt"}, {"note", "ü"}};
   WriteSafetensors(dir / "a.safetensors", tensors, metadata);
   WriteSafetensors(dir / "b.safetensors", tensors, metadata);
@@ -68,10 +67,9 @@ TEST(Safetensors, RoundTripKeepsBytesAndAlignsEachTensor) {
 }
 
 TEST(Safetensors, AcceptsAHandWrittenFileWithoutMetadata) {
-  const std::string file = FileWith(
-      R"({"b":{"dtype":"U8","shape":[2],"data_offsets":[4,6]},)"
-      R"("a":{"dtype":"I32","shape":[1],"data_offsets":[0,4]}}   )",
-      std::string("\x01\x00\x00\x00\x07\x08", 6));
+  const std::string file = FileWith(R"({"b":{"dtype":"U8","shape":[2],"data_offsets":[4,6]},)"
+                                    R"("a":{"dtype":"I32","shape":[1],"data_offsets":[0,4]}}   )",
+                                    std::string("\x01\x00\x00\x00\x07\x08", 6));
   const SafetensorsContents c = ParseSafetensors(file, "ok.safetensors");
   EXPECT_TRUE(c.metadata.empty());
   EXPECT_EQ(c.tensors.at("a").bytes, std::string_view("\x01\x00\x00\x00", 4));
@@ -97,14 +95,14 @@ TEST(Safetensors, EveryDefectIsOneErrorNamingFileAndTensor) {
       {FileWith(R"({"t":{"dtype":"Q9","shape":[],"data_offsets":[0,1]}})", "1"), "dtype 'Q9'"},
       {FileWith(R"({"t":{"dtype":"U8","shape":[-1],"data_offsets":[0,0]}})", ""),
        "negative dimension"},
-      {FileWith(R"({"t":{"dtype":"U8","shape":[4611686018427387904,8],"data_offsets":[0,0]}})",
-                ""),
+      {FileWith(R"({"t":{"dtype":"U8","shape":[4611686018427387904,8],"data_offsets":[0,0]}})", ""),
        "overflows 64-bit sizes"},
       {FileWith(R"({"t":{"dtype":"U8","shape":[1]}})", "1"), "lacks field 'data_offsets'"},
       {FileWith("{" + t + "[0,8]},\"u\":{\"dtype\":\"U8\",\"shape\":[4],\"data_offsets\":[4,8]}}",
                 eight),
        "key 'u': data_offsets [4, 8] overlap the previous tensor, which ends at 8"},
-      {FileWith("{" + t + "[4,12]}}", eight + "1234"), "leave a hole: the previous tensor ends at 0"},
+      {FileWith("{" + t + "[4,12]}}", eight + "1234"),
+       "leave a hole: the previous tensor ends at 0"},
       {FileWith("{" + t + "[0,8]}}", eight + "x"), "has 9 bytes but the tensors cover only 8"},
       {FileWith("{" + t + "[0,8]}," + t + "[0,8]}}", eight), "duplicate header key 't'"},
       {FileWith(R"({"__metadata__":{"n":1}})", ""), "__metadata__ value of 'n' is not a string"},
@@ -125,9 +123,9 @@ TEST(Safetensors, WriterRefusesInconsistentTensors) {
               }),
               HasSubstr("key 't': bytes do not match shape [2]"));
   EXPECT_THAT(test::ErrorText([&] {
-                WriteSafetensors(dir / "w.safetensors",
-                                 {{"t", DType::kFloat32, {1}, four}, {"t", DType::kFloat32, {1}, four}},
-                                 {});
+                WriteSafetensors(
+                    dir / "w.safetensors",
+                    {{"t", DType::kFloat32, {1}, four}, {"t", DType::kFloat32, {1}, four}}, {});
               }),
               HasSubstr("duplicate tensor name"));
   EXPECT_FALSE(std::filesystem::exists(dir / "w.safetensors"));
@@ -204,11 +202,11 @@ TEST(CheckpointSafetensors, ImportNamesTheFirstMismatch) {
   };
   for (const Case& c : cases) {
     WriteSafetensors(dir / "in.safetensors", c.tensors, {});
-    EXPECT_THAT(test::ErrorText([&] {
-                  ImportCheckpointSafetensors({dir / "in.safetensors", dir / "ckpt.wmt",
-                                               dir / "out.wmt"});
-                }),
-                HasSubstr(c.expected));
+    EXPECT_THAT(
+        test::ErrorText([&] {
+          ImportCheckpointSafetensors({dir / "in.safetensors", dir / "ckpt.wmt", dir / "out.wmt"});
+        }),
+        HasSubstr(c.expected));
     EXPECT_FALSE(std::filesystem::exists(dir / "out.wmt"));
   }
 }

@@ -30,7 +30,8 @@ CLI::App* AddExport(CLI::App& app, wm::SafetensorsExportOptions& o) {
 }
 
 CLI::App* AddImport(CLI::App& app, wm::SafetensorsImportOptions& o) {
-  CLI::App* cmd = app.add_subcommand("import", "Put a safetensors file's weights into a checkpoint");
+  CLI::App* cmd =
+      app.add_subcommand("import", "Put a safetensors file's weights into a checkpoint");
   cmd->footer(
       "Example:\n  wm-checkpoint import --safetensors tuned.safetensors --like runs/dyn-tiny \\\n"
       "    --out tuned.wmt\n"
@@ -52,7 +53,8 @@ CLI::App* AddImport(CLI::App& app, wm::SafetensorsImportOptions& o) {
 int main(int argc, char** argv) {
   CLI::App app{"wm-checkpoint: checkpoints <-> safetensors (PyTorch, Hugging Face)"};
   app.set_version_flag("--version", wm::VersionString("wm-checkpoint"));
-  app.footer("Exit codes: 0 success, 1 error (one line naming file and tensor), 2 bad command line.");
+  app.footer(
+      "Exit codes: 0 success, 1 error (one line naming file and tensor), 2 bad command line.");
   wm::SafetensorsExportOptions export_options;
   wm::SafetensorsImportOptions import_options;
   CLI::App* export_cmd = AddExport(app, export_options);
