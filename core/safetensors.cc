@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <bit>
 #include <set>
+#include <utility>
 
 #include "core/atomic_file.h"
 #include "core/error.h"
@@ -16,8 +17,10 @@ static_assert(std::endian::native == std::endian::little,
               "safetensors data is little-endian and is viewed in place");
 
 constexpr uint64_t kLengthFieldSize = 8;
-constexpr DType kAllDTypes[] = {DType::kFloat32, DType::kFloat64, DType::kFloat16,
-                                DType::kInt32,   DType::kInt64,   DType::kUInt8};
+// wmkit's dtypes and their safetensors codes (the spec's names for numpy's float32 ... uint8).
+constexpr std::pair<DType, std::string_view> kDTypeCodes[] = {
+    {DType::kFloat32, "F32"}, {DType::kFloat64, "F64"}, {DType::kFloat16, "F16"},
+    {DType::kInt32, "I32"},   {DType::kInt64, "I64"},   {DType::kUInt8, "U8"}};
 
 std::string Range(uint64_t begin, uint64_t end) {
   return "[" + std::to_string(begin) + ", " + std::to_string(end) + "]";
@@ -133,26 +136,15 @@ void PutLength(std::string& out, uint64_t v) {
 }  // namespace
 
 std::string SafetensorsDTypeCode(DType dtype) {
-  switch (dtype) {
-    case DType::kFloat32:
-      return "F32";
-    case DType::kFloat64:
-      return "F64";
-    case DType::kFloat16:
-      return "F16";
-    case DType::kInt32:
-      return "I32";
-    case DType::kInt64:
-      return "I64";
-    case DType::kUInt8:
-      return "U8";
+  for (const auto& [d, code] : kDTypeCodes) {
+    if (d == dtype) return std::string(code);
   }
   return "?";
 }
 
 DType ParseSafetensorsDType(const std::string& code) {
-  for (DType d : kAllDTypes) {
-    if (SafetensorsDTypeCode(d) == code) return d;
+  for (const auto& [d, known] : kDTypeCodes) {
+    if (known == code) return d;
   }
   throw Error("dtype '" + code + "' is not one wmkit holds (F32, F64, F16, I32, I64, U8)");
 }

@@ -21,18 +21,12 @@ HERE = os.path.dirname(os.path.abspath(__file__))
 sys.path.insert(0, HERE)
 sys.path.insert(0, os.path.join(HERE, "..", "tokenize"))
 import dynamics_twin  # noqa: E402
+import test_wm_train_cli  # noqa: E402  (its tiny config)
 import vqvae_twin  # noqa: E402
 
 BIN = os.environ.get("WM_BIN_DIR", "build/bin")
 SRC = os.environ.get("WM_SOURCE_DIR", os.path.join(HERE, "..", ".."))
 DTYPES = {"F32": "<f4", "F64": "<f8", "F16": "<f2", "I32": "<i4", "I64": "<i8", "U8": "u1"}
-CONFIG = """model: {grid_h: 4, grid_w: 4, num_codes: 32, context_frames: 4, d_model: 32,
-        num_layers: 2, num_heads: 4, mlp_ratio: 2}
-policy: {d_model: 16, num_heads: 2, posterior_layers: 1, prior_layers: 1, decoder_layers: 1,
-         categories: 4, classes: 4}
-train: {batch_size: 4, steps: 3, warmup_steps: 1, max_lr: 3.0e-3, threads: 1, log_every: 1,
-        checkpoint_every: 3}
-"""
 
 
 def slurp(path):
@@ -97,9 +91,9 @@ class Safetensors(unittest.TestCase):
                         "--episodes", "6", "--steps", "8", "--grid", "4", "--codes", "32"],
                        check=True, capture_output=True)
         with open(cfg, "w") as f:
-            f.write(CONFIG)
+            f.write(test_wm_train_cli.CONFIG)
         subprocess.run([os.path.join(BIN, "wm-train"), "--config", cfg, "--tokens", tokens,
-                        "--out", cls.run_dir], check=True, capture_output=True)
+                        "--out", cls.run_dir, "--steps", "3"], check=True, capture_output=True)
         cls.checkpoint = os.path.join(cls.run_dir, "checkpoint.wmt")
         cls.archive, cls.archive_header = vqvae_twin.read_archive(cls.checkpoint)
 
