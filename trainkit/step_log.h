@@ -1,9 +1,11 @@
 #pragma once
 // CSV logs keyed by training step (a run's metrics.csv, val.csv): the first column is the step.
 // Rows depend only on the step, so a resumed run's log has the rows of an uninterrupted one.
+// Each log is mirrored into a TensorBoard event file beside it (docs/tensorboard.md).
 #include <chrono>
 #include <cstdint>
 #include <string>
+#include <vector>
 
 namespace wm::trainkit {
 
@@ -12,7 +14,14 @@ namespace wm::trainkit {
 // A missing file becomes just the header.
 void TruncateStepLog(const std::string& path, const std::string& header, int64_t step);
 
-// Appends rows to a step log that TruncateStepLog has cut back to the resume step.
+// The TensorBoard event file mirroring the step log at `csv_path`: "DIR/metrics.csv" ->
+// "DIR/events.out.tfevents.metrics". A fixed name (not TensorBoard's timestamp.host) so that a
+// resumed run rewrites the same file instead of leaving a second one.
+std::string EventFileFor(const std::string& csv_path);
+
+// Appends rows to a step log that TruncateStepLog has cut back to the resume step, and each row
+// as one scalar event (tag "<csv stem>/<column>", empty cells left out) to EventFileFor(path),
+// which the constructor rewrites from the rows kept (their wall_time is then the resume time).
 class StepLog {
  public:
   StepLog(std::string path, const std::string& header, int64_t resume_step);
@@ -21,7 +30,11 @@ class StepLog {
   void Append(const std::string& row);
 
  private:
+  std::string EventFor(const std::string& row) const;
+
   std::string path_;
+  std::string events_path_;
+  std::vector<std::string> tags_;  // per column after the step
 };
 
 // Work units (frames, tokens) per wall-clock second since the last row: the throughput column.

@@ -5,6 +5,7 @@
 #include "core/crc32c.h"
 #include "core/error.h"
 #include "core/shard/shard_format.h"
+#include "core/tfrecord_frame.h"
 
 namespace wm::rlds {
 using shard::GetU32;
@@ -83,15 +84,6 @@ std::string ReadTfRecordAt(const std::string& path, uint64_t offset) {
   return data;
 }
 
-void TfRecordWriter::Write(std::string_view record) {
-  std::string head;
-  shard::PutU64(head, record.size());
-  shard::PutU32(head, MaskCrc(Crc32c(head)));
-  std::string tail;
-  shard::PutU32(tail, MaskCrc(Crc32c(record)));
-  file_.Write(head);
-  file_.Write(record);
-  file_.Write(tail);
-}
+void TfRecordWriter::Write(std::string_view record) { file_.Write(FrameTfRecord(record)); }
 
 }  // namespace wm::rlds

@@ -78,6 +78,26 @@ TEST(StepLog, ResumingDropsTheRowsAfterTheCheckpointStep) {
   EXPECT_EQ(ReadFile(path), "step,loss\n1,0.5\n2,0.5\n3,0.25\n");
 }
 
+// The event file beside the log is rewritten from the kept rows on resume and grows with each row
+// (its contents are checked by tests/train/test_event_files.py with an independent reader).
+TEST(StepLog, MirrorsRowsIntoAnEventFileBesideIt) {
+  test::TempDir dir;
+  const std::string events = dir / "events.out.tfevents.val";
+  EXPECT_EQ(EventFileFor(dir / "val.csv"), events);
+  uint64_t after_two_rows = 0;
+  {
+    StepLog log(dir / "val.csv", "step,psnr,ssim", 0);
+    log.Append("1,20.5,0.5");
+    log.Append("2,21,");
+    after_two_rows = fs::file_size(events);
+    log.Append("3,22,0.7");
+  }
+  StepLog resumed(dir / "val.csv", "step,psnr,ssim", 2);
+  EXPECT_EQ(fs::file_size(events), after_two_rows) << "rows after step 2 dropped";
+  resumed.Append("3,22,0.7");
+  EXPECT_GT(fs::file_size(events), after_two_rows);
+}
+
 TEST(RunDir, WritesTheArchiveBeforeItsManifestAndRefusesToOverwriteIt) {
   test::TempDir dir;
   const RunDir run(dir / "run", /*resume=*/false, /*create=*/true);
