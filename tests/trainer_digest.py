@@ -8,7 +8,8 @@ exits 1 naming each file whose digest differs from the saved one.
 Normalised before hashing: metrics.csv without its wall-clock throughput column (as the
 byte-identity tests do), and JSON files without "git_commit" (it names the build, "-dirty" for
 an uncommitted tree) and without the SHA-256s of other files that hold one (a token dataset's
-index.json, listed by itself instead)."""
+index.json, listed by itself instead). The TensorBoard event files are left out: every event
+carries its wall_time."""
 import argparse
 import hashlib
 import json
@@ -57,7 +58,7 @@ def main():
         digests = {}
         for run, spec in RUNS.items():
             for name in sorted(os.listdir(pipe.path(run))):
-                if not name.startswith("."):
+                if not name.startswith(".") and not fh.is_event_file(name):
                     digests[f"{run}/{name}"] = digest(pipe.path(run, name), spec)
         for index in TOKEN_INDEXES:
             digests[index] = digest(pipe.path(index), None)

@@ -155,9 +155,16 @@ def csv_rows(path, drop_column=None):
     return [[cells[i] for i in keep] for cells in lines]
 
 
+def is_event_file(relpath):
+    """TensorBoard's rule: a file whose name contains "tfevents"."""
+    return "tfevents" in os.path.basename(relpath)
+
+
 def run_dir_state(run_dir, spec):
     """What must be equal between two trainer run directories: every visible file's bytes, but
-    metrics.csv without its wall-clock throughput column (docs/tokenizer.md, docs/dynamics.md)."""
-    files = tree(run_dir)
+    metrics.csv without its wall-clock throughput column (docs/tokenizer.md, docs/dynamics.md)
+    and not the TensorBoard event files, whose events carry wall_time (docs/tensorboard.md; their
+    scalars are checked against the CSV logs by tests/train/test_event_files.py)."""
+    files = {name: sha for name, sha in tree(run_dir).items() if not is_event_file(name)}
     files.pop("metrics.csv", None)
     return files, csv_rows(os.path.join(run_dir, "metrics.csv"), spec["timing"])
