@@ -1,10 +1,7 @@
 #include "ingest/video/video_decoder.h"
 
 extern "C" {
-#include <libavcodec/avcodec.h>
-#include <libavformat/avformat.h>
 #include <libavutil/imgutils.h>
-#include <libswscale/swscale.h>
 }
 
 #include <memory>
@@ -12,30 +9,14 @@ extern "C" {
 #include <vector>
 
 #include "core/error.h"
+#include "ingest/video/av_handles.h"
 
 namespace wm::ingest {
 namespace {
 
-std::string AvError(int code) {
-  char text[AV_ERROR_MAX_STRING_SIZE] = {};
-  av_strerror(code, text, sizeof(text));
-  return text;
-}
-
+using av::ErrorText;
 struct FormatCloser {
   void operator()(AVFormatContext* c) const { avformat_close_input(&c); }
-};
-struct CodecFreer {
-  void operator()(AVCodecContext* c) const { avcodec_free_context(&c); }
-};
-struct FrameFreer {
-  void operator()(AVFrame* f) const { av_frame_free(&f); }
-};
-struct PacketFreer {
-  void operator()(AVPacket* p) const { av_packet_free(&p); }
-};
-struct ScaleFreer {
-  void operator()(SwsContext* s) const { sws_freeContext(s); }
 };
 
 // Converts decoded frames (any pixel format) to packed RGB24 and passes them on.
@@ -57,7 +38,7 @@ class RgbConverter {
   }
 
  private:
-  std::unique_ptr<SwsContext, ScaleFreer> scale_;
+  av::Scale scale_;
   std::vector<uint8_t> rgb_;
 };
 
@@ -70,10 +51,10 @@ VideoStreamInfo DecodeVideo(const std::string& path,
   const ErrorContext where{.file = path};
   AVFormatContext* raw_format = nullptr;
   int rc = avformat_open_input(&raw_format, path.c_str(), nullptr, nullptr);
-  Check(rc >= 0, "cannot open video: " + AvError(rc), where);
+  Check(rc >= 0, "cannot open video: " + ErrorText(rc), where);
   std::unique_ptr<AVFormatContext, FormatCloser> format(raw_format);
   rc = avformat_find_stream_info(format.get(), nullptr);
-  Check(rc >= 0, "cannot read the video's stream info: " + AvError(rc), where);
+  Check(rc >= 0, "cannot read the video's stream info: " + ErrorText(rc), where);
   const AVCodec* codec = nullptr;
   const int stream = av_find_best_stream(format.get(), AVMEDIA_TYPE_VIDEO, -1, -1, &codec, 0);
   Check(stream >= 0 && codec != nullptr,
@@ -81,18 +62,18 @@ VideoStreamInfo DecodeVideo(const std::string& path,
                                             : "the file has no video stream",
         where);
   const AVStream* st = format->streams[stream];
-  std::unique_ptr<AVCodecContext, CodecFreer> decoder(avcodec_alloc_context3(codec));
+  av::Codec decoder(avcodec_alloc_context3(codec));
   Check(decoder && avcodec_parameters_to_context(decoder.get(), st->codecpar) >= 0,
         "cannot set up the decoder", where);
   decoder->thread_count = 1;
   rc = avcodec_open2(decoder.get(), codec, nullptr);
-  Check(rc >= 0, std::string("cannot open decoder ") + codec->name + ": " + AvError(rc), where);
+  Check(rc >= 0, std::string("cannot open decoder ") + codec->name + ": " + ErrorText(rc), where);
 
   VideoStreamInfo info{avcodec_get_name(st->codecpar->codec_id), codec->name, st->codecpar->width,
                        st->codecpar->height, 0};
   const double time_base = av_q2d(st->time_base);
-  std::unique_ptr<AVPacket, PacketFreer> packet(av_packet_alloc());
-  std::unique_ptr<AVFrame, FrameFreer> frame(av_frame_alloc());
+  av::Packet packet(av_packet_alloc());
+  av::Frame frame(av_frame_alloc());
   RgbConverter converter;
   auto drain = [&]() {
     while ((rc = avcodec_receive_frame(decoder.get(), frame.get())) >= 0) {
@@ -104,22 +85,23 @@ VideoStreamInfo DecodeVideo(const std::string& path,
       av_frame_unref(frame.get());
     }
     Check(rc == AVERROR(EAGAIN) || rc == AVERROR_EOF,
-          "frame " + std::to_string(info.frames) + " does not decode: " + AvError(rc), where);
+          "frame " + std::to_string(info.frames) + " does not decode: " + ErrorText(rc), where);
   };
   while ((rc = av_read_frame(format.get(), packet.get())) >= 0) {
     if (packet->stream_index == stream) {
       const int sent = avcodec_send_packet(decoder.get(), packet.get());
       Check(sent >= 0,
             "packet after frame " + std::to_string(info.frames) +
-                " does not decode: " + AvError(sent),
+                " does not decode: " + ErrorText(sent),
             where);
       drain();
     }
     av_packet_unref(packet.get());
   }
-  Check(rc == AVERROR_EOF,
-        "reading the video failed after frame " + std::to_string(info.frames) + ": " + AvError(rc),
-        where);
+  Check(
+      rc == AVERROR_EOF,
+      "reading the video failed after frame " + std::to_string(info.frames) + ": " + ErrorText(rc),
+      where);
   avcodec_send_packet(decoder.get(), nullptr);  // flush: frames the decoder still holds
   drain();
   return info;
