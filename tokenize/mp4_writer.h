@@ -1,5 +1,6 @@
 #pragma once
-// MP4 (mp4v) files that are whole or absent. cv::VideoWriter writes in place and ignores failed
+// MP4 files that are whole or absent, H.264 (avc1) so browsers and W&B play them, or mp4v where
+// this FFmpeg has no H.264 encoder (one warning). Writers write in place and may ignore failed
 // writes, so a full disk left a truncated video and no error, and a killed run a truncated file
 // under the real name. Used by `wm-tokenize decode` and wm-eval's videos.
 #include <cstdint>
@@ -14,9 +15,11 @@ namespace wm::tokenize {
 
 class Mp4Writer {
  public:
-  // Frames of `width` x `height` px go to the hidden `.NAME.tmp.mp4` beside `path` (OpenCV
-  // picks the container by the extension). Throws wm::Error naming `path` if it cannot open.
-  Mp4Writer(std::string path, double fps, int width, int height);
+  // Frames of `width` x `height` px go to the hidden `.NAME.tmp.mp4` beside `path`, encoded by
+  // the libavcodec encoder `h264_encoder` (ingest/video/h264_writer.h); when there is none, by
+  // OpenCV's mp4v. Throws wm::Error naming `path` if it cannot open.
+  Mp4Writer(std::string path, double fps, int width, int height,
+            const std::string& h264_encoder = "libx264");
   ~Mp4Writer();  // removes the hidden file unless committed
   Mp4Writer(const Mp4Writer&) = delete;
   Mp4Writer& operator=(const Mp4Writer&) = delete;
