@@ -10,8 +10,8 @@ struct DecodeOptions {
   std::string checkpoint;  // the tokenizer that wrote the tokens (its sha256 is checked)
   std::string tokens_dir;
   int64_t episode = 0;
-  // "x.mp4" -> video (mp4v); "x.png" -> contact sheet, `columns` frames per row; anything else
-  // -> a directory of frame_NNNN.png.
+  // "x.mp4" -> video (H.264, docs/videos.md); "x.png" -> contact sheet, `columns` frames per
+  // row; anything else -> a directory of frame_NNNN.png.
   std::string out;
   std::string originals_dir;  // the source shard dataset: adds the original frames (optional)
   int columns = 10;

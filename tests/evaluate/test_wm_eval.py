@@ -446,9 +446,10 @@ class WmEval(unittest.TestCase):
             for t, frame in enumerate(frames, start=1):
                 self.assertEqual(frame.shape, (2 * SIZE, 4 * 2 * SIZE, 3))
                 real, plain, _, heat = (p[::2, ::2] for p in np.split(frame, 4, axis=1))
-                # mp4v is lossy: ~2.5 levels of mean error on the real panel; model panels are ~20+.
+                # H.264 at CRF 18 is lossy: 1.7 levels of mean error on the real panel at most
+                # (mp4v was ~2.5); model panels are ~20+.
                 want = cv2.cvtColor(self.real[k][t], cv2.COLOR_RGB2BGR)
-                self.assertLess(cv2.absdiff(real, want).mean(), 6, (k, t))
+                self.assertLess(cv2.absdiff(real, want).mean(), 4, (k, t))
                 # The heat map from the decoded panels: ~10 apart (codec noise x 3 through JET);
                 # a heat map of another error (e.g. none) is ~60+ apart.
                 grey = cv2.cvtColor(cv2.absdiff(real, plain), cv2.COLOR_BGR2GRAY)
