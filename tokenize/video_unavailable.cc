@@ -14,7 +14,7 @@ int64_t DecodeEpisode(const DecodeOptions& o) {
 
 struct Mp4Writer::Impl {};
 
-Mp4Writer::Mp4Writer(std::string path, double, int, int) {
+Mp4Writer::Mp4Writer(std::string path, double, int, int, const std::string&) {
   throw Error(std::string("writing MP4 videos") + kNeedsOpenCv, {.file = path});
 }
 Mp4Writer::~Mp4Writer() = default;
