@@ -67,9 +67,7 @@ TokenizerConfig ConfigFromJson(const nlohmann::json& j) {
 }
 
 void ValidateConfig(const TokenizerConfig& c, const std::string& file) {
-  auto require = [&](bool ok, const char* key, const std::string& what) {
-    Check(ok, what, {.file = file, .key = key});
-  };
+  const auto require = trainkit::FieldRequirement(file);
   const ModelConfig& m = c.model;
   const bool pow2 = m.patch_size > 0 && (m.patch_size & (m.patch_size - 1)) == 0;
   require(pow2, "model.patch_size", "must be a power of 2");

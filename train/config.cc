@@ -88,9 +88,7 @@ DynamicsConfig ConfigFromJson(const nlohmann::json& j) {
 }
 
 void ValidateConfig(const DynamicsConfig& c, const std::string& file) {
-  auto require = [&](bool ok, const char* key, const std::string& what) {
-    Check(ok, what, {.file = file, .key = key});
-  };
+  const auto require = trainkit::FieldRequirement(file);
   const ModelConfig& m = c.model;
   require(m.grid_h > 0, "model.grid_h", "must be > 0");
   require(m.grid_w > 0, "model.grid_w", "must be > 0");

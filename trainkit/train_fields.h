@@ -34,12 +34,17 @@ void VisitRunFields(Train& t, F&& f) {
   f("train", "val_every", t.val_every);
 }
 
+// require(ok, "train.key", "must be > 0"): throws wm::Error naming `file` and the key unless ok.
+inline auto FieldRequirement(const std::string& file) {
+  return [&file](bool ok, const char* key, const std::string& what) {
+    Check(ok, what, {.file = file, .key = key});
+  };
+}
+
 // Throws wm::Error naming `file` and "train.<key>" for an optimizer field out of range.
 template <class Train>
 void ValidateOptimizerFields(const Train& t, const std::string& file) {
-  auto require = [&](bool ok, const char* key, const std::string& what) {
-    Check(ok, what, {.file = file, .key = key});
-  };
+  const auto require = FieldRequirement(file);
   require(t.batch_size > 0, "train.batch_size", "must be > 0");
   require(t.steps > 0, "train.steps", "must be > 0");
   require(t.max_lr > 0, "train.max_lr", "must be > 0");
@@ -54,9 +59,7 @@ void ValidateOptimizerFields(const Train& t, const std::string& file) {
 // The same for threads and the checkpoint and log periods (val_every's range is the stage's).
 template <class Train>
 void ValidateRunFields(const Train& t, const std::string& file) {
-  auto require = [&](bool ok, const char* key, const std::string& what) {
-    Check(ok, what, {.file = file, .key = key});
-  };
+  const auto require = FieldRequirement(file);
   require(t.threads > 0, "train.threads", "must be > 0");
   require(t.checkpoint_every > 0, "train.checkpoint_every", "must be > 0");
   require(t.log_every > 0, "train.log_every", "must be > 0");
