@@ -74,7 +74,7 @@ PolicyRun RunPolicy(const EvalOptions& o, const policy::PolicySpec& spec,
   const PolicyEvalOptions& p = o.policy_eval;
   policy::PolicyProcess process({.name = spec.name,
                                  .command = spec.command,
-                                 .action_dim = model.action_dim(),
+                                 .action_dim = static_cast<int>(model.action_dim()),
                                  .image_height = tok.image_size(),
                                  .image_width = tok.image_size(),
                                  .start_timeout_s = p.start_timeout_s,
