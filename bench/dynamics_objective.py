@@ -50,15 +50,26 @@ def learning_rate(step, steps):
 
 class Experiment:
     def __init__(self, objective, token_dir, tokenizer, seed=0):
+        tensors, _ = read_archive(tokenizer)
+        book = F.normalize(torch.tensor(tensors["model/quantizer.codebook"]), dim=-1)
+        self.setup(objective, book,
+                   load_episodes(os.path.join(token_dir, "train")),
+                   load_episodes(os.path.join(token_dir, "val")), objective == "ce", seed)
+
+    @classmethod
+    def on_episodes(cls, objective, book, train, val, copy_prior, seed=0):
+        """The same experiment on [(codes [T, N], raw actions [T, 7])] made elsewhere."""
+        experiment = cls.__new__(cls)
+        experiment.setup(objective, book, train, val, copy_prior, seed)
+        return experiment
+
+    def setup(self, objective, book, train, val, copy_prior, seed):
         torch.manual_seed(seed)  # the weights' init: reruns give the same table
         config = yaml.safe_load(open(os.path.join(SRC, "configs", "dynamics", "tiny.yaml")))
         m = config["model"]
-        m.update(policy_conditioning=False, copy_prior=objective == "ce")
-        self.objective, self.context, self.num_codes = objective, m["context_frames"], m["num_codes"]
-        tensors, _ = read_archive(tokenizer)
-        self.book = F.normalize(torch.tensor(tensors["model/quantizer.codebook"]), dim=-1)
-        self.train = load_episodes(os.path.join(token_dir, "train"))
-        self.val = load_episodes(os.path.join(token_dir, "val"))
+        m.update(policy_conditioning=False, copy_prior=copy_prior, num_codes=len(book))
+        self.objective, self.context, self.num_codes = objective, m["context_frames"], len(book)
+        self.book, self.train, self.val = book, train, val
         actions = np.concatenate([a for _, a in self.train])
         self.mean, self.std = actions.mean(0), actions.std(0) + 1e-6
         self.net = DynamicsNet(m, 0)

@@ -26,7 +26,6 @@ import time
 import cv2
 import numpy as np
 import torch
-import yaml
 from torch import nn
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
@@ -72,28 +71,9 @@ def load(directory):
     return out
 
 
-class Dynamics(dob.Experiment):
-    """bench/dynamics_objective.py's CE experiment on tokens made here."""
-
-    def __init__(self, codes, book, train_eps, val_eps, copy_prior, seed=0):
-        torch.manual_seed(seed)
-        config = yaml.safe_load(open(os.path.join(dob.SRC, "configs", "dynamics", "tiny.yaml")))
-        m = config["model"]
-        m.update(policy_conditioning=False, copy_prior=copy_prior, num_codes=len(book))
-        self.objective, self.context, self.num_codes, self.book = "ce", m["context_frames"], \
-            len(book), book
-        self.train = [(c, a) for c, (_, _, a) in zip(codes["train"], train_eps)]
-        self.val = [(c, a) for c, (_, _, a) in zip(codes["val"], val_eps)]
-        actions = np.concatenate([a for _, _, a in train_eps])
-        self.mean, self.std = actions.mean(0), actions.std(0) + 1e-6
-        self.net = dob.DynamicsNet(m, 0)
-        for p in self.net.parameters():
-            if p.dim() >= 2:
-                torch.nn.init.normal_(p, 0, 0.02)
-        self.params = list(self.net.parameters())
-
-    def next_logits(self, x, a):  # [N, K] for the frame after the window's last one
-        return self.net(x, a, None)[0][0, x.shape[1] - 1]
+def next_logits(dyn, x, a):
+    """[N, K] logits of the frame after the window's last one."""
+    return dyn.net(x, a, None)[0][0, x.shape[1] - 1]
 
 
 def decode(tokenizer, codes, anchor):
@@ -112,7 +92,7 @@ def one_step(dyn, tokenizer, val_eps):
             x, a = dyn.windows(dyn.val, k, s)
             x, a = x[:, :-1], a[:, :-1]
             t = s + dyn.context - 1  # the predicted frame
-            logits = dyn.next_logits(x, a)
+            logits = next_logits(dyn, x, a)
             prev, true = x[0, -1], torch.tensor(codes[t])
             changed = true != prev
             if changed.any():
@@ -142,7 +122,8 @@ def rollouts(dyn, tokenizer, val_eps):
             context = [torch.tensor(codes[0])]
             for h in range(HORIZON):
                 x = torch.stack(context[-(dyn.context - 1):])[None]
-                context.append(dyn.next_logits(x, acts[h + 1 - x.shape[1]:h + 1][None]).argmax(-1))
+                step_actions = acts[h + 1 - x.shape[1]:h + 1][None]
+                context.append(next_logits(dyn, x, step_actions).argmax(-1))
             preds[name] = decode(tokenizer, torch.stack(context[1:]), frames[:1])
         real = goal1.to_uint8(frames[1:HORIZON + 1])
         preds["copy_last"] = np.repeat(goal1.to_uint8(frames[:1]), HORIZON, 0)
@@ -168,7 +149,10 @@ def run(label, cell_local, num_codes, copy_prior, train_eps, val_eps):
     tok = anchor_bench.evaluate(tokenizer, config, [(f, s) for f, s, _ in val_eps])
     codes = {split: [twin.encode(tokenizer, f).reshape(len(f), -1).numpy() for f, _, _ in eps]
              for split, eps in (("train", train_eps), ("val", val_eps))}
-    dyn = Dynamics(codes, tokenizer.quantizer.codes().detach(), train_eps, val_eps, copy_prior)
+    dyn = dob.Experiment.on_episodes(
+        "ce", tokenizer.quantizer.codes().detach(),
+        [(c, a) for c, (_, _, a) in zip(codes["train"], train_eps)],
+        [(c, a) for c, (_, _, a) in zip(codes["val"], val_eps)], copy_prior)
     dyn.fit(DYNAMICS_STEPS)
     changed_acc, static_acc, _, _, _ = dyn.score()
     p_copy, moved_ratio = one_step(dyn, tokenizer, val_eps)
