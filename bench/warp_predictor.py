@@ -150,8 +150,8 @@ def main():
     seconds = time.time() - start
     r, rows = score(net.eval(), val, norm)
     m, c = r["model"], r["copy_last"]
-    print(f"warp predictor, {args.steps} steps, unroll {args.unroll}, {seconds:.0f} s: rollout PSNR "
-          f"{m['psnr']:.2f} (copy_last {c['psnr']:.2f}), PSNR - reversed actions' "
+    print(f"warp predictor, {args.steps} steps, unroll {args.unroll}, {seconds:.0f} s: "
+          f"rollout PSNR {m['psnr']:.2f} (copy_last {c['psnr']:.2f}), PSNR - reversed actions' "
           f"{m['psnr'] - r['reversed']['psnr']:+.2f}, arm / copy_last {m['arm'] / c['arm']:.2f}, "
           f"object / copy_last {m['obj'] / c['obj']:.2f}")
     if args.strip:
