@@ -11,17 +11,17 @@
 #include <string>
 #include <vector>
 
+#include "trainkit/frame_decode.h"
+
 namespace wm::shard {
 class DatasetReader;
 }
 
 namespace wm::tokenize {
 
-// Decodes an encoded JPEG/PNG frame, converts BGR->RGB, resizes (INTER_AREA) to size x size
-// and writes planar floats in [-1, 1] to out[3 * size * size] ([3, H, W]).
-void DecodeFrame(const std::string& encoded, int size, float* out);
-// The same from interleaved RGB uint8 [height, width, 3] already in memory.
-void Rgb8ToPlanar(const uint8_t* rgb, int height, int width, int size, float* out);
+// Frame decoding is shared with the motion trainer (trainkit/frame_decode.h).
+using trainkit::DecodeFrame;
+using trainkit::Rgb8ToPlanar;
 
 struct FrameRef {
   size_t dataset = 0, episode = 0, step = 0;

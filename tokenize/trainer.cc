@@ -349,12 +349,8 @@ TrainSummary TrainTokenizer(const TrainOptions& o) {
   summary.start_step = s.step;
   TokenizerStage stage(o, run, device, s, val, summary);
   summary.end_step =
-      trainkit::RunTrainingLoop({.start_step = s.step,
-                                 .steps = cfg.train.steps,
-                                 .max_steps_this_run = o.max_steps_this_run,
-                                 .log_every = cfg.train.log_every,
-                                 .checkpoint_every = cfg.train.checkpoint_every,
-                                 .progress_label = o.show_progress ? "tokenizer train" : ""},
+      trainkit::RunTrainingLoop(trainkit::LoopOptionsOf(cfg.train, s.step, o.max_steps_this_run,
+                                                        o.show_progress ? "tokenizer train" : ""),
                                 stage, &metrics);
   summary.checkpoint_path = run.checkpoint();
   return summary;

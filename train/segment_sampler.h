@@ -14,21 +14,15 @@
 #include <string>
 #include <vector>
 
+#include "trainkit/action_norm.h"
+
 namespace wm::tokens {
 class TokenDataset;
 }
 
 namespace wm::train {
 
-// Per-dataset action normalisation: (a - mean) / std, with std < 1e-6 treated as 1.
-struct ActionNorm {
-  std::vector<double> mean, std;  // D each: the dataset's action width
-  int64_t dim() const { return static_cast<int64_t>(mean.size()); }
-  // raw [steps, D] -> out rows of `out_stride` >= D values (the first D written; 0 = D).
-  void Apply(const float* raw, float* out, int64_t steps, int64_t out_stride = 0) const;
-  nlohmann::json ToJson() const;
-  static ActionNorm FromJson(const nlohmann::json& j);
-};
+using trainkit::ActionNorm;  // per-dataset action normalisation
 
 struct SegmentRef {
   int dataset = 0;

@@ -323,16 +323,12 @@ TrainSummary TrainDynamics(const TrainOptions& options) {
   DynamicsStage stage(o, run, device, sampler, val, trainee, meta, summary);
   std::optional<trainkit::StepLog> metrics;
   if (writer) metrics.emplace(run.File(kMetrics), kMetricsHeader, start);
+  trainkit::LoopOptions loop = trainkit::LoopOptionsOf(tc, start, o.max_steps_this_run,
+                                                       o.show_progress ? "dynamics train" : "");
+  loop.writer = writer;
   const auto run_start = std::chrono::steady_clock::now();
   summary.end_step =
-      trainkit::RunTrainingLoop({.start_step = start,
-                                 .steps = tc.steps,
-                                 .max_steps_this_run = o.max_steps_this_run,
-                                 .log_every = tc.log_every,
-                                 .checkpoint_every = tc.checkpoint_every,
-                                 .writer = writer,
-                                 .progress_label = o.show_progress ? "dynamics train" : ""},
-                                stage, metrics ? &*metrics : nullptr);
+      trainkit::RunTrainingLoop(loop, stage, metrics ? &*metrics : nullptr);
   const double secs =
       std::chrono::duration<double>(std::chrono::steady_clock::now() - run_start).count();
   if (secs > 0) {

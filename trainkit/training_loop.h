@@ -6,6 +6,7 @@
 #include <cstdint>
 #include <optional>
 #include <string>
+#include <utility>
 
 #include "trainkit/step_log.h"
 
@@ -20,6 +21,19 @@ struct LoopOptions {
   bool writer = true;          // writes rows and checkpoints (data parallel: rank 0 only)
   std::string progress_label;  // empty = no progress bar
 };
+
+// The options of a run from `start_step` under a stage's train section (steps, log_every,
+// checkpoint_every); `progress_label` empty = no progress bar.
+template <class TrainSection>
+LoopOptions LoopOptionsOf(const TrainSection& t, int64_t start_step, int64_t max_steps_this_run,
+                          std::string progress_label) {
+  return {.start_step = start_step,
+          .steps = t.steps,
+          .max_steps_this_run = max_steps_this_run,
+          .log_every = t.log_every,
+          .checkpoint_every = t.checkpoint_every,
+          .progress_label = std::move(progress_label)};
+}
 
 // Where a finished step stands.
 struct StepInfo {

@@ -1,0 +1,69 @@
+#include "motion/config.h"
+
+#include "core/atomic_file.h"
+#include "core/error.h"
+#include "core/sectioned_yaml.h"
+#include "trainkit/train_fields.h"
+
+namespace wm::motion {
+namespace {
+
+// Calls f(section, key, field) for every field: the one list of names shared by the YAML
+// reader, the JSON writer and the JSON reader.
+template <class Config, class F>
+void VisitFields(Config& c, F&& f) {
+  auto& m = c.model;
+  f("model", "image_size", m.image_size);
+  f("model", "channels", m.channels);
+  f("model", "flow_scale", m.flow_scale);
+  f("model", "gate_bias", m.gate_bias);
+  f("model", "action_jacobian", m.action_jacobian);
+  auto& t = c.train;
+  trainkit::VisitOptimizerFields(t, f);
+  trainkit::VisitRunFields(t, f);
+  f("train", "unroll", t.unroll);
+  f("train", "val_episodes", t.val_episodes);
+  f("train", "val_horizon", t.val_horizon);
+  f("data", "image_key", c.data.image_key);
+}
+
+}  // namespace
+
+MotionConfig ParseMotionConfig(const std::string& yaml_text, const std::string& file) {
+  MotionConfig config;
+  ReadSectionedYaml(yaml_text, file, "docs/motion.md", config,
+                    [](auto& c, auto&& f) { VisitFields(c, f); });
+  ValidateConfig(config, file);
+  return config;
+}
+
+MotionConfig LoadMotionConfig(const std::string& path) {
+  return ParseMotionConfig(ReadFile(path), path);
+}
+
+nlohmann::json ConfigToJson(const MotionConfig& config) {
+  return SectionedToJson(config, [](auto& c, auto&& f) { VisitFields(c, f); });
+}
+
+MotionConfig ConfigFromJson(const nlohmann::json& j) {
+  return SectionedFromJson<MotionConfig>(j, [](auto& c, auto&& f) { VisitFields(c, f); });
+}
+
+void ValidateConfig(const MotionConfig& c, const std::string& file) {
+  const auto require = trainkit::FieldRequirement(file);
+  const ModelConfig& m = c.model;
+  require(m.image_size >= 8 && m.image_size % 8 == 0, "model.image_size",
+          "must be a positive multiple of 8 (three stride-2 levels)");
+  require(m.channels > 0, "model.channels", "must be > 0");
+  require(m.flow_scale > 0, "model.flow_scale", "must be > 0");
+  const TrainConfig& t = c.train;
+  trainkit::ValidateOptimizerFields(t, file);
+  trainkit::ValidateRunFields(t, file);
+  require(t.val_every >= 0, "train.val_every", "must be >= 0");
+  require(t.unroll >= 1, "train.unroll", "must be >= 1");
+  require(t.val_episodes >= 1, "train.val_episodes", "must be >= 1");
+  require(t.val_horizon >= 1, "train.val_horizon", "must be >= 1");
+  require(!c.data.image_key.empty(), "data.image_key", "must not be empty");
+}
+
+}  // namespace wm::motion

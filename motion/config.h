@@ -1,0 +1,63 @@
+#pragma once
+// MotionConfig: every knob of the action-conditioned warp predictor (motion/warp_net.h) and its
+// training run, loaded from YAML (configs/motion/*.yaml). Each field's meaning and default is
+// documented in docs/motion.md; the defaults below are the `tiny` CPU preset.
+#include <cstdint>
+#include <nlohmann/json.hpp>
+#include <string>
+
+namespace wm::motion {
+
+struct ModelConfig {
+  int image_size = 64;     // frames are resized (INTER_AREA) to image_size x image_size
+  int channels = 48;       // U-Net width (three stride-2 levels down to image_size / 8)
+  double flow_scale = 4;   // pixels of flow per unit of the head's output
+  double gate_bias = -3;   // correction gate logit offset: sigmoid(-3) = 0.05 at the start
+  // Flow = bias + sum_i J_i * a_i with a per-pixel J predicted from the frames: the action acts
+  // multiplicatively (docs/motion.md, "Why the flow is linear in the action"). false = the
+  // action is only added to the bottleneck features.
+  bool action_jacobian = true;
+};
+
+struct TrainConfig {
+  int batch_size = 16;
+  int64_t steps = 600;
+  double max_lr = 1e-3;
+  double min_lr = 1e-4;
+  int64_t warmup_steps = 50;
+  double beta1 = 0.9, beta2 = 0.9;
+  double weight_decay = 0.01;
+  double grad_clip = 1.0;  // max global L2 norm of the gradients (0 = off)
+  uint64_t seed = 0;
+  int threads = 1;  // LibTorch intra-op threads; fixed so CPU runs are reproducible
+  int64_t checkpoint_every = 200;
+  int64_t log_every = 10;
+  int64_t val_every = 0;   // val.csv period in steps with --val-data (0: only at the end)
+  int unroll = 1;          // imagined steps per training window (loss averaged over them)
+  int val_episodes = 8;    // validation rollouts: the first episodes of the val data
+  int val_horizon = 8;     // imagined frames per validation rollout
+};
+
+struct DataConfig {
+  std::string image_key = "image";  // Episode::images stream to train on
+};
+
+struct MotionConfig {
+  ModelConfig model;
+  TrainConfig train;
+  DataConfig data;
+};
+
+// Parses and validates a YAML file. Unknown keys, wrong types and out-of-range values throw
+// wm::Error naming the file and the key (e.g. "model.channels").
+MotionConfig LoadMotionConfig(const std::string& path);
+MotionConfig ParseMotionConfig(const std::string& yaml_text, const std::string& file);
+
+// The config as JSON (for manifests and wm::ConfigHash), and back.
+nlohmann::json ConfigToJson(const MotionConfig& config);
+MotionConfig ConfigFromJson(const nlohmann::json& j);
+
+// Throws wm::Error (key named, `file` attached) when a value is out of range.
+void ValidateConfig(const MotionConfig& config, const std::string& file);
+
+}  // namespace wm::motion

@@ -1,0 +1,106 @@
+#include "motion/motion_model.h"
+
+#include <torch/torch.h>
+
+#include <filesystem>
+
+#include "core/error.h"
+#include "core/paths.h"
+#include "core/tensor_archive.h"
+#include "motion/warp_net.h"
+#include "trainkit/action_norm.h"
+#include "trainkit/module_archive.h"
+#include "trainkit/torch_runtime.h"
+
+namespace wm::motion {
+namespace {
+
+std::string CheckpointFile(const std::string& path) {
+  return std::filesystem::is_directory(path)
+             ? (std::filesystem::path(path) / kCheckpointFile).string()
+             : path;
+}
+
+}  // namespace
+
+struct MotionModel::State {
+  MotionConfig config;
+  WarpNet net{nullptr};
+  trainkit::ActionNorm norm;
+  torch::Device device{torch::kCPU};
+  int64_t step = 0;
+  std::string file;
+};
+
+MotionModel::MotionModel() : state_(std::make_unique<State>()) {}
+MotionModel::~MotionModel() = default;
+
+bool MotionModel::IsMotionCheckpoint(const std::string& path) {
+  const std::string file = CheckpointFile(path);
+  if (!std::filesystem::is_regular_file(file)) return false;
+  return TensorArchiveReader(file).meta().value("model_kind", "") == "motion";
+}
+
+std::unique_ptr<MotionModel> MotionModel::Load(const std::string& path,
+                                               const std::string& device, int threads) {
+  trainkit::CheckDevice(device);
+  if (threads > 0) torch::set_num_threads(threads);
+  std::unique_ptr<MotionModel> model(new MotionModel());
+  State& s = *model->state_;
+  s.file = CheckpointFile(path);
+  const TensorArchiveReader reader(s.file);
+  try {
+    const nlohmann::json& meta = reader.meta();
+    Check(meta.value("model_kind", "") == "motion",
+          "not a motion model checkpoint (wm-motion train writes those)", {.key = "model_kind"});
+    s.config = ConfigFromJson(meta.at("config"));
+    ValidateConfig(s.config, s.file);
+    const nlohmann::json& norms = meta.at("action_norms");
+    Check(norms.size() == 1, "expected the statistics of one training dataset",
+          {.key = "action_norms"});
+    s.norm = trainkit::ActionNorm::FromJson(norms.begin().value());
+    s.step = meta.at("step").get<int64_t>();
+    s.net = WarpNet(s.config.model, meta.at("action_dim").get<int64_t>());
+    trainkit::LoadModule(reader, "model/", *s.net);
+  } catch (const Error& e) {
+    throw e.WithFile(s.file);
+  } catch (const nlohmann::json::exception& e) {
+    throw Error("bad checkpoint meta: " + std::string(e.what()), {.file = s.file});
+  }
+  s.device = torch::Device(device);
+  s.net->to(s.device);
+  s.net->eval();
+  return model;
+}
+
+const MotionConfig& MotionModel::config() const { return state_->config; }
+int64_t MotionModel::image_size() const { return state_->config.model.image_size; }
+int64_t MotionModel::action_dim() const { return state_->net->action_dim(); }
+int64_t MotionModel::step() const { return state_->step; }
+const std::string& MotionModel::checkpoint_file() const { return state_->file; }
+
+std::vector<float> MotionModel::Imagine(const std::vector<float>& first,
+                                        const std::vector<float>& raw_actions, int64_t batch,
+                                        int64_t horizon) const {
+  State& s = *state_;  // the net's forward is not const
+  const int64_t S = image_size(), D = action_dim();
+  Check(static_cast<int64_t>(first.size()) == batch * 3 * S * S,
+        "first frames: expected " + std::to_string(batch) + " x 3 x " + std::to_string(S) +
+            " x " + std::to_string(S) + " values, got " + std::to_string(first.size()),
+        {.file = s.file});
+  Check(static_cast<int64_t>(raw_actions.size()) == batch * horizon * D,
+        "actions: the model takes " + std::to_string(D) + " values per step; expected " +
+            std::to_string(batch * horizon * D) + " values, got " +
+            std::to_string(raw_actions.size()),
+        {.file = s.file});
+  std::vector<float> normed(raw_actions.size());
+  s.norm.Apply(raw_actions.data(), normed.data(), batch * horizon);
+  const torch::Tensor frames = motion::Imagine(
+      s.net,
+      torch::from_blob(const_cast<float*>(first.data()), {batch, 3, S, S}).to(s.device),
+      torch::from_blob(normed.data(), {batch, horizon, D}).to(s.device));
+  const torch::Tensor out = frames.to(torch::kCPU).contiguous();
+  return {out.data_ptr<float>(), out.data_ptr<float>() + out.numel()};
+}
+
+}  // namespace wm::motion

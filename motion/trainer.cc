@@ -1,0 +1,290 @@
+#include "motion/trainer.h"
+
+#include <torch/torch.h>
+
+#include <cmath>
+#include <future>
+#include <sstream>
+
+#include "core/error.h"
+#include "core/log.h"
+#include "core/mix_bits.h"
+#include "core/provenance.h"
+#include "core/tensor_archive.h"
+#include "motion/warp_net.h"
+#include "motion/window_sampler.h"
+#include "trainkit/adamw.h"
+#include "trainkit/module_archive.h"
+#include "trainkit/run_dir.h"
+#include "trainkit/schedule.h"
+#include "trainkit/step_log.h"
+#include "trainkit/torch_runtime.h"
+#include "trainkit/training_loop.h"
+
+namespace wm::motion {
+namespace {
+
+using trainkit::AdamW;
+using trainkit::RunDir;
+
+constexpr const char* kMetrics = "metrics.csv";
+constexpr const char* kValMetrics = "val.csv";
+constexpr const char* kMetricsHeader = "step,loss,flow_px,gate,lr,frames_per_s";
+constexpr const char* kValHeader = "step,psnr,copy_last_psnr,reversed_psnr,delta_tpsnr";
+
+struct TrainState {
+  WarpNet model{nullptr};
+  std::unique_ptr<AdamW> optimizer;
+  std::unique_ptr<WindowSampler> sampler;
+  int64_t step = 0;
+};
+
+// What a loaded model needs beyond its weights: the action width and how to normalise actions.
+nlohmann::json ActionMeta(const WindowSampler& sampler) {
+  return {{"action_dim", sampler.action_dim()},
+          {"action_space", sampler.action_space()},
+          {"action_norms", {{sampler.dataset_name(), sampler.action_norm().ToJson()}}}};
+}
+
+nlohmann::json Manifest(const TrainOptions& o, const RunDir& run, const TrainState& s) {
+  nlohmann::json manifest = run.Manifest("wm-motion train", ConfigToJson(o.config), s.step);
+  manifest["model_kind"] = "motion";
+  manifest["data"] = nlohmann::json::array({s.sampler->DataProvenance()});
+  manifest.update(ActionMeta(*s.sampler));
+  return manifest;
+}
+
+void WriteCheckpoint(const TrainOptions& o, const RunDir& run, TrainState& s) {
+  TensorArchiveWriter w;
+  trainkit::AddModule(w, "model/", *s.model);
+  trainkit::AddAdamW(w, *s.optimizer);
+  nlohmann::json meta = {{"model_kind", "motion"},
+                         {"step", s.step},
+                         {"adamw_step", s.optimizer->step_count()},
+                         {"config", ConfigToJson(o.config)},
+                         {"config_hash", ConfigHash(ConfigToJson(o.config))}};
+  meta.update(ActionMeta(*s.sampler));
+  w.SetMeta(std::move(meta));
+  run.WriteCheckpoint(w, [&] { return Manifest(o, run, s); });
+}
+
+void LoadCheckpoint(const std::string& path, const nlohmann::json& config, TrainState& s) {
+  TensorArchiveReader r(path);
+  try {
+    const nlohmann::json& meta = r.meta();
+    CheckResumeConfig(meta.value("config_hash", ""),
+                      ConfigToJson(ConfigFromJson(meta.at("config"))), config);
+    trainkit::LoadModule(r, "model/", *s.model);
+    trainkit::LoadAdamW(r, meta.at("adamw_step").get<int64_t>(), *s.optimizer);
+    s.step = meta.at("step").get<int64_t>();
+  } catch (const Error& e) {
+    throw e.WithFile(path);
+  } catch (const nlohmann::json::exception& e) {
+    throw Error("bad checkpoint meta: " + std::string(e.what()), {.file = path});
+  }
+}
+
+// The model, then the optimizer and sampler of step 0 (the model draws from the torch seed).
+TrainState MakeTrainState(const TrainOptions& o, const torch::Device& device) {
+  const MotionConfig& c = o.config;
+  TrainState s;
+  s.sampler = std::make_unique<WindowSampler>(o.data_dir, c.data.image_key, c.model.image_size,
+                                              c.train.unroll);
+  s.model = WarpNet(c.model, s.sampler->action_dim());
+  s.model->to(device);
+  std::vector<std::pair<std::string, torch::Tensor>> params;
+  for (const auto& item : s.model->named_parameters()) params.emplace_back(item.key(), item.value());
+  const TrainConfig& t = c.train;
+  s.optimizer = std::make_unique<AdamW>(
+      std::move(params),
+      trainkit::AdamWOptions{
+          .lr = t.max_lr, .beta1 = t.beta1, .beta2 = t.beta2, .weight_decay = t.weight_decay});
+  return s;
+}
+
+// PSNR (dB) of each imagined frame against the real one, on [0, 255] values, averaged.
+double MeanPsnr(const torch::Tensor& imagined, const torch::Tensor& real) {
+  const torch::Tensor mse =
+      ((imagined - real) * 127.5).square().flatten(2).mean(2).clamp_min(1e-10);  // [B, H]
+  return (10 * torch::log10(255.0 * 255.0 / mse)).mean().item<double>();
+}
+
+// val.csv: rollouts of the first val episodes from their first frame, scored against the real
+// frames, copying the first frame, and the same rollout under the reversed actions.
+class Validation {
+ public:
+  Validation(const TrainOptions& o, const RunDir& run, const WindowSampler& train,
+             int64_t resume_step)
+      : log_(run.File(kValMetrics), kValHeader, resume_step) {
+    const MotionConfig& c = o.config;
+    const WindowSampler val(o.val_dir, c.data.image_key, c.model.image_size, 1);
+    Check(val.action_dim() == train.action_dim(),
+          "validation actions have " + std::to_string(val.action_dim()) +
+              " values per step, the training data " + std::to_string(train.action_dim()),
+          {.file = o.val_dir});
+    const int S = c.model.image_size;
+    for (EpisodeClip& clip : val.Episodes(c.train.val_episodes, c.train.val_horizon + 1)) {
+      if (clip.frames < 2) continue;
+      const int64_t H = clip.frames - 1, D = train.action_dim();
+      std::vector<float> normed(static_cast<size_t>(H * D));
+      train.action_norm().Apply(clip.actions.data(), normed.data(), H);
+      Clip& v = clips_.emplace_back();
+      v.frames = torch::from_blob(clip.pixels.data(), {1, clip.frames, 3, S, S}).clone();
+      v.actions = torch::from_blob(normed.data(), {1, H, D}).clone();
+    }
+    Check(!clips_.empty(), "no validation episode has two frames", {.file = o.val_dir});
+  }
+
+  RolloutScore Run(WarpNet& model, const torch::Device& device, int64_t step) {
+    model->eval();
+    RolloutScore score;
+    for (const Clip& clip : clips_) {
+      const torch::Tensor first = clip.frames.select(1, 0).to(device);
+      const torch::Tensor real = clip.frames.slice(1, 1).to(device);
+      const torch::Tensor actions = clip.actions.to(device);
+      score.psnr += MeanPsnr(Imagine(model, first, actions), real);
+      score.reversed_psnr += MeanPsnr(Imagine(model, first, actions.flip({1})), real);
+      score.copy_last_psnr += MeanPsnr(first.unsqueeze(1).expand_as(real), real);
+    }
+    model->train();
+    const double n = static_cast<double>(clips_.size());
+    score.psnr /= n, score.reversed_psnr /= n, score.copy_last_psnr /= n;
+    std::ostringstream row;
+    row << step << ',' << score.psnr << ',' << score.copy_last_psnr << ',' << score.reversed_psnr
+        << ',' << score.delta_tpsnr();
+    log_.Append(row.str());
+    return score;
+  }
+
+ private:
+  struct Clip {
+    torch::Tensor frames;   // [1, H + 1, 3, S, S]
+    torch::Tensor actions;  // [1, H, D] normalised with the training data's statistics
+  };
+  trainkit::StepLog log_;
+  std::vector<Clip> clips_;
+};
+
+// One step: the unrolled L1 loss of a batch of windows; the next batch is decoded on another
+// thread while this one trains.
+class MotionStage : public trainkit::TrainingStage {
+ public:
+  MotionStage(const TrainOptions& o, const RunDir& run, const torch::Device& device,
+              TrainState& s, std::optional<Validation>& val, TrainSummary& summary)
+      : o_(o), cfg_(o.config), run_(run), device_(device), s_(s), val_(val), summary_(summary) {}
+
+  void Train(int64_t step, int64_t stop) override {
+    const int64_t B = cfg_.train.batch_size, U = cfg_.train.unroll, S = cfg_.model.image_size;
+    const int64_t D = s_.sampler->action_dim();
+    if (!pending_.valid()) pending_ = std::async(std::launch::async, &MotionStage::Load, this, step);
+    Batch batch = pending_.get();
+    if (step + 1 < stop)
+      pending_ = std::async(std::launch::async, &MotionStage::Load, this, step + 1);
+    const torch::Tensor frames =
+        torch::from_blob(batch.frames.data(), {B, U + 2, 3, S, S}).to(device_, true, true);
+    const torch::Tensor actions =
+        torch::from_blob(batch.actions.data(), {B, U, D}).to(device_, true, true);
+    lr_ = trainkit::LearningRateAt(trainkit::ScheduleOf(cfg_.train), step);
+    s_.optimizer->set_lr(lr_);
+    s_.optimizer->ZeroGrad();
+    torch::Tensor previous = frames.select(1, 0), current = frames.select(1, 1);
+    loss_ = torch::zeros({}, frames.options());
+    for (int64_t u = 0; u < U; ++u) {  // the model's own prediction feeds the next step
+      last_ = s_.model->forward(current, previous, actions.select(1, u));
+      loss_ = loss_ + (last_.next - frames.select(1, u + 2)).abs().mean() / static_cast<double>(U);
+      previous = current;
+      current = last_.next;
+    }
+    loss_.backward();
+    if (cfg_.train.grad_clip > 0) {
+      torch::nn::utils::clip_grad_norm_(s_.model->parameters(), cfg_.train.grad_clip);
+    }
+    s_.optimizer->Step();
+    s_.step = step + 1;
+  }
+
+  int64_t UnitsPerStep() const override {
+    return cfg_.train.batch_size * cfg_.train.unroll;  // predicted frames
+  }
+
+  std::optional<trainkit::MetricsRow> Finish(const trainkit::StepInfo& info) override {
+    std::optional<trainkit::MetricsRow> row;
+    if (info.first || info.log_row || info.last) {
+      const double loss = loss_.item<double>();
+      if (info.first) summary_.first_loss = loss;
+      summary_.last_loss = loss;
+      if (info.log_row) {
+        std::ostringstream before;
+        before << loss << ',' << last_.flow.detach().norm(2, 1).mean().item<double>() << ','
+               << last_.gate.detach().mean().item<double>() << ',' << lr_;
+        row = trainkit::MetricsRow{.before = before.str()};
+      }
+    }
+    if (val_ && (info.step == cfg_.train.steps ||
+                 (cfg_.train.val_every > 0 && info.step % cfg_.train.val_every == 0))) {
+      summary_.val = val_->Run(s_.model, device_, info.step);
+    }
+    return row;
+  }
+
+  void SaveCheckpoint(int64_t) override { WriteCheckpoint(o_, run_, s_); }
+
+ private:
+  struct Batch {
+    std::vector<float> frames, actions;
+  };
+
+  Batch Load(int64_t step) const {
+    const int B = cfg_.train.batch_size, U = cfg_.train.unroll, S = cfg_.model.image_size;
+    Batch batch;
+    batch.frames.resize(static_cast<size_t>(B) * (U + 2) * 3 * S * S);
+    batch.actions.resize(static_cast<size_t>(B) * U * s_.sampler->action_dim());
+    s_.sampler->Load(s_.sampler->Draw(cfg_.train.seed, step, B), batch.frames.data(),
+                     batch.actions.data());
+    return batch;
+  }
+
+  const TrainOptions& o_;
+  const MotionConfig& cfg_;
+  const RunDir& run_;
+  const torch::Device device_;
+  TrainState& s_;
+  std::optional<Validation>& val_;
+  TrainSummary& summary_;
+  std::future<Batch> pending_;
+  WarpStep last_;  // the last unrolled step of the last batch
+  torch::Tensor loss_;
+  double lr_ = 0;
+};
+
+}  // namespace
+
+TrainSummary TrainMotion(const TrainOptions& o) {
+  const MotionConfig& cfg = o.config;
+  ValidateConfig(cfg, "(config)");
+  trainkit::CheckDevice(o.device);
+  const torch::Device device(o.device);
+  const RunDir run(o.out_dir, o.resume, /*create=*/true);
+  trainkit::SetUpTorch(cfg.train.threads, cfg.train.seed, device.is_cuda());
+  TrainState s = MakeTrainState(o, device);
+  if (run.resuming()) {
+    LoadCheckpoint(run.checkpoint(), ConfigToJson(cfg), s);
+    LogInfo("resuming " + run.checkpoint() + " at step " + std::to_string(s.step));
+    run.RefreshManifest(Manifest(o, run, s));  // may describe an older archive
+  }
+  trainkit::StepLog metrics(run.File(kMetrics), kMetricsHeader, s.step);
+  std::optional<Validation> val;
+  if (!o.val_dir.empty()) val.emplace(o, run, *s.sampler, s.step);
+
+  TrainSummary summary;
+  summary.start_step = s.step;
+  MotionStage stage(o, run, device, s, val, summary);
+  summary.end_step =
+      trainkit::RunTrainingLoop(trainkit::LoopOptionsOf(cfg.train, s.step, o.max_steps_this_run,
+                                                        o.show_progress ? "motion train" : ""),
+                                stage, &metrics);
+  summary.checkpoint_path = run.checkpoint();
+  return summary;
+}
+
+}  // namespace wm::motion
