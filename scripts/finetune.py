@@ -11,15 +11,15 @@ when its output exists, so a killed run resumes. docs/finetune.md.
 """
 import argparse
 import csv
-import hashlib
 import io
 import json
 import os
-import subprocess
 import sys
 import time
 
 import yaml
+
+from pipeline_steps import run, sha256, write_atomically
 
 MODELS = ["finetuned", "scratch", "pretrained"]  # finetune.csv's rows, then copy_last
 METRICS = ["psnr", "ssim", "lpips_style", "mse_arm", "mse_object", "delta_tpsnr"]
@@ -29,31 +29,6 @@ STRIP_ROWS = ["real", "finetuned", "scratch", "pretrained", "copy_last"]
 
 class ConfigError(Exception):
     pass
-
-
-def run(cmd, log):
-    """Runs one wmkit tool, its output appended to `log`; a failure stops the pipeline."""
-    print("+ " + " ".join(cmd), flush=True)
-    with open(log, "a", encoding="utf-8") as f:
-        if subprocess.run(cmd, stdout=f, stderr=subprocess.STDOUT).returncode != 0:
-            sys.exit(f"finetune: command failed (log: {log}): {' '.join(cmd)}")
-
-
-def sha256(path):
-    h = hashlib.sha256()
-    with open(path, "rb") as f:
-        for block in iter(lambda: f.read(1 << 20), b""):
-            h.update(block)
-    return h.hexdigest()
-
-
-def write_atomically(path, data):
-    tmp = path + ".tmp"
-    with open(tmp, "wb") as f:
-        f.write(data.encode() if isinstance(data, str) else data)
-        f.flush()
-        os.fsync(f.fileno())
-    os.replace(tmp, path)
 
 
 def load_config(path):
@@ -99,6 +74,27 @@ def load_config(path):
     return cfg
 
 
+def summary_from_compare(finetuned, episodes, resamples, seed):
+    """finetune_summary.json from the fine-tuned model's compare.csv row (baseline scratch, plain
+    rollout): its paired deltas and intervals, oriented so positive = better (a lower-is-better
+    metric's delta is negated and its interval negated and swapped)."""
+    summary = {"format": "wmkit-finetune-summary", "format_version": 1,
+               "candidate": "finetuned", "baseline": "scratch", "rollout": "plain",
+               "episodes": episodes, "resamples": resamples, "seed": seed, "level": 0.95,
+               "interval": "paired percentile bootstrap over the held-out episodes "
+                           "(wm-report compare)"}
+    for m, sign in SUMMARY_METRICS.items():
+        delta, lo, hi = (float(finetuned[f"{m}_delta{s}"]) if finetuned[f"{m}_delta{s}"] else None
+                         for s in ["", "_ci_low", "_ci_high"])
+        if sign < 0:  # + 0.0: no negative zero in the JSON
+            lo, hi = (None if hi is None else -hi + 0.0), (None if lo is None else -lo + 0.0)
+            delta = None if delta is None else -delta + 0.0
+        summary[f"{m}_gain_vs_scratch"] = delta
+        summary[f"{m}_gain_ci_low"] = lo
+        summary[f"{m}_gain_ci_high"] = hi
+    return summary
+
+
 class Finetune:
     def __init__(self, args):
         self.bin, self.out, self.config_path = args.bin, args.out, args.config
@@ -111,7 +107,7 @@ class Finetune:
         return os.path.join(self.out, *parts)
 
     def tool(self, name, *args):
-        run([os.path.join(self.bin, name), *map(str, args)], self.log)
+        run([os.path.join(self.bin, name), *map(str, args)], self.log, "finetune")
 
     def timed(self, stage, fn, *args):
         started = time.time()
@@ -244,24 +240,9 @@ class Finetune:
         return n
 
     def write_summary(self, rows):
-        """Fine-tuned against scratch, from compare.csv's paired deltas (plain rollout)."""
-        ft = rows[("finetuned", "plain")]
-        summary = {"format": "wmkit-finetune-summary", "format_version": 1,
-                   "candidate": "finetuned", "baseline": "scratch", "rollout": "plain",
-                   "episodes": int(self.episode_counts()[("finetuned", "plain")]),
-                   "resamples": self.cfg["eval"]["resamples"], "seed": self.cfg["seed"],
-                   "level": 0.95,
-                   "interval": "paired percentile bootstrap over the held-out episodes "
-                               "(wm-report compare)"}
-        for m, sign in SUMMARY_METRICS.items():
-            delta, lo, hi = (float(ft[f"{m}_delta{s}"]) if ft[f"{m}_delta{s}"] else None
-                             for s in ["", "_ci_low", "_ci_high"])
-            if sign < 0:  # + 0.0: no negative zero in the JSON
-                lo, hi = (None if hi is None else -hi + 0.0), (None if lo is None else -lo + 0.0)
-                delta = None if delta is None else -delta + 0.0
-            summary[f"{m}_gain_vs_scratch"] = delta
-            summary[f"{m}_gain_ci_low"] = lo
-            summary[f"{m}_gain_ci_high"] = hi
+        summary = summary_from_compare(rows[("finetuned", "plain")],
+                                       int(self.episode_counts()[("finetuned", "plain")]),
+                                       self.cfg["eval"]["resamples"], self.cfg["seed"])
         write_atomically(self.path("finetune_summary.json"), json.dumps(summary, indent=2) + "\n")
         return summary
 
