@@ -67,8 +67,8 @@ Rollout RollOutWith(uint64_t episode_seed, int max_steps, LookVariation look,
   return out;
 }
 
-Rollout RollOut(uint64_t episode_seed, PolicyKind policy_kind, int max_steps,
-                LookVariation look, const GoalRegion& goals) {
+Rollout RollOut(uint64_t episode_seed, PolicyKind policy_kind, int max_steps, LookVariation look,
+                const GoalRegion& goals) {
   std::unique_ptr<Policy> policy;  // made from the first state (wrong_goal needs it)
   Rollout out = RollOutWith(
       episode_seed, max_steps, look,

@@ -62,9 +62,8 @@ std::vector<Rollout> RollOutAll(const TabletopOptions& o, const std::string& spl
   std::vector<Rollout> rollouts;
   rollouts.reserve(count);
   for (int i = 0; i < count; ++i) {
-    rollouts.push_back(
-        RollOut(EpisodeSeed(o.seed, split, first + i), o.PolicyForEpisode(first + i), o.max_steps,
-                o.look, o.goal_region));
+    rollouts.push_back(RollOut(EpisodeSeed(o.seed, split, first + i), o.PolicyForEpisode(first + i),
+                               o.max_steps, o.look, o.goal_region));
   }
   return rollouts;
 }
@@ -129,8 +128,8 @@ void TabletopOptions::Check() const {
 }
 
 GoalRegion ParseGoalRegion(const std::string& text) {
-  const std::string expected = "expected XMIN,XMAX,YMIN,YMAX in metres, e.g. 0.05,0.2,-0.05,0.35, "
-                               "got '" + text + "'";
+  const std::string expected =
+      "expected XMIN,XMAX,YMIN,YMAX in metres, e.g. 0.05,0.2,-0.05,0.35, got '" + text + "'";
   std::vector<double> v;
   size_t begin = 0;
   while (begin <= text.size()) {

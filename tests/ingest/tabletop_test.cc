@@ -10,9 +10,9 @@
 #include <filesystem>
 #include <fstream>
 #include <map>
-#include <tuple>
 #include <nlohmann/json.hpp>
 #include <opencv2/imgcodecs.hpp>
+#include <tuple>
 
 #include "core/atomic_file.h"
 #include "core/error.h"
@@ -416,8 +416,8 @@ TEST(TabletopEpisode, GoalRegionHoldsEveryGoalAndTheDefaultDrawsAsBefore) {
                (m.goal.y == middle.y_min || m.goal.y == middle.y_max);
   }
   EXPECT_GT(corners, 0);  // the fallback was exercised
-  const Rollout expert = RollOut(EpisodeSeed(5, "val", 0), PolicyKind::kExpert, 40,
-                                 LookVariation::kPlain, right);
+  const Rollout expert =
+      RollOut(EpisodeSeed(5, "val", 0), PolicyKind::kExpert, 40, LookVariation::kPlain, right);
   EXPECT_TRUE(right.Contains(expert.steps.front().state.goal));
   EXPECT_TRUE(expert.success);
 }

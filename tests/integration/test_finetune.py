@@ -72,7 +72,8 @@ def summary_mismatches(summary, reports_dir, rows, compare):
         lo, hi = summary[f"{metric}_gain_ci_low"], summary[f"{metric}_gain_ci_high"]
         scale = max(1.0, abs(float(diffs.mean())))
         if len(diffs) != summary["episodes"]:
-            bad.append(f"{metric}: {len(diffs)} paired episodes, summary says {summary['episodes']}")
+            bad.append(f"{metric}: {len(diffs)} paired episodes, the summary "
+                       f"{summary['episodes']}")
         if not math.isclose(gain, float(diffs.mean()), rel_tol=1e-6, abs_tol=1e-7 * scale):
             bad.append(f"{metric}: gain {gain} != mean paired difference {diffs.mean()}")
         by_means = sign * (float(rows["finetuned"][metric]) - float(rows["scratch"][metric]))
