@@ -24,6 +24,9 @@ REPORTS ?= reports
 # make ablation [ABLATION_CONFIG=configs/ablation/tiny.yaml] [ABLATION_DIR=data/ablation]
 ABLATION_CONFIG ?= configs/ablation/tiny.yaml
 ABLATION_DIR ?= data/ablation
+# make finetune [FINETUNE_CONFIG=configs/finetune/tiny.yaml] [FINETUNE_DIR=data/finetune]
+FINETUNE_CONFIG ?= configs/finetune/tiny.yaml
+FINETUNE_DIR ?= data/finetune
 # make ingest RAW=<input> OUT=<dataset dir> FORMAT=rlds|hdf5|folder [SPLIT=train] [ARGS=...]
 RAW ?=
 OUT ?=
@@ -46,7 +49,7 @@ MODEL_ONLY_TESTS ?= ImageCodec|TrainTest|EncodeTest|Overfit|FrameScores
 # ccache keys on relative paths below the checkout, so other clones and worktrees share hits.
 export CCACHE_BASEDIR ?= $(CURDIR)
 
-.PHONY: all deps configure build test test-sanitize test-model-only fuzz demo wpe ingest tokenize train eval report ablation bench format lint clean
+.PHONY: all deps configure build test test-sanitize test-model-only fuzz demo wpe ingest tokenize train eval report ablation finetune bench format lint clean
 
 all: build
 
@@ -109,6 +112,9 @@ report: build
 
 ablation: build
 	@/usr/bin/python3 scripts/ablation.py --bin $(BIN) --config $(ABLATION_CONFIG) --out $(ABLATION_DIR)
+
+finetune: build
+	@/usr/bin/python3 scripts/finetune.py --bin $(BIN) --config $(FINETUNE_CONFIG) --out $(FINETUNE_DIR)
 
 bench: build
 	@bash bench/run.sh $(BIN)

@@ -8,46 +8,20 @@ so a killed run resumes without redoing finished variants. docs/ablation.md.
 """
 import argparse
 import csv
-import hashlib
 import io
 import json
 import math
 import os
-import subprocess
-import sys
 import time
 
 import yaml
+
+from pipeline_steps import run, sha256, write_atomically
 
 METRICS = ["fvd_style", "psnr", "ssim", "lpips_style", "mse_arm", "mse_object",
            "mse_background", "value_gap", "spearman"]
 ROLLOUTS = ["plain", "retrace", "copy_last", "tokenizer_recon"]
 SPLITS = ["seen", "unseen"]
-
-
-def run(cmd, log):
-    """Runs one wmkit tool, its output appended to `log`; a failure stops the ablation."""
-    print("+ " + " ".join(cmd), flush=True)
-    with open(log, "a", encoding="utf-8") as f:
-        if subprocess.run(cmd, stdout=f, stderr=subprocess.STDOUT).returncode != 0:
-            sys.exit(f"ablation: command failed (log: {log}): {' '.join(cmd)}")
-
-
-def sha256(path):
-    h = hashlib.sha256()
-    with open(path, "rb") as f:
-        for block in iter(lambda: f.read(1 << 20), b""):
-            h.update(block)
-    return h.hexdigest()
-
-
-def write_atomically(path, text):
-    tmp = path + ".tmp"
-    with open(tmp, "w", encoding="utf-8") as f:
-        f.write(text)
-        f.flush()
-        os.fsync(f.fileno())
-    os.replace(tmp, path)
 
 
 class Ablation:
@@ -63,7 +37,7 @@ class Ablation:
         return os.path.join(self.out, *parts)
 
     def tool(self, name, *args):
-        run([os.path.join(self.bin, name), *map(str, args)], self.log)
+        run([os.path.join(self.bin, name), *map(str, args)], self.log, "ablation")
 
     def data(self):
         """Seen policies give the training split and the seen split; the unseen policies come

@@ -42,10 +42,10 @@ uint64_t EpisodeSeed(uint64_t global_seed, const std::string& split, int64_t ind
 }
 
 Rollout RollOutWith(uint64_t episode_seed, int max_steps, LookVariation look,
-                    const ActionChooser& choose) {
+                    const ActionChooser& choose, const GoalRegion& goals) {
   Check(max_steps >= 1, "max_steps must be at least 1", {.key = "--max-steps"});
   Rng rng(episode_seed);
-  Scene scene = SampleScene(rng, look);
+  Scene scene = SampleScene(rng, look, goals);
   Rollout out{episode_seed, PolicyKind::kExpert, scene.look, {}, false};
   for (int t = 0; t < max_steps; ++t) {
     EpisodeStep step;
@@ -67,14 +67,16 @@ Rollout RollOutWith(uint64_t episode_seed, int max_steps, LookVariation look,
   return out;
 }
 
-Rollout RollOut(uint64_t episode_seed, PolicyKind policy_kind, int max_steps,
-                LookVariation look) {
+Rollout RollOut(uint64_t episode_seed, PolicyKind policy_kind, int max_steps, LookVariation look,
+                const GoalRegion& goals) {
   std::unique_ptr<Policy> policy;  // made from the first state (wrong_goal needs it)
-  Rollout out = RollOutWith(episode_seed, max_steps, look,
-                            [&](const Scene& scene, int, Rng& rng) {
-                              if (!policy) policy = MakePolicy(policy_kind, scene.state);
-                              return policy->Act(scene.state, rng);
-                            });
+  Rollout out = RollOutWith(
+      episode_seed, max_steps, look,
+      [&](const Scene& scene, int, Rng& rng) {
+        if (!policy) policy = MakePolicy(policy_kind, scene.state);
+        return policy->Act(scene.state, rng);
+      },
+      goals);
   out.policy = policy_kind;
   return out;
 }

@@ -54,13 +54,14 @@ using ActionChooser = std::function<Action(const Scene& scene, int step, Rng& rn
 // Simulates one episode under `choose`: at most `max_steps` steps; the episode ends at the first
 // step whose state has the block in the goal (reward 1, is_last = is_terminal = 1, no action
 // chosen), or after `max_steps` steps (is_last = 1, is_terminal = 0). Recorded actions are the
-// clamped ones StepScene applies. Rollout::policy is left as kExpert.
+// clamped ones StepScene applies. Rollout::policy is left as kExpert. The goal is drawn from
+// `goals` (SampleScene).
 Rollout RollOutWith(uint64_t episode_seed, int max_steps, LookVariation look,
-                    const ActionChooser& choose);
+                    const ActionChooser& choose, const GoalRegion& goals = {});
 
 // Simulates one episode under a scripted policy (no rendering).
 Rollout RollOut(uint64_t episode_seed, PolicyKind policy, int max_steps,
-                LookVariation look = LookVariation::kVaried);
+                LookVariation look = LookVariation::kVaried, const GoalRegion& goals = {});
 
 // One step's images as the dataset stores them.
 struct EncodedFrame {

@@ -91,9 +91,15 @@ void MakePlain(Appearance& look) {
   look.ambient = 0.3;
 }
 
+// The corner of `region` farthest from `p` (horizontally).
+Vec3 FarthestCorner(const GoalRegion& region, const Vec3& p) {
+  return {p.x - region.x_min > region.x_max - p.x ? region.x_min : region.x_max,
+          p.y - region.y_min > region.y_max - p.y ? region.y_min : region.y_max, 0};
+}
+
 }  // namespace
 
-Scene SampleScene(Rng& rng, LookVariation variation) {
+Scene SampleScene(Rng& rng, LookVariation variation, const GoalRegion& goals) {
   Scene scene;
   scene.look = SampleAppearance(rng);
   if (variation == LookVariation::kPlain) MakePlain(scene.look);
@@ -103,8 +109,10 @@ Scene SampleScene(Rng& rng, LookVariation variation) {
   // Rejection sampling for the goal; 1000 tries of a ~25% acceptance never all fail in
   // practice, and the fallback keeps the function total and deterministic.
   s.goal = {s.block.x > 0 ? s.block.x - 0.2 : s.block.x + 0.2, s.block.y, 0};
+  if (!goals.Contains(s.goal)) s.goal = FarthestCorner(goals, s.block);  // never on the default
   for (int attempt = 0; attempt < 1000; ++attempt) {
-    const Vec3 g = {rng.Uniform(-0.2, 0.2), rng.Uniform(-0.05, 0.35), 0};
+    const Vec3 g = {rng.Uniform(goals.x_min, goals.x_max), rng.Uniform(goals.y_min, goals.y_max),
+                    0};
     const double d = HorizontalDistance(g, s.block);
     if (d >= 0.15 && d <= 0.3) {
       s.goal = g;

@@ -73,15 +73,36 @@ struct Scene {
   Appearance look;
 };
 
+// Where goal centres are drawn from (metres, table coordinates; inclusive). The default is the
+// whole table, as wm-gen-tabletop has always drawn them; a smaller region gives a task variant
+// (wm-gen-tabletop --goal-region): e.g. pretraining with goals on one side of the table and
+// fine-tuning on goals on the other (make finetune, docs/tabletop.md).
+struct GoalRegion {
+  double x_min = -0.2, x_max = 0.2, y_min = -0.05, y_max = 0.35;
+  bool Contains(const Vec3& p) const {
+    return p.x >= x_min && p.x <= x_max && p.y >= y_min && p.y <= y_max;
+  }
+  bool operator==(const GoalRegion&) const = default;
+};
+// A region must lie within these bounds (where the arm can carry the block) and be at least
+// kMinGoalRegionSide wide and deep, so its farthest corner is always outside a goal around the
+// block (SampleScene's fallback).
+inline constexpr GoalRegion kGoalRegionBounds = {-0.25, 0.25, -0.10, 0.40};
+inline constexpr double kMinGoalRegionSide = 0.1;
+
 // How much the look varies between episodes. kPlain keeps one untextured table colour and one
 // light for every episode (block colours still vary): a scene an 8x8-token tokenizer
 // reconstructs well, so a small world model's predictions can be judged on the arm's motion
 // rather than on texture it cannot encode (docs/tabletop.md).
 enum class LookVariation { kVaried, kPlain };
 
-// Samples layout and look. The block starts 15-30 cm from the goal, never inside it. The
-// layout does not depend on `variation`: the same seed gives the same episode in either look.
-Scene SampleScene(Rng& rng, LookVariation variation = LookVariation::kVaried);
+// Samples layout and look. The block starts 15-30 cm from the goal, never inside it; the goal
+// centre lies in `goals`. The layout does not depend on `variation`: the same seed gives the
+// same episode in either look. With the default region the draws and results are those of
+// wm-gen-tabletop before regions existed. A block that no goal of a small region can be 15-30 cm
+// from (the 1000 tries fail) gets the region's corner farthest from it.
+Scene SampleScene(Rng& rng, LookVariation variation = LookVariation::kVaried,
+                  const GoalRegion& goals = {});
 
 Action ClampAction(Action a);
 // One control step: moves the end effector, applies the gripper command, grasps (closing

@@ -3,6 +3,8 @@
 #include <spdlog/spdlog.h>
 
 #include <algorithm>
+#include <charconv>
+#include <cmath>
 #include <filesystem>
 #include <regex>
 #include <set>
@@ -34,13 +36,20 @@ std::vector<uint64_t> ShardLengths(int episodes, int files) {
   return lengths;
 }
 
+// Empty for the default region, so datasets without --goal-region keep their bytes.
+std::string DescribeGoalRegion(const TabletopOptions& o) {
+  const GoalRegion& g = o.goal_region;
+  if (g == GoalRegion{}) return "";
+  return fmt::format(", goal region x [{}, {}] y [{}, {}] m", g.x_min, g.x_max, g.y_min, g.y_max);
+}
+
 std::string Describe(const TabletopOptions& o) {
   std::string policies;
   for (const std::string& p : o.policies) policies += (policies.empty() ? "" : ",") + p;
   return "Synthetic tabletop pick-and-place episodes written by wm-gen-tabletop (wmkit " +
          std::string(kWmkitVersion) + ", seed " + std::to_string(o.seed) + ", max_steps " +
          std::to_string(o.max_steps) + ", policies " + policies +
-         (o.look == LookVariation::kPlain ? ", plain look" : "") +
+         (o.look == LookVariation::kPlain ? ", plain look" : "") + DescribeGoalRegion(o) +
          "). Per step: " + std::to_string(o.size) + "x" + std::to_string(o.size) +
          " RGB JPEG, depth PNG (uint16 millimetres along the optical axis), segmentation PNG "
          "(0 table, 1 arm and gripper, 2 block, 3 goal region), action [dx, dy, dz, droll, "
@@ -53,9 +62,8 @@ std::vector<Rollout> RollOutAll(const TabletopOptions& o, const std::string& spl
   std::vector<Rollout> rollouts;
   rollouts.reserve(count);
   for (int i = 0; i < count; ++i) {
-    rollouts.push_back(
-        RollOut(EpisodeSeed(o.seed, split, first + i), o.PolicyForEpisode(first + i), o.max_steps,
-                o.look));
+    rollouts.push_back(RollOut(EpisodeSeed(o.seed, split, first + i), o.PolicyForEpisode(first + i),
+                               o.max_steps, o.look, o.goal_region));
   }
   return rollouts;
 }
@@ -105,6 +113,40 @@ void TabletopOptions::Check() const {
   wm::Check(max_steps >= 1 && max_steps <= 1000, "must be in 1..1000", {.key = "--max-steps"});
   wm::Check(!policies.empty(), "at least one policy is needed", {.key = "--policies"});
   for (const std::string& p : policies) ParsePolicyKind(p);
+  const GoalRegion& g = goal_region;
+  const GoalRegion& b = kGoalRegionBounds;
+  wm::Check(g.x_min >= b.x_min && g.x_max <= b.x_max && g.y_min >= b.y_min && g.y_max <= b.y_max,
+            fmt::format("goal region x [{}, {}] y [{}, {}] must lie within x [{}, {}] y [{}, {}] "
+                        "(metres; where the arm can carry the block)",
+                        g.x_min, g.x_max, g.y_min, g.y_max, b.x_min, b.x_max, b.y_min, b.y_max),
+            {.key = "--goal-region"});
+  wm::Check(g.x_max - g.x_min >= kMinGoalRegionSide - 1e-12 &&
+                g.y_max - g.y_min >= kMinGoalRegionSide - 1e-12,
+            fmt::format("goal region x [{}, {}] y [{}, {}] must be at least {} m wide and deep",
+                        g.x_min, g.x_max, g.y_min, g.y_max, kMinGoalRegionSide),
+            {.key = "--goal-region"});
+}
+
+GoalRegion ParseGoalRegion(const std::string& text) {
+  const std::string expected =
+      "expected XMIN,XMAX,YMIN,YMAX in metres, e.g. 0.05,0.2,-0.05,0.35, got '" + text + "'";
+  std::vector<double> v;
+  size_t begin = 0;
+  while (begin <= text.size()) {
+    const size_t end = std::min(text.find(',', begin), text.size());
+    const std::string field = text.substr(begin, end - begin);
+    double value = 0;
+    const auto [ptr, ec] = std::from_chars(field.data(), field.data() + field.size(), value);
+    Check(!field.empty() && ec == std::errc() && ptr == field.data() + field.size() &&
+              std::isfinite(value),
+          expected, {.key = "--goal-region"});
+    v.push_back(value);
+    begin = end + 1;
+  }
+  Check(v.size() == 4, expected, {.key = "--goal-region"});
+  Check(v[0] < v[1] && v[2] < v[3], "XMIN < XMAX and YMIN < YMAX are needed: " + expected,
+        {.key = "--goal-region"});
+  return {v[0], v[1], v[2], v[3]};
 }
 
 PolicyKind TabletopOptions::PolicyForEpisode(int64_t index) const {

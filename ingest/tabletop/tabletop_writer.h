@@ -28,6 +28,7 @@ struct TabletopOptions {
   // Policies assigned round-robin by episode index within each split.
   std::vector<std::string> policies = {"expert", "noisy", "random", "wrong_goal"};
   LookVariation look = LookVariation::kVaried;  // per-episode table texture and light, or plain
+  GoalRegion goal_region;  // where goal centres are drawn from; default: the whole table
 
   // Throws wm::Error naming the offending option (as its command-line flag).
   void Check() const;
@@ -48,6 +49,10 @@ struct TabletopSummary {
 // atomically; stale shard files of an earlier run with another file count are removed, and
 // dataset_info.json is written last.
 TabletopSummary WriteTabletopDataset(const TabletopOptions& options);
+
+// Parses wm-gen-tabletop's --goal-region "XMIN,XMAX,YMIN,YMAX" (metres); throws wm::Error (key
+// "--goal-region") saying what was expected. TabletopOptions::Check checks the bounds.
+GoalRegion ParseGoalRegion(const std::string& text);
 
 // Removes TFRecord shard files of dataset `name` in `dir` that are not in `written` (left by an
 // earlier run with other files or splits).

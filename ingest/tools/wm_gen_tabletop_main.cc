@@ -21,6 +21,7 @@ the terminal step (block in goal). Same arguments -> identical bytes.
 Examples:
   wm-gen-tabletop --out data/rlds
   wm-gen-tabletop --out data/rlds --train-episodes 200 --size 64 --policies expert,random
+  wm-gen-tabletop --out data/new_task --look plain --goal-region=0.05,0.2,-0.05,0.35
 
 Exit codes: 0 success, 1 invalid option or write failure, 2 usage error.)";
 
@@ -52,6 +53,11 @@ int main(int argc, char** argv) {
                  "light (same layouts and actions)")
       ->check(CLI::IsMember({"varied", "plain"}))
       ->capture_default_str();
+  std::string goal_region;
+  app.add_option("--goal-region", goal_region,
+                 "XMIN,XMAX,YMIN,YMAX: draw goal centres from this table region (metres, within "
+                 "-0.25,0.25,-0.1,0.4, sides >= 0.1); default the whole table "
+                 "-0.2,0.2,-0.05,0.35");
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {
@@ -60,6 +66,7 @@ int main(int argc, char** argv) {
   wm::InitLogging("info");
   if (look == "plain") opts.look = wm::tabletop::LookVariation::kPlain;
   try {
+    if (!goal_region.empty()) opts.goal_region = wm::tabletop::ParseGoalRegion(goal_region);
     opts.Check();
     spdlog::info("generating {} train + {} val episodes ({}x{} px, up to {} steps) into {}",
                  opts.train_episodes, opts.val_episodes, opts.size, opts.size, opts.max_steps,

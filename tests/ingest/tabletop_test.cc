@@ -12,6 +12,7 @@
 #include <map>
 #include <nlohmann/json.hpp>
 #include <opencv2/imgcodecs.hpp>
+#include <tuple>
 
 #include "core/atomic_file.h"
 #include "core/error.h"
@@ -357,6 +358,68 @@ TEST(TabletopOptions, CheckRejectsBadValuesNamingTheFlag) {
   EXPECT_THROW(o.Check(), wm::Error);
   o.version = "2.1.0";
   EXPECT_NO_THROW(o.Check());
+}
+
+TEST(TabletopOptions, GoalRegionIsParsedAndCheckedNamingTheFlag) {
+  const GoalRegion r = ParseGoalRegion("-0.2,0,0.05,0.3");
+  EXPECT_EQ(r, (GoalRegion{-0.2, 0, 0.05, 0.3}));
+  for (const char* bad : {"", "0.1,0.2,0.3", "0.1,0.2,0.3,0.4,0.5", "a,0.2,0,0.3", "0.1,,0,0.3",
+                          "0.2,0.1,0,0.3", "0,0.2,0.3,0.3", "0,0.2,0,0.3x"}) {
+    try {
+      ParseGoalRegion(bad);
+      FAIL() << "'" << bad << "' accepted";
+    } catch (const wm::Error& e) {
+      EXPECT_EQ(e.context().key, "--goal-region") << bad;
+      EXPECT_NE(std::string(e.what()).find("XMIN,XMAX,YMIN,YMAX"), std::string::npos) << bad;
+    }
+  }
+  TabletopOptions o = SmallOptions("/tmp/unused");
+  for (const GoalRegion& bad : {GoalRegion{0.1, 0.3, 0, 0.3}, GoalRegion{-0.2, 0.2, -0.2, 0.3},
+                                GoalRegion{0.1, 0.15, 0, 0.3}, GoalRegion{0, 0.2, 0, 0.05}}) {
+    o.goal_region = bad;
+    try {
+      o.Check();
+      FAIL() << "region x [" << bad.x_min << ", " << bad.x_max << "] accepted";
+    } catch (const wm::Error& e) {
+      EXPECT_EQ(e.context().key, "--goal-region");
+    }
+  }
+  o.goal_region = kGoalRegionBounds;
+  EXPECT_NO_THROW(o.Check());
+}
+
+TEST(TabletopEpisode, GoalRegionHoldsEveryGoalAndTheDefaultDrawsAsBefore) {
+  // Goals of the default region, pinned from the generator before regions existed: datasets
+  // made without --goal-region keep their bytes.
+  for (const auto& [seed, x, y] : {std::tuple{7, 0.19810473071146578, 0.34746109128511193},
+                                   std::tuple{8, -0.0065968459592183337, 0.31957301567291929}}) {
+    Rng rng(seed);
+    const Scene scene = SampleScene(rng);
+    EXPECT_NEAR(scene.state.goal.x, x, 1e-12) << "seed " << seed;
+    EXPECT_NEAR(scene.state.goal.y, y, 1e-12) << "seed " << seed;
+  }
+  // One side of the table: every goal inside, 15-30 cm from the block as always. A region in
+  // the middle leaves some blocks no such goal: they get its farthest corner, never a block
+  // that starts in the goal.
+  const GoalRegion right = {0.05, 0.2, -0.05, 0.35}, middle = {-0.05, 0.05, 0.1, 0.2};
+  int corners = 0;
+  for (int e = 0; e < 300; ++e) {
+    Rng a(EpisodeSeed(5, "train", e)), b(EpisodeSeed(5, "train", e));
+    const SceneState s = SampleScene(a, LookVariation::kVaried, right).state;
+    EXPECT_TRUE(right.Contains(s.goal)) << "episode " << e;
+    const double d = HorizontalDistance(s.goal, s.block);
+    EXPECT_TRUE(d >= 0.15 && d <= 0.3) << "episode " << e << ": " << d;
+    const SceneState m = SampleScene(b, LookVariation::kVaried, middle).state;
+    EXPECT_TRUE(middle.Contains(m.goal)) << "episode " << e;
+    EXPECT_FALSE(BlockInGoal(m)) << "episode " << e;
+    corners += (m.goal.x == middle.x_min || m.goal.x == middle.x_max) &&
+               (m.goal.y == middle.y_min || m.goal.y == middle.y_max);
+  }
+  EXPECT_GT(corners, 0);  // the fallback was exercised
+  const Rollout expert =
+      RollOut(EpisodeSeed(5, "val", 0), PolicyKind::kExpert, 40, LookVariation::kPlain, right);
+  EXPECT_TRUE(right.Contains(expert.steps.front().state.goal));
+  EXPECT_TRUE(expert.success);
 }
 
 TEST(TabletopRender, ScreenBoundsCullingNeverChangesAPixel) {
