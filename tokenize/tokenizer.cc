@@ -67,7 +67,7 @@ std::vector<uint32_t> Tokenizer::Encode(const float* frames, int64_t n) const {
   for (int64_t i = 0; i < n; i += kChunk) {
     const int64_t m = std::min(kChunk, n - i);
     torch::Tensor z = state_->model->Encode(state_->Frames(frames + i * floats, m));
-    torch::Tensor idx = state_->model->quantizer->forward(z).indices.to(torch::kCPU);  // [m,g,g]
+    torch::Tensor idx = state_->model->quantizer->NearestIndices(z).to(torch::kCPU);  // [m,g,g]
     const int64_t* p = idx.contiguous().data_ptr<int64_t>();
     std::copy(p, p + m * per_frame, codes.begin() + i * per_frame);
   }

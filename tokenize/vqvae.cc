@@ -52,13 +52,44 @@ torch::Tensor VectorQuantizerImpl::Distances(const torch::Tensor& flat,
   return flat.pow(2).sum(-1, true) - 2 * flat.matmul(codes.t()) + codes.pow(2).sum(1);
 }
 
+torch::Tensor VectorQuantizerImpl::NearestCodes(const torch::Tensor& flat,
+                                                const torch::Tensor& codes) {
+  if (!flat.device().is_cpu() || flat.scalar_type() != torch::kFloat) {
+    return Distances(flat, codes).argmin(-1);
+  }
+  torch::NoGradGuard no_grad;
+  // Distances()'s three terms from the same ATen calls (the matmul's sums are BLAS's, so they
+  // must come from the same call shape); only the elementwise steps and the argmin are fused.
+  const torch::Tensor zz = flat.pow(2).sum(-1).contiguous();         // [N]
+  const torch::Tensor dot = flat.matmul(codes.t()).contiguous();     // [N, K]
+  const torch::Tensor cc = codes.pow(2).sum(1).contiguous();         // [K]
+  const int64_t N = dot.size(0), K = dot.size(1);
+  torch::Tensor idx = torch::empty({N}, torch::kInt64);
+  const float *zp = zz.data_ptr<float>(), *dp = dot.data_ptr<float>(), *cp = cc.data_ptr<float>();
+  int64_t* out = idx.data_ptr<int64_t>();
+  at::parallel_for(0, N, 64, [&](int64_t begin, int64_t end) {
+    std::vector<float> row(static_cast<size_t>(K));
+    for (int64_t n = begin; n < end; ++n) {
+      const float* d = dp + n * K;
+      // (zz - 2 dot) + cc, rounded after each step as Distances' sub and add; dot + dot is the
+      // exact doubling of its `2 *` and leaves no product for the compiler to fuse.
+      for (int64_t k = 0; k < K; ++k) row[k] = (zp[n] - (d[k] + d[k])) + cp[k];
+      int64_t best = 0;
+      for (int64_t k = 1; k < K && !std::isnan(row[best]); ++k) {
+        if (!(row[k] >= row[best])) best = k;  // smaller, or NaN: argmin's order
+      }
+      out[n] = best;
+    }
+  });
+  return idx;
+}
+
 QuantizerOutput VectorQuantizerImpl::forward(const torch::Tensor& z_e) {
   const int64_t B = z_e.size(0), D = z_e.size(1), h = z_e.size(2), w = z_e.size(3);
   const torch::Tensor flat = Unit(z_e.permute({0, 2, 3, 1}).reshape({-1, D}));  // [N, D]
   const torch::Tensor codes = Codes();                                          // [K, D]
-  const torch::Tensor dist = Distances(flat, codes);                            // [N, K]
   QuantizerOutput out;
-  torch::Tensor idx = dist.argmin(1);                 // [N]
+  torch::Tensor idx = NearestCodes(flat, codes);      // [N]
   torch::Tensor q = codes.index_select(0, idx);       // [N, D]
   out.codebook_loss = F::mse_loss(q, flat.detach());  // VQ-VAE eq. 3, second term
   out.commitment = F::mse_loss(flat, q.detach());     // VQ-VAE eq. 3, third term (x beta)
@@ -71,6 +102,12 @@ QuantizerOutput VectorQuantizerImpl::forward(const torch::Tensor& z_e) {
   out.perplexity = torch::exp(-(p * torch::log(p + 1e-10)).sum()).item<double>();
   out.usage = (counts > 0).sum().item<double>() / static_cast<double>(options.num_codes);
   return out;
+}
+
+torch::Tensor VectorQuantizerImpl::NearestIndices(const torch::Tensor& z_e) {
+  const int64_t B = z_e.size(0), D = z_e.size(1), h = z_e.size(2), w = z_e.size(3);
+  const torch::Tensor flat = Unit(z_e.permute({0, 2, 3, 1}).reshape({-1, D}));  // [N, D]
+  return NearestCodes(flat, Codes()).view({B, h, w});
 }
 
 torch::Tensor VectorQuantizerImpl::StickyIndices(const torch::Tensor& z_e, double margin) {
