@@ -61,7 +61,7 @@ const std::string& Tokenizer::checkpoint_sha256() const { return state_->sha256;
 const std::string& Tokenizer::config_hash() const { return state_->config_hash; }
 
 std::vector<uint32_t> Tokenizer::Encode(const float* frames, int64_t n) const {
-  torch::NoGradGuard no_grad;
+  c10::InferenceMode inference;
   const int64_t per_frame = tokens_per_frame(), floats = 3 * int64_t{image_size()} * image_size();
   std::vector<uint32_t> codes(static_cast<size_t>(n * per_frame));
   for (int64_t i = 0; i < n; i += kChunk) {
