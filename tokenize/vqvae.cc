@@ -2,6 +2,9 @@
 
 #include <algorithm>
 #include <cmath>
+#if defined(__SSE2__)
+#include <emmintrin.h>
+#endif
 
 namespace wm::tokenize {
 namespace F = torch::nn::functional;
@@ -48,6 +51,57 @@ struct ChannelsToSpaceImpl : torch::nn::Module {
   int64_t factor;
 };
 TORCH_MODULE(ChannelsToSpace);
+
+// Index of the smallest of row[0, K), the first one on ties, or of the first NaN: the order
+// of torch's argmin. SSE2 keeps eight running minima with their first indices (a strictly
+// smaller value replaces), merged by value and then index; rows with a NaN take the scalar scan.
+int64_t FirstArgMin(const float* row, int64_t K) {
+  int64_t k = 1, best = 0;
+#if defined(__SSE2__)
+  if (K >= 8) {
+    __m128 lo0 = _mm_loadu_ps(row), lo1 = _mm_loadu_ps(row + 4);
+    __m128 nan = _mm_or_ps(_mm_cmpunord_ps(lo0, lo0), _mm_cmpunord_ps(lo1, lo1));
+    __m128i at0 = _mm_setr_epi32(0, 1, 2, 3), at1 = _mm_setr_epi32(4, 5, 6, 7);
+    __m128i i0 = at0, i1 = at1;
+    const __m128i eight = _mm_set1_epi32(8);
+    for (k = 8; k + 8 <= K; k += 8) {
+      i0 = _mm_add_epi32(i0, eight);
+      i1 = _mm_add_epi32(i1, eight);
+      const __m128 v0 = _mm_loadu_ps(row + k), v1 = _mm_loadu_ps(row + k + 4);
+      const __m128 less0 = _mm_cmplt_ps(v0, lo0), less1 = _mm_cmplt_ps(v1, lo1);
+      lo0 = _mm_or_ps(_mm_and_ps(less0, v0), _mm_andnot_ps(less0, lo0));
+      lo1 = _mm_or_ps(_mm_and_ps(less1, v1), _mm_andnot_ps(less1, lo1));
+      const __m128i take0 = _mm_castps_si128(less0), take1 = _mm_castps_si128(less1);
+      at0 = _mm_or_si128(_mm_and_si128(take0, i0), _mm_andnot_si128(take0, at0));
+      at1 = _mm_or_si128(_mm_and_si128(take1, i1), _mm_andnot_si128(take1, at1));
+      nan = _mm_or_ps(nan, _mm_or_ps(_mm_cmpunord_ps(v0, v0), _mm_cmpunord_ps(v1, v1)));
+    }
+    if (_mm_movemask_ps(nan) == 0) {
+      alignas(16) float lo[8];
+      alignas(16) int32_t at[8];
+      _mm_store_ps(lo, lo0);
+      _mm_store_ps(lo + 4, lo1);
+      _mm_store_si128(reinterpret_cast<__m128i*>(at), at0);
+      _mm_store_si128(reinterpret_cast<__m128i*>(at + 4), at1);
+      float value = lo[0];
+      best = at[0];
+      for (int j = 1; j < 8; ++j) {
+        if (lo[j] < value || (lo[j] == value && at[j] < best)) value = lo[j], best = at[j];
+      }
+      for (; k < K; ++k) {  // the tail, past every lane's index
+        if (std::isnan(row[k])) return k;
+        if (row[k] < value) value = row[k], best = k;
+      }
+      return best;
+    }
+    k = 1;
+  }
+#endif
+  for (; k < K && !std::isnan(row[best]); ++k) {
+    if (!(row[k] >= row[best])) best = k;  // smaller, or NaN
+  }
+  return best;
+}
 
 int Log2(int x) {
   int n = 0;
@@ -101,11 +155,7 @@ torch::Tensor VectorQuantizerImpl::NearestCodes(const torch::Tensor& flat,
       // (zz - 2 dot) + cc, rounded after each step as Distances' sub and add; dot + dot is the
       // exact doubling of its `2 *` and leaves no product for the compiler to fuse.
       for (int64_t k = 0; k < K; ++k) row[k] = (zp[n] - (d[k] + d[k])) + cp[k];
-      int64_t best = 0;
-      for (int64_t k = 1; k < K && !std::isnan(row[best]); ++k) {
-        if (!(row[k] >= row[best])) best = k;  // smaller, or NaN: argmin's order
-      }
-      out[n] = best;
+      out[n] = FirstArgMin(row.data(), K);
     }
   });
   return idx;

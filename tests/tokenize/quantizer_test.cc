@@ -81,6 +81,10 @@ TEST(Quantizer, NearestCodesEqualsArgminOfDistancesIncludingTiesAndNaN) {
     EXPECT_TRUE(torch::equal(VectorQuantizerImpl::NearestCodes(flat, c), expected));
   }
   EXPECT_EQ(VectorQuantizerImpl::NearestCodes(flat, codes)[0].item<int64_t>(), 40);
+  torch::Tensor tail = codes.slice(0, 41).clone();  // 89 codes: the last one in the scan's tail
+  tail[88][1] = std::nanf("");
+  EXPECT_TRUE(torch::equal(VectorQuantizerImpl::NearestCodes(flat, tail),
+                           VectorQuantizerImpl::Distances(flat, tail).argmin(-1)));
 }
 
 TEST(Quantizer, ReseedsCodesUnusedForLongEnoughFromBatchLatents) {
