@@ -13,7 +13,8 @@ $BENCH_DIR/tokenizer (default /tmp/wmkit-bench).
           (start-up and code seeding excluded); its frame loader runs on a second thread,
           overlapped. Twin: the same loop in Python (same frame draws and anchors, code seeding,
           dead-code draws, lr schedule, clipping, torch.optim.AdamW) on frames decoded before
-          timing, the same steps timed. Same seed, so the bench also says whether the checkpoints are equal.
+          timing, the same steps timed. Same seed, so the bench also says whether the
+          checkpoints are equal.
   encode  "model only" (decoding excluded in both): tokenizer_ref_tool --repeat (Tokenizer::
           Encode) vs the twin's encode of the same float frames, 64 per forward pass.
           "with JPEG decode" (decoding included in both): `wm-tokenize encode` (process start-up,

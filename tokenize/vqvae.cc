@@ -141,9 +141,9 @@ torch::Tensor VectorQuantizerImpl::NearestCodes(const torch::Tensor& flat,
   torch::NoGradGuard no_grad;
   // Distances()'s three terms from the same ATen calls (the matmul's sums are BLAS's, so they
   // must come from the same call shape); only the elementwise steps and the argmin are fused.
-  const torch::Tensor zz = flat.pow(2).sum(-1).contiguous();         // [N]
-  const torch::Tensor dot = flat.matmul(codes.t()).contiguous();     // [N, K]
-  const torch::Tensor cc = codes.pow(2).sum(1).contiguous();         // [K]
+  const torch::Tensor zz = flat.pow(2).sum(-1).contiguous();      // [N]
+  const torch::Tensor dot = flat.matmul(codes.t()).contiguous();  // [N, K]
+  const torch::Tensor cc = codes.pow(2).sum(1).contiguous();      // [K]
   const int64_t N = dot.size(0), K = dot.size(1);
   torch::Tensor idx = torch::empty({N}, torch::kInt64);
   const float *zp = zz.data_ptr<float>(), *dp = dot.data_ptr<float>(), *cp = cc.data_ptr<float>();

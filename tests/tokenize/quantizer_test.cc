@@ -65,8 +65,8 @@ TEST(Quantizer, NearestCodesEqualsArgminOfDistancesIncludingTiesAndNaN) {
   // Coarse values (multiples of 1/4) and repeated codes make many exactly equal distances.
   torch::Tensor codes = (torch::randn({96, 8}) * 4).round() / 4;
   codes = torch::cat({codes, codes.slice(0, 0, 32), codes.slice(0, 10, 12)});  // [130, 8]
-  torch::Tensor flat = torch::cat({(torch::randn({700, 8}) * 4).round() / 4, codes,
-                                   torch::randn({300, 8})});
+  torch::Tensor flat =
+      torch::cat({(torch::randn({700, 8}) * 4).round() / 4, codes, torch::randn({300, 8})});
   namespace F = torch::nn::functional;
   for (const torch::Tensor& c : {codes, F::normalize(codes)}) {  // Euclidean and cosine lookup
     for (const torch::Tensor& z : {flat, F::normalize(flat)}) {
@@ -74,7 +74,7 @@ TEST(Quantizer, NearestCodesEqualsArgminOfDistancesIncludingTiesAndNaN) {
                                VectorQuantizerImpl::Distances(z, c).argmin(-1)));
     }
   }
-  flat[5][2] = std::nanf("");   // a NaN latent: all its distances NaN -> code 0
+  flat[5][2] = std::nanf("");    // a NaN latent: all its distances NaN -> code 0
   codes[40][0] = std::nanf("");  // a NaN code: every latent's first NaN distance wins
   for (const torch::Tensor& c : {codes.slice(0, 0, 40), codes}) {
     torch::Tensor expected = VectorQuantizerImpl::Distances(flat, c).argmin(-1);
