@@ -11,9 +11,10 @@ process start-up does not decide the end-to-end row) + wm-ingest, made once in
 $BENCH_DIR/tokenizer (default /tmp/wmkit-bench).
   train   C++: `wm-tokenize train --steps N`; steps/s from metrics.csv after its first row
           (start-up and code seeding excluded); its frame loader runs on a second thread,
-          overlapped. Twin: the same loop in Python (same frame draws, code seeding, dead-code
-          draws, lr schedule, clipping, torch.optim.AdamW) on frames decoded before timing, the
-          same steps timed. Same seed, so the bench also says whether the checkpoints are equal.
+          overlapped. Twin: the same loop in Python (same frame draws and anchors, code seeding,
+          dead-code draws, lr schedule, clipping, torch.optim.AdamW) on frames decoded before
+          timing, the same steps timed. Same seed, so the bench also says whether the
+          checkpoints are equal.
   encode  "model only" (decoding excluded in both): tokenizer_ref_tool --repeat (Tokenizer::
           Encode) vs the twin's encode of the same float frames, 64 per forward pass.
           "with JPEG decode" (decoding included in both): `wm-tokenize encode` (process start-up,
@@ -73,12 +74,19 @@ def twin_train(run_dir, shards, skip):
     t = config["train"]
     sampler = twin.FrameSampler([shards], config["data"]["image_key"],
                                 config["model"]["image_size"], t["seed"])
-    batches = [sampler.load(sampler.batch_refs(s, t["batch_size"])) for s in range(t["steps"])]
+    batches = []
+    for step in range(t["steps"]):  # frames and, for an anchored tokenizer, the C++ run's anchors
+        refs = sampler.batch_refs(step, t["batch_size"])
+        anchors = None
+        if config["model"].get("anchor_decoder"):
+            anchors = sampler.load_anchors(sampler.training_anchors(
+                refs, step, t["anchor_max_gap"], t["anchor_dropout"]))
+        batches.append((sampler.load(refs), anchors))
     trainer = twin.Trainer(config)
     for step in range(t["steps"]):
         if step == int(skip):
             start, cpu_start = time.perf_counter(), time.process_time()
-        out = trainer.train_step(batches[step])
+        out = trainer.train_step(*batches[step])
         out["loss"].item()  # the C++ loop reads the losses back at logged steps
     wall, cpu = time.perf_counter() - start, time.process_time() - cpu_start
     ours = {**{"model/" + k: v for k, v in trainer.model.state_dict().items()},

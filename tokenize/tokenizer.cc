@@ -61,13 +61,13 @@ const std::string& Tokenizer::checkpoint_sha256() const { return state_->sha256;
 const std::string& Tokenizer::config_hash() const { return state_->config_hash; }
 
 std::vector<uint32_t> Tokenizer::Encode(const float* frames, int64_t n) const {
-  torch::NoGradGuard no_grad;
+  c10::InferenceMode inference;
   const int64_t per_frame = tokens_per_frame(), floats = 3 * int64_t{image_size()} * image_size();
   std::vector<uint32_t> codes(static_cast<size_t>(n * per_frame));
   for (int64_t i = 0; i < n; i += kChunk) {
     const int64_t m = std::min(kChunk, n - i);
     torch::Tensor z = state_->model->Encode(state_->Frames(frames + i * floats, m));
-    torch::Tensor idx = state_->model->quantizer->forward(z).indices.to(torch::kCPU);  // [m,g,g]
+    torch::Tensor idx = state_->model->quantizer->NearestIndices(z).to(torch::kCPU);  // [m,g,g]
     const int64_t* p = idx.contiguous().data_ptr<int64_t>();
     std::copy(p, p + m * per_frame, codes.begin() + i * per_frame);
   }

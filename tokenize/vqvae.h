@@ -31,6 +31,9 @@ struct VectorQuantizerImpl : torch::nn::Module {
   explicit VectorQuantizerImpl(QuantizerOptions options);
   QuantizerOutput forward(const torch::Tensor& z_e);   // z_e: [B, D, h, w]
   torch::Tensor Lookup(const torch::Tensor& indices);  // [B, h, w] -> [B, D, h, w]
+  // forward()'s indices [B, h, w] alone, without its losses, straight-through output and code
+  // statistics: what encoding needs.
+  torch::Tensor NearestIndices(const torch::Tensor& z_e);
   // Codes of consecutive frames z_e [T, D, h, w] with hysteresis: a cell keeps the previous
   // frame's code while that code is within `margin` of the nearest one (in the lookup's squared
   // distance; cosine lookup: 2 - 2 cos), so near-synonym codes stop flipping on unchanged
@@ -51,6 +54,9 @@ struct VectorQuantizerImpl : torch::nn::Module {
   torch::Tensor Codes() const;  // Unit(codebook)
   // Squared distances [..., K] from latents `flat` [..., D] to `codes` [K, D].
   static torch::Tensor Distances(const torch::Tensor& flat, const torch::Tensor& codes);
+  // Distances(flat, codes).argmin(-1) for flat [N, D] -> [N] int64, bit for bit (same float
+  // roundings, first index on ties, first NaN wins), without the four [N, K] temporaries.
+  static torch::Tensor NearestCodes(const torch::Tensor& flat, const torch::Tensor& codes);
 
   QuantizerOptions options;
   torch::Tensor codebook;          // [K, D] parameter

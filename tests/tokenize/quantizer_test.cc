@@ -2,6 +2,8 @@
 // dead-code re-seeding, and the presets building a model of the right shape.
 #include <gtest/gtest.h>
 
+#include <cmath>
+
 #include "tests/core/test_util.h"
 #include "tokenize/vqvae.h"
 
@@ -54,6 +56,35 @@ TEST(Quantizer, L2NormalisedLookupUsesDirectionNotLength) {
   EXPECT_EQ(out.indices.flatten()[0].item<int64_t>(), 0);
   EXPECT_EQ(out.indices.flatten()[1].item<int64_t>(), 2);
   EXPECT_NEAR(out.z_q.flatten()[0].item<float>(), 1.f, 1e-6);
+}
+
+// NearestCodes must equal argmin over the materialised Distances bit for bit, ties and NaN
+// included: encoded tokens are compared byte for byte with the PyTorch twin's.
+TEST(Quantizer, NearestCodesEqualsArgminOfDistancesIncludingTiesAndNaN) {
+  torch::manual_seed(3);
+  // Coarse values (multiples of 1/4) and repeated codes make many exactly equal distances.
+  torch::Tensor codes = (torch::randn({96, 8}) * 4).round() / 4;
+  codes = torch::cat({codes, codes.slice(0, 0, 32), codes.slice(0, 10, 12)});  // [130, 8]
+  torch::Tensor flat =
+      torch::cat({(torch::randn({700, 8}) * 4).round() / 4, codes, torch::randn({300, 8})});
+  namespace F = torch::nn::functional;
+  for (const torch::Tensor& c : {codes, F::normalize(codes)}) {  // Euclidean and cosine lookup
+    for (const torch::Tensor& z : {flat, F::normalize(flat)}) {
+      EXPECT_TRUE(torch::equal(VectorQuantizerImpl::NearestCodes(z, c),
+                               VectorQuantizerImpl::Distances(z, c).argmin(-1)));
+    }
+  }
+  flat[5][2] = std::nanf("");    // a NaN latent: all its distances NaN -> code 0
+  codes[40][0] = std::nanf("");  // a NaN code: every latent's first NaN distance wins
+  for (const torch::Tensor& c : {codes.slice(0, 0, 40), codes}) {
+    torch::Tensor expected = VectorQuantizerImpl::Distances(flat, c).argmin(-1);
+    EXPECT_TRUE(torch::equal(VectorQuantizerImpl::NearestCodes(flat, c), expected));
+  }
+  EXPECT_EQ(VectorQuantizerImpl::NearestCodes(flat, codes)[0].item<int64_t>(), 40);
+  torch::Tensor tail = codes.slice(0, 41).clone();  // 89 codes: the last one in the scan's tail
+  tail[88][1] = std::nanf("");
+  EXPECT_TRUE(torch::equal(VectorQuantizerImpl::NearestCodes(flat, tail),
+                           VectorQuantizerImpl::Distances(flat, tail).argmin(-1)));
 }
 
 TEST(Quantizer, ReseedsCodesUnusedForLongEnoughFromBatchLatents) {
