@@ -10,7 +10,7 @@ namespace wm::motion {
 
 struct ModelConfig {
   int image_size = 64;     // frames are resized (INTER_AREA) to image_size x image_size
-  int channels = 48;       // U-Net width (three stride-2 levels down to image_size / 8)
+  int channels = 32;       // U-Net width (three stride-2 levels down to image_size / 8)
   double flow_scale = 4;   // pixels of flow per unit of the head's output
   double gate_bias = -3;   // correction gate logit offset: sigmoid(-3) = 0.05 at the start
   // Flow = bias + sum_i J_i * a_i with a per-pixel J predicted from the frames: the action acts
@@ -21,7 +21,7 @@ struct ModelConfig {
 
 struct TrainConfig {
   int batch_size = 16;
-  int64_t steps = 600;
+  int64_t steps = 1500;
   double max_lr = 1e-3;
   double min_lr = 1e-4;
   int64_t warmup_steps = 50;
@@ -30,7 +30,7 @@ struct TrainConfig {
   double grad_clip = 1.0;  // max global L2 norm of the gradients (0 = off)
   uint64_t seed = 0;
   int threads = 1;  // LibTorch intra-op threads; fixed so CPU runs are reproducible
-  int64_t checkpoint_every = 200;
+  int64_t checkpoint_every = 500;
   int64_t log_every = 10;
   int64_t val_every = 0;   // val.csv period in steps with --val-data (0: only at the end)
   int unroll = 1;          // imagined steps per training window (loss averaged over them)

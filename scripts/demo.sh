@@ -1,8 +1,9 @@
 #!/usr/bin/env bash
 # `make demo`: the embedded synthetic tabletop dataset, in real RLDS TFRecord form, through the
 # whole pipeline: generate -> ingest (train, val) -> verify -> tokenizer -> token datasets ->
-# dynamics model (an early and a final checkpoint) -> wm-eval -> wm-report compare + plots.
-# About 6 minutes on 2 cores; every stage is rerunnable and resumes.
+# dynamics model (an early and a final checkpoint) -> wm-eval -> wm-report compare + plots, with
+# the pixel-space motion model (wm-motion) trained beside the tokenizer and dynamics model on the
+# other core. About 7 minutes on 2 cores; every stage is rerunnable and resumes.
 set -euo pipefail
 BIN=${1:-build/bin}
 OUT=${2:-data/demo}
@@ -13,6 +14,7 @@ LOOK=${LOOK:-plain}  # varied: textured tables, harder (README, "Known limits")
 # Intra-op threads of the dynamics model. 1 by default: 2 are faster only on a quiet machine,
 # but run about 6x slower when other work shares the cores (spinning threads).
 DYN_THREADS=${DYN_THREADS:-1}
+MOTION_CONFIG=${MOTION_CONFIG:-configs/motion/tiny.yaml}
 RAW=$OUT/raw
 SHARDS=$OUT/shards
 start=$(date +%s)
@@ -56,6 +58,15 @@ for split in ("train", "val"):
 PY
 
 RUN=$OUT/run
+mkdir -p "$RUN"
+echo
+echo "== motion model ($MOTION_CONFIG) -> $RUN/motion, in the background (log: $RUN/motion.log)"
+MOTION_RESUME=()
+[ -f "$RUN/motion/checkpoint.wmt" ] && MOTION_RESUME=(--resume)
+"$BIN/wm-motion" train --config "$MOTION_CONFIG" --data "$SHARDS/train" --val-data "$SHARDS/val" \
+  --out "$RUN/motion" --seed "$SEED" --threads 1 "${MOTION_RESUME[@]}" > "$RUN/motion.log" 2>&1 &
+MOTION_PID=$!
+
 echo
 echo "== 4/6 tokenizer + token datasets (configs/tokenizer/tiny.yaml) -> $RUN"
 TOKENS_ONLY=1 bash scripts/train.sh "$BIN" "$RUN" "$SHARDS/train" "$SHARDS/val"
@@ -76,7 +87,18 @@ fi
 DYNAMICS_ARGS="$DYN" bash scripts/train.sh "$BIN" "$RUN" "$SHARDS/train" "$SHARDS/val"
 
 echo
-echo "== 6/6 evaluate both checkpoints on val (plain + retracing rollouts, baselines) and compare"
+echo "== waiting for the motion model"
+if ! wait "$MOTION_PID"; then
+  cat "$RUN/motion.log" >&2
+  echo "demo: wm-motion train failed (log above)" >&2
+  exit 1
+fi
+grep -v "motion train .*%" "$RUN/motion.log" | tail -n 2
+echo "motion model validation (step, PSNR, copy_last PSNR, reversed-actions PSNR, delta_tpsnr):" \
+  "$(tail -n 1 "$RUN/motion/val.csv")"
+
+echo
+echo "== 6/6 evaluate the checkpoints on val (plain + retracing rollouts, baselines) and compare"
 COMPARE_ARGS="--metrics psnr,ssim,lpips_style,mse_arm,mse_object,delta_tpsnr,moved_error_ratio" \
 EVAL_ARGS="--horizon 8 --episodes 8 --temperature 0 --masks files --seg-config configs/segmentation/tabletop.yaml --resamples 500" \
   bash scripts/eval.sh "$BIN" "$OUT/reports" "$RUN/tokenizer" "$SHARDS/val" "$RUN/tokens/val" \
