@@ -1,16 +1,19 @@
 #!/usr/bin/python3
-"""The config schemas (schemas/{tokenizer,dynamics,segmentation}-config, mixture) and the schemas of
-the tokenizer run's checkpoint.json and of `wm-metrics` frame comparison, against what the C++
-reads and writes:
+"""The config schemas (schemas/{tokenizer,dynamics,motion,segmentation}-config, mixture) and the
+schemas of the tokenizer and motion runs' checkpoint.json and of `wm-metrics` frame comparison,
+against what the C++ reads and writes:
 
-- every file in configs/{tokenizer,dynamics,mixtures,segmentation} validates (after YAML -> JSON),
-  and the keys of each schema are those of its doc's field table;
+- every file in configs/{tokenizer,dynamics,motion,mixtures,segmentation} validates (after
+  YAML -> JSON), and the keys of each schema are those of its doc's field table;
 - each schema rejects unknown keys, wrong types and out-of-range values, and the C++ loader
   rejects the very same files (exit 1, naming the file and the key);
 - `wm-tokenize train --steps 2` and `wm-train --steps 1` record the loaders' defaults in
   checkpoint.json exactly as the schemas' "default"s say; the tokenizer's checkpoint.json validates
   (hashes and shard list checked too) and mutated copies do not, and so does a fine-tune's
   (`--init-from --freeze encoder`: init_from records the parent, config_hash includes it);
+- `wm-motion train --steps 1` likewise: the loader's defaults are the schema's, checkpoint.json
+  validates (hashes, shard list, action statistics and the archive's meta checked too) and
+  mutated copies do not;
 - `wm-metrics` JSON validates for lpips_style + fvd_style with --per-frame (null per-frame
   fvd_style), for identical frames (PSNR "inf") and for the default metrics.
 Needs the built tools (WM_BIN_DIR); about 20 s on 2 cores."""
@@ -21,6 +24,7 @@ import json
 import os
 import re
 import shutil
+import struct
 import subprocess
 import tempfile
 import unittest
@@ -37,6 +41,7 @@ BIN = os.environ.get("WM_BIN_DIR", os.path.join(SRC, "build", "bin"))
 FAMILIES = {
     "tokenizer": ("tokenizer", "tokenizer-config", "tokenizer.md", "## Config"),
     "dynamics": ("dynamics", "dynamics-config", "dynamics.md", "## Config keys"),
+    "motion": ("motion", "motion-config", "motion.md", "## Config"),
     "mixture": ("mixtures", "mixture", None, None),
     "segmentation": ("segmentation", "segmentation-config", "metrics-segmentation.md", "## Config"),
 }
@@ -87,7 +92,29 @@ def schema_defaults(s):
             for sec, body in s["properties"].items()}
 
 
-FIX = {}  # built once by setUpModule: shard dataset, tokenizer run, frame folders
+def expected_config(name, overrides, steps):
+    """The config a run trained with `overrides` and --steps `steps` records: the schema's
+    defaults but for those."""
+    expected = schema_defaults(schema(name))
+    for sec, values in overrides.items():
+        expected[sec].update(values)
+    expected["train"]["steps"] = steps
+    return expected
+
+
+FIX = {}  # built once by setUpModule: shard dataset, tokenizer and motion runs, frame folders
+
+
+def train_run(command, name, overrides, steps):
+    """Trains FIX["tmp"]/name on the fixture's shards with the config `overrides` (written to
+    name.yaml) for `steps` steps; returns the run directory."""
+    config, run = (os.path.join(FIX["tmp"], name + ext) for ext in (".yaml", ""))
+    with open(config, "w", encoding="utf-8") as f:
+        yaml.safe_dump(overrides, f)
+    r = tool(*command, "--config", config, "--data", FIX["shards"], "--out", run, "--steps", steps,
+             "--threads", 1)
+    assert r.returncode == 0, r.stderr
+    return run
 
 
 def setUpModule():
@@ -102,13 +129,9 @@ def setUpModule():
         assert r.returncode == 0, r.stderr
     # Only two keys set: every other key of checkpoint.json's config is the loader's default.
     FIX["tok_overrides"] = {"model": {"min_channels": 16}, "train": {"batch_size": 4}}
-    config = os.path.join(tmp, "tok.yaml")
-    with open(config, "w", encoding="utf-8") as f:
-        yaml.safe_dump(FIX["tok_overrides"], f)
-    FIX["tok"] = os.path.join(tmp, "tok")
-    r = tool("wm-tokenize", "train", "--config", config, "--data", shards, "--out", FIX["tok"],
-             "--steps", 2, "--threads", 1)
-    assert r.returncode == 0, r.stderr
+    FIX["tok"] = train_run(("wm-tokenize", "train"), "tok", FIX["tok_overrides"], 2)
+    FIX["motion_overrides"] = {"model": {"channels": 8}, "train": {"batch_size": 4}}
+    FIX["motion"] = train_run(("wm-motion", "train"), "motion", FIX["motion_overrides"], 1)
     rng = np.random.default_rng(7)
     for side in ("ref", "pred"):
         os.makedirs(os.path.join(tmp, side))
@@ -125,8 +148,9 @@ def tearDownModule():
 
 class ShippedConfigs(unittest.TestCase):
     def test_schemas_are_draft_2020_12(self):
-        for name in ("tokenizer-config", "dynamics-config", "mixture", "segmentation-config",
-                     "tokenizer-checkpoint", "metrics-compare"):
+        for name in ("tokenizer-config", "dynamics-config", "motion-config", "mixture",
+                     "segmentation-config", "tokenizer-checkpoint", "motion-checkpoint",
+                     "metrics-compare"):
             s = schema(name)
             self.assertEqual(s["$schema"], "https://json-schema.org/draft/2020-12/schema")
             self.assertTrue(s["$id"].endswith("/%s.schema.json" % name))
@@ -159,16 +183,19 @@ class ShippedConfigs(unittest.TestCase):
             self.assertEqual(documented, keys, doc)
 
     def test_checkpoint_config_rules_equal_the_config_schema(self):
-        cfg, ckpt = schema("tokenizer-config"), schema("tokenizer-checkpoint")
-        self.assertEqual(set(ckpt["$defs"]["config"]["required"]), set(cfg["properties"]))
-        for sec, body in cfg["properties"].items():
-            self.assertEqual(ckpt["$defs"][sec]["properties"], body["properties"], sec)
-            self.assertEqual(set(ckpt["$defs"][sec]["required"]), set(body["properties"]), sec)
-        for d in ("int", "int64", "uint64"):
-            self.assertEqual(ckpt["$defs"][d], cfg["$defs"][d])
+        for family in ("tokenizer", "motion"):
+            cfg, ckpt = schema(family + "-config"), schema(family + "-checkpoint")
+            self.assertEqual(set(ckpt["$defs"]["config"]["required"]), set(cfg["properties"]))
+            for sec, body in cfg["properties"].items():
+                self.assertEqual(ckpt["$defs"][sec]["properties"], body["properties"], sec)
+                self.assertEqual(set(ckpt["$defs"][sec]["required"]), set(body["properties"]),
+                                 sec)
+            for d in ("int", "int64", "uint64"):
+                self.assertEqual(ckpt["$defs"][d], cfg["$defs"][d])
 
     def test_empty_file_means_defaults(self):
-        for name in ("tokenizer-config", "dynamics-config", "segmentation-config"):
+        for name in ("tokenizer-config", "dynamics-config", "motion-config",
+                     "segmentation-config"):
             validator(name).validate(None)
         self.assertFalse(validator("mixture").is_valid(None))
 
@@ -206,6 +233,25 @@ MUTATIONS = [
      "model.context_frames"),
     ("dynamics", "tiny", "out of range (0 is allowed for the tokenizer)",
      setting(["train", "val_every"], 0), "train.val_every"),
+    ("motion", "tiny", "unknown key", setting(["model", "chanels"], 8), "model.chanels"),
+    ("motion", "tiny", "unknown section", setting(["optimizer"], {"lr": 1}), "optimizer"),
+    ("motion", "tiny", "section not a mapping", setting(["train"], 5), "train"),
+    ("motion", "tiny", "wrong type", setting(["model", "action_jacobian"], "yes please"),
+     "model.action_jacobian"),
+    ("motion", "tiny", "wrong type", setting(["train", "unroll"], 1.5), "train.unroll"),
+    ("motion", "tiny", "int overflow", setting(["model", "channels"], 2**31), "model.channels"),
+    ("motion", "tiny", "negative uint64", setting(["train", "seed"], -1), "train.seed"),
+    ("motion", "tiny", "not a multiple of 8", setting(["model", "image_size"], 60),
+     "model.image_size"),
+    ("motion", "tiny", "out of range", setting(["model", "image_size"], 0), "model.image_size"),
+    ("motion", "tiny", "out of range", setting(["model", "flow_scale"], 0.0), "model.flow_scale"),
+    ("motion", "tiny", "out of range", setting(["train", "beta2"], 1.0), "train.beta2"),
+    ("motion", "tiny", "out of range", setting(["train", "val_every"], -1), "train.val_every"),
+    ("motion", "tiny", "out of range", setting(["train", "unroll"], 0), "train.unroll"),
+    ("motion", "tiny", "out of range", setting(["train", "val_episodes"], 0),
+     "train.val_episodes"),
+    ("motion", "tiny", "out of range", setting(["train", "val_horizon"], 0), "train.val_horizon"),
+    ("motion", "tiny", "out of range", setting(["data", "image_key"], ""), "data.image_key"),
     ("mixture", "tabletop", "wrong type", setting(["datasets", 0, "weight"], "heavy"),
      "datasets[0]"),
     ("mixture", "tabletop", "missing weight", lambda d: d["datasets"][0].pop("weight"),
@@ -258,6 +304,9 @@ class ConfigMutations(unittest.TestCase):
         if family == "dynamics":  # the config is read before --tokens is opened
             return tool("wm-train", "--config", path, "--tokens", FIX["shards"], "--out", out,
                         "--steps", 1, "--threads", 1)
+        if family == "motion":
+            return tool("wm-motion", "train", "--config", path, "--data", FIX["shards"], "--out",
+                        out, "--steps", 1, "--threads", 1)
         if family == "mixture":
             return tool("wm-tokenize", "train", "--config", tiny, "--mixture", path, "--data",
                         FIX["shards"], "--out", out, "--steps", 1, "--threads", 1)
@@ -292,6 +341,27 @@ class ConfigMutations(unittest.TestCase):
         self.assertEqual(r.returncode, 0, r.stderr)
 
 
+def check_run_manifest(test, m, run_dir, step):
+    """The cross-field facts a checkpoint schema cannot state: step, the archive's sha256, the
+    config hash, and the one data entry against the fixture's index.json (all but the entry's
+    stage-specific keys). Returns (that entry, the index)."""
+    test.assertEqual(m["step"], step)
+    test.assertEqual(m["checkpoint"]["sha256"],
+                     sha256_file(os.path.join(run_dir, "checkpoint.wmt")))
+    compact = json.dumps(m["config"], sort_keys=True, separators=(",", ":"))
+    test.assertEqual(m["config_hash"], hashlib.sha256(compact.encode()).hexdigest())
+    with open(os.path.join(FIX["shards"], "index.json"), encoding="utf-8") as f:
+        index = json.load(f)
+    [data] = m["data"]
+    test.assertEqual((data["dataset"], data["split"], data["num_steps"]),
+                     (index["dataset"], index["split"], index["num_steps"]))
+    test.assertEqual(data["index_config_hash"], index["provenance"]["config_hash"])
+    test.assertEqual(data["shards"],
+                     [{"file": s["file"], "sha256": s["sha256"]} for s in index["shards"]])
+    test.assertNotIn(FIX["tmp"], json.dumps(m))  # no paths
+    return data, index
+
+
 class TokenizerCheckpoint(unittest.TestCase):
     def setUp(self):
         with open(os.path.join(FIX["tok"], "checkpoint.json"), encoding="utf-8") as f:
@@ -299,28 +369,13 @@ class TokenizerCheckpoint(unittest.TestCase):
         self.validator = validator("tokenizer-checkpoint")
 
     def test_valid_and_consistent(self):
-        m = self.manifest
-        self.validator.validate(m)
-        self.assertEqual(m["step"], 2)
-        self.assertEqual(m["checkpoint"]["sha256"],
-                         sha256_file(os.path.join(FIX["tok"], "checkpoint.wmt")))
-        compact = json.dumps(m["config"], sort_keys=True, separators=(",", ":"))
-        self.assertEqual(m["config_hash"], hashlib.sha256(compact.encode()).hexdigest())
-        with open(os.path.join(FIX["shards"], "index.json"), encoding="utf-8") as f:
-            index = json.load(f)
-        [data] = m["data"]
-        self.assertEqual((data["dataset"], data["split"], data["num_steps"], data["weight"]),
-                         (index["dataset"], index["split"], index["num_steps"], 1.0))
-        self.assertEqual(data["index_config_hash"], index["provenance"]["config_hash"])
-        self.assertEqual(data["shards"],
-                         [{"file": s["file"], "sha256": s["sha256"]} for s in index["shards"]])
+        self.validator.validate(self.manifest)
+        data, _ = check_run_manifest(self, self.manifest, FIX["tok"], 2)
+        self.assertEqual(data["weight"], 1.0)
 
     def test_loader_defaults_are_the_schema_defaults(self):
-        expected = schema_defaults(schema("tokenizer-config"))
-        for sec, values in FIX["tok_overrides"].items():
-            expected[sec].update(values)
-        expected["train"]["steps"] = 2  # --steps
-        self.assertEqual(self.manifest["config"], expected)
+        self.assertEqual(self.manifest["config"],
+                         expected_config("tokenizer-config", FIX["tok_overrides"], 2))
 
     def test_rejects_mutated_manifests(self):
         def mutated(fn):
@@ -380,6 +435,88 @@ class TokenizerFineTune(unittest.TestCase):
             doc = copy.deepcopy(self.manifest)
             fn(doc)
             self.assertFalse(v.is_valid(doc))
+
+
+def archive_meta(path):
+    """The JSON meta of a wmkit tensor archive (WMTENSR1, u64 header length, header JSON)."""
+    with open(path, "rb") as f:
+        blob = f.read()
+    assert blob[:8] == b"WMTENSR1", path
+    (n,) = struct.unpack_from("<Q", blob, 8)
+    return json.loads(blob[16:16 + n].decode("utf-8"))["meta"]
+
+
+class MotionCheckpoint(unittest.TestCase):
+    """checkpoint.json of `wm-motion train --steps 1` on the fixture's shards against
+    schemas/motion-checkpoint.schema.json, the index and the archive."""
+
+    @classmethod
+    def setUpClass(cls):
+        with open(os.path.join(FIX["motion"], "checkpoint.json"), encoding="utf-8") as f:
+            cls.manifest = json.load(f)
+
+    def test_valid_and_consistent(self):
+        m = self.manifest
+        validator("motion-checkpoint").validate(m)
+        data, index = check_run_manifest(self, m, FIX["motion"], 1)
+        self.assertEqual((m["model_kind"], data["num_episodes"]), ("motion", index["num_episodes"]))
+        stats = index["action_stats"]
+        self.assertEqual(m["action_norms"],
+                         {index["dataset"]: {"mean": stats["mean"], "std": stats["std"]}})
+        self.assertEqual(m["action_dim"], len(stats["mean"]))
+        self.assertEqual(m["action_space"],
+                         index["features"]["action"].get("space", "eef_delta"))
+
+    def test_archive_meta_agrees(self):
+        """What MotionModel::Load and --resume read (the archive's meta) is what the manifest
+        says."""
+        meta = archive_meta(os.path.join(FIX["motion"], "checkpoint.wmt"))
+        for key in ("model_kind", "step", "config", "config_hash", "action_dim", "action_space",
+                    "action_norms"):
+            self.assertEqual(meta[key], self.manifest[key], key)
+
+    def test_loader_defaults_are_the_schema_defaults(self):
+        self.assertEqual(self.manifest["config"],
+                         expected_config("motion-config", FIX["motion_overrides"], 1))
+        validator("motion-config").validate(self.manifest["config"])
+
+    def test_rejects_mutated_manifests(self):
+        v = validator("motion-checkpoint")
+        [name] = self.manifest["action_norms"]
+        for fn in (lambda d: d.update(extra=1),
+                   lambda d: d.update(tool="wm-train"),
+                   lambda d: d.update(model_kind="dynamics"),
+                   lambda d: d.pop("model_kind"),
+                   lambda d: d.update(step=0),
+                   lambda d: d.update(rng={"scheme": "mt19937_64", "seed": 0}),
+                   lambda d: d.update(init_from={}),
+                   lambda d: d["config"]["model"].pop("flow_scale"),
+                   lambda d: d["config"]["model"].update(image_size=60),
+                   lambda d: d["config"]["train"].update(unroll=0),
+                   lambda d: d["config"]["train"].update(grad_clip=None),
+                   lambda d: d["config"]["data"].update(stream="image"),
+                   lambda d: d.update(config_hash="0" * 63),
+                   lambda d: d["checkpoint"].update(sha256=d["checkpoint"]["sha256"].upper()),
+                   lambda d: d["checkpoint"].update(format="torch"),
+                   lambda d: d["libraries"].pop("libtorch"),
+                   lambda d: d.update(data=[]),
+                   lambda d: d.update(data=d["data"] * 2),
+                   lambda d: d["data"][0].update(weight=1.0),
+                   lambda d: d["data"][0].pop("num_episodes"),
+                   lambda d: d["data"][0]["shards"][0].update(path="/data/x"),
+                   lambda d: d["data"][0]["shards"][0].update(file="shard-0.wms"),
+                   lambda d: d.update(action_dim=0),
+                   lambda d: d.pop("action_dim"),
+                   lambda d: d.update(action_space="cartesian"),
+                   lambda d: d.update(action_norms={}),
+                   lambda d: d["action_norms"].update(other=d["action_norms"][name]),
+                   lambda d: d["action_norms"][name].pop("std"),
+                   lambda d: d["action_norms"][name].update(mean=[]),
+                   lambda d: d["action_norms"][name]["std"].__setitem__(0, -1.0),
+                   lambda d: d["action_norms"][name].update(min=[0.0])):
+            doc = copy.deepcopy(self.manifest)
+            fn(doc)
+            self.assertFalse(v.is_valid(doc), doc)
 
 
 class DynamicsDefaults(unittest.TestCase):
