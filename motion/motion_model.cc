@@ -59,8 +59,13 @@ std::unique_ptr<MotionModel> MotionModel::Load(const std::string& path,
     Check(norms.size() == 1, "expected the statistics of one training dataset",
           {.key = "action_norms"});
     s.norm = trainkit::ActionNorm::FromJson(norms.begin().value());
+    const auto action_dim = meta.at("action_dim").get<int64_t>();
+    Check(s.norm.dim() == action_dim,
+          "action statistics have " + std::to_string(s.norm.dim()) + " values, the model " +
+              std::to_string(action_dim),
+          {.key = "action_norms"});
     s.step = meta.at("step").get<int64_t>();
-    s.net = WarpNet(s.config.model, meta.at("action_dim").get<int64_t>());
+    s.net = WarpNet(s.config.model, action_dim);
     trainkit::LoadModule(reader, "model/", *s.net);
   } catch (const Error& e) {
     throw e.WithFile(s.file);

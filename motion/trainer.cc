@@ -62,7 +62,8 @@ void WriteCheckpoint(const TrainOptions& o, const RunDir& run, TrainState& s) {
                          {"step", s.step},
                          {"adamw_step", s.optimizer->step_count()},
                          {"config", ConfigToJson(o.config)},
-                         {"config_hash", ConfigHash(ConfigToJson(o.config))}};
+                         {"config_hash", ConfigHash(ConfigToJson(o.config))},
+                         {"data", s.sampler->DataProvenance()}};
   meta.update(ActionMeta(*s.sampler));
   w.SetMeta(std::move(meta));
   run.WriteCheckpoint(w, [&] { return Manifest(o, run, s); });
@@ -74,6 +75,12 @@ void LoadCheckpoint(const std::string& path, const nlohmann::json& config, Train
     const nlohmann::json& meta = r.meta();
     CheckResumeConfig(meta.value("config_hash", ""),
                       ConfigToJson(ConfigFromJson(meta.at("config"))), config);
+    // The action statistics (and windows) come from --data: other data would change them
+    // silently halfway through the run.
+    Check(meta.at("data") == s.sampler->DataProvenance(),
+          "checkpoint was trained on other data than --data (dataset, split or shard hashes "
+          "differ): resume with the same dataset, or start a new run",
+          {.key = "data"});
     trainkit::LoadModule(r, "model/", *s.model);
     trainkit::LoadAdamW(r, meta.at("adamw_step").get<int64_t>(), *s.optimizer);
     s.step = meta.at("step").get<int64_t>();

@@ -74,6 +74,12 @@ TEST_F(MotionTrainTest, KilledRunResumesBitIdentically) {
   EXPECT_EQ(WithoutThroughput(ReadFile(dir_ / "whole/metrics.csv")),
             WithoutThroughput(ReadFile(dir_ / "parts/metrics.csv")));
 
+  TrainOptions other_data = Options("parts", 30);
+  other_data.resume = true;
+  other_data.data_dir = dir_ / "val";
+  EXPECT_NE(wm::test::ErrorText([&] { TrainMotion(other_data); }).find("other data"),
+            std::string::npos);
+
   TrainOptions changed = Options("parts", 30);
   changed.resume = true;
   changed.config.model.flow_scale = 2;
