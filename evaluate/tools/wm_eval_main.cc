@@ -169,6 +169,7 @@ int main(int argc, char** argv) {
   o.controllability = wm::evaluate::ParsePerturbation(controllability);
   try {
     if (rollout == "auto") o.modes = wm::evaluate::AutoRolloutModes(o.tokens_dir);
+    o.rollout_auto = rollout == "auto";
     for (const auto& dir : Evaluate(o, policy_args)) {
       spdlog::info("wrote {}", dir);
     }
