@@ -1,10 +1,11 @@
 #include "evaluate/evaluator.h"
 
+#include <spdlog/spdlog.h>
+
 #include <cmath>
 #include <filesystem>
 #include <functional>
 #include <optional>
-#include <spdlog/spdlog.h>
 
 #include "core/atomic_file.h"
 #include "core/error.h"
@@ -124,14 +125,11 @@ void AddImagined(EpisodeRecord& rec, const ImaginedEpisode& imagined, const Clip
 
 // Imagines and scores `episodes` (positions `positions` in the whole evaluated list, for
 // the videos and strips): one record per episode, nothing aggregated yet.
-std::vector<EpisodeRecord> ScoreEpisodes(const CheckpointUnderEval& checkpoint,
-                                         const std::string& name, const std::string& dir,
-                                         const tokenize::Tokenizer& tok,
-                                         const tokens::TokenDataset& data,
-                                         const shard::DatasetReader& shards,
-                                         const std::vector<int64_t>& episodes,
-                                         const std::vector<size_t>& positions,
-                                         metrics::Lpips* lpips) {
+std::vector<EpisodeRecord> ScoreEpisodes(
+    const CheckpointUnderEval& checkpoint, const std::string& name, const std::string& dir,
+    const tokenize::Tokenizer& tok, const tokens::TokenDataset& data,
+    const shard::DatasetReader& shards, const std::vector<int64_t>& episodes,
+    const std::vector<size_t>& positions, metrics::Lpips* lpips) {
   const EvalOptions& o = checkpoint.options;
   const std::string image_key = data.index().tokenizer.image_key;
   const RegionMasks masks(o.masks);
@@ -169,10 +167,10 @@ std::vector<EpisodeRecord> ScoreEpisodes(const CheckpointUnderEval& checkpoint,
     // Imagined frames are 1..h; each carries its step's reward, as the logged frames do.
     for (int64_t s = 1; s <= h; ++s) rec.real_return += ep.rewards.at(s);
     const Clip given = SubClip(real, 0, 1);
+    const EpisodeToImagine episode{
+        .position = i, .episode = episodes[i], .given = given, .shard_episode = ep, .steps = h};
     std::map<std::string, Clip> first_samples;
-    AddImagined(rec, imagine({.position = i, .episode = episodes[i], .given = given,
-                              .shard_episode = ep, .steps = h}),
-                target, tok, add_clip, first_samples);
+    AddImagined(rec, imagine(episode), target, tok, add_clip, first_samples);
     if (static_cast<int>(positions[i]) < o.videos) {
       WriteClipVideo((fs::path(dir) / "videos").string(), episodes[i], target, first_samples);
     }

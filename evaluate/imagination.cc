@@ -49,9 +49,11 @@ CheckpointUnderEval LoadDynamicsCheckpoint(const EvalOptions& o, size_t c, const
                                            const tokens::TokenDataset& data) {
   std::shared_ptr<const train::DynamicsModel> model = LoadModelFor(o, o.checkpoints[c], data);
   if (o.rollout.samples >= 2 && model->DecodeTemperature(o.rollout.temperature) == 0) {
-    spdlog::warn("{}: --samples {} with argmax decoding (temperature 0) imagines {} identical "
-                 "rollouts: uncertainty is 0 and uncertainty_error_corr undefined; pass "
-                 "--temperature > 0 to sample", name, o.rollout.samples, o.rollout.samples);
+    spdlog::warn(
+        "{}: --samples {} with argmax decoding (temperature 0) imagines {} identical "
+        "rollouts: uncertainty is 0 and uncertainty_error_corr undefined; pass "
+        "--temperature > 0 to sample",
+        name, o.rollout.samples, o.rollout.samples);
   }
   auto start = [o, model, &tok, &data](const std::vector<int64_t>& episodes) -> Imagination {
     std::map<RolloutMode, std::vector<EpisodeRollout>> rollouts;
@@ -90,8 +92,7 @@ bool ScoresControllability(const EvalOptions& o) {
          std::find(o.modes.begin(), o.modes.end(), RolloutMode::kPlain) != o.modes.end();
 }
 
-CheckpointUnderEval LoadCheckpointUnderEval(const EvalOptions& o, size_t c,
-                                            const std::string& name,
+CheckpointUnderEval LoadCheckpointUnderEval(const EvalOptions& o, size_t c, const std::string& name,
                                             const tokenize::Tokenizer& tok,
                                             const tokens::TokenDataset& data) {
   if (motion::MotionModel::IsMotionCheckpoint(o.checkpoints[c])) {

@@ -53,15 +53,13 @@ struct CheckpointUnderEval {
 // Checkpoint `c` of `o` (name `name`, for warnings): a motion model when
 // MotionModel::IsMotionCheckpoint says so, else a token dynamics model. Throws wm::Error when it
 // does not fit the tokenizer or the token data.
-CheckpointUnderEval LoadCheckpointUnderEval(const EvalOptions& o, size_t c,
-                                            const std::string& name,
+CheckpointUnderEval LoadCheckpointUnderEval(const EvalOptions& o, size_t c, const std::string& name,
                                             const tokenize::Tokenizer& tok,
                                             const tokens::TokenDataset& data);
 
 // The motion model's side of LoadCheckpointUnderEval (evaluate/motion_imagination.cc).
 CheckpointUnderEval LoadMotionCheckpoint(const EvalOptions& o, const std::string& checkpoint,
-                                         const std::string& name,
-                                         const tokenize::Tokenizer& tok,
+                                         const std::string& name, const tokenize::Tokenizer& tok,
                                          const tokens::TokenDataset& data);
 
 // Whether `o` asks for delta_tpsnr: a plain rollout and a perturbation.

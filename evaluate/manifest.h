@@ -24,10 +24,11 @@ namespace wm::evaluate {
 // What a report's manifest says of the evaluated checkpoint besides its name and path; each kind
 // of model fills it (DescribeDynamicsCheckpoint; the motion model in motion_imagination.cc).
 struct CheckpointInfo {
-  std::string file;      // the checkpoint.wmt evaluated: its SHA-256 names it everywhere
-  int64_t step = 0;      // training step
-  nlohmann::json extra;  // more manifest "checkpoint" keys: policy_conditioning for a token
-                         // dynamics model; model_kind "motion", config, config_hash for a motion one
+  std::string file;  // the checkpoint.wmt evaluated: its SHA-256 names it everywhere
+  int64_t step = 0;  // training step
+  // More manifest "checkpoint" keys: policy_conditioning for a token dynamics model;
+  // model_kind "motion", config and config_hash for a motion one.
+  nlohmann::json extra;
 };
 CheckpointInfo DescribeDynamicsCheckpoint(const train::DynamicsModel& model);
 

@@ -8,9 +8,9 @@
 #include <algorithm>
 #include <memory>
 
-#include "core/provenance.h"
 #include "core/episode.h"
 #include "core/error.h"
+#include "core/provenance.h"
 #include "core/tokens/token_dataset.h"
 #include "evaluate/controllability.h"
 #include "evaluate/imagination.h"
@@ -41,12 +41,16 @@ EvalOptions MotionOptions(const EvalOptions& o, const std::string& name) {
   m.modes = {RolloutMode::kPlain};
   m.rollout.samples = 1;
   if (!o.rollout_auto && o.modes != m.modes) {
-    spdlog::warn("{}: retrace is the token model's context rollout (WHALE eq. 6) and does not "
-                 "apply to a motion model: scoring its plain rollout only", name);
+    spdlog::warn(
+        "{}: retrace is the token model's context rollout (WHALE eq. 6) and does not "
+        "apply to a motion model: scoring its plain rollout only",
+        name);
   }
   if (o.rollout.samples >= 2) {
-    spdlog::warn("{}: --samples {}: a motion model is deterministic, so it imagines once (no "
-                 "uncertainty rows)", name, o.rollout.samples);
+    spdlog::warn(
+        "{}: --samples {}: a motion model is deterministic, so it imagines once (no "
+        "uncertainty rows)",
+        name, o.rollout.samples);
   }
   return m;
 }
@@ -61,8 +65,7 @@ Clip ImagineClip(const motion::MotionModel& model, const Clip& given, const floa
 }  // namespace
 
 CheckpointUnderEval LoadMotionCheckpoint(const EvalOptions& o, const std::string& checkpoint,
-                                         const std::string& name,
-                                         const tokenize::Tokenizer& tok,
+                                         const std::string& name, const tokenize::Tokenizer& tok,
                                          const tokens::TokenDataset& data) {
   std::shared_ptr<const motion::MotionModel> model =
       motion::MotionModel::Load(checkpoint, o.device, o.threads);

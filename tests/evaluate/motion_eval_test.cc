@@ -32,14 +32,17 @@ class MotionEvalTest : public ::testing::Test {
     dir_ = new test::TempDir();
     motion::test::WriteMovingSquares(*dir_ / "train", 24, 12, 1);
     motion::test::WriteMovingSquares(*dir_ / "val", 4, 9, 99, "moving_square_val");
-    tokenize::TrainOptions tok{.config = tokenize::TestConfig(), .data_dirs = {*dir_ / "train"},
-                               .out_dir = *dir_ / "tok"};
+    tokenize::TrainOptions tok{
+        .config = tokenize::TestConfig(), .data_dirs = {*dir_ / "train"}, .out_dir = *dir_ / "tok"};
     tok.config.train.steps = 5;
     tok.show_progress = false;
     tokenize::TrainTokenizer(tok);
-    tokenize::EncodeDataset({.checkpoint = *dir_ / "tok", .data_dir = *dir_ / "val",
-                             .out_dir = *dir_ / "tokens", .show_progress = false});
-    motion::TrainOptions m{.config = motion::test::TestConfig(), .data_dir = *dir_ / "train",
+    tokenize::EncodeDataset({.checkpoint = *dir_ / "tok",
+                             .data_dir = *dir_ / "val",
+                             .out_dir = *dir_ / "tokens",
+                             .show_progress = false});
+    motion::TrainOptions m{.config = motion::test::TestConfig(),
+                           .data_dir = *dir_ / "train",
                            .out_dir = *dir_ / "motion"};
     m.config.train.steps = 150;
     m.show_progress = false;
@@ -87,8 +90,8 @@ test::TempDir* MotionEvalTest::dir_ = nullptr;
 TEST_F(MotionEvalTest, PlainRolloutBesideTheBaselinesFollowsTheActionsAndBeatsCopying) {
   std::set<std::string> rollouts;
   const auto mean = Summary(&rollouts);
-  EXPECT_EQ(rollouts, (std::set<std::string>{"plain", "copy_last", "copy_last_tokens",
-                                             "tokenizer_recon"}));
+  EXPECT_EQ(rollouts,
+            (std::set<std::string>{"plain", "copy_last", "copy_last_tokens", "tokenizer_recon"}));
   ASSERT_TRUE(mean.contains({"plain", "delta_tpsnr"}));
   const double delta_tpsnr = std::stod(mean.at({"plain", "delta_tpsnr"}));
   const double psnr = std::stod(mean.at({"plain", "psnr"}));
