@@ -297,7 +297,7 @@ struct EvalInputs {
 // completes the set writes the report). Returns the report directory, "" while parts are missing.
 std::string EvaluateCheckpoint(const EvalOptions& all, size_t c, const EvalInputs& in) {
   const std::string name = ReportName(all, c);
-  const std::string dir = (fs::path(all.out_dir) / name).string();
+  std::string dir = (fs::path(all.out_dir) / name).string();
   fs::create_directories(dir);
   // manifest.json is written last and marks a complete report: a killed run leaves none, so
   // wm-report refuses the folder instead of mixing old and new files.
@@ -311,9 +311,11 @@ std::string EvaluateCheckpoint(const EvalOptions& all, size_t c, const EvalInput
   auto write = [&](const std::vector<EpisodeRecord>& records) {
     WriteReport(o, name, all.checkpoints[c], dir, records, checkpoint.info, in.tok, in.data,
                 in.shards);
-    return dir;
   };
-  if (o.num_shards == 1) return write(score());
+  if (o.num_shards == 1) {
+    write(score());
+    return dir;
+  }
   const nlohmann::json identity =
       PartIdentity(o, checkpoint.info.file, in.tok, in.data, in.episodes);
   const std::string part_path = PartPath(dir, o.shard_index, o.num_shards);
@@ -324,7 +326,10 @@ std::string EvaluateCheckpoint(const EvalOptions& all, size_t c, const EvalInput
     WriteEvalPart(part_path, {identity, o.shard_index, score()});
   }
   // The job that completes the set writes the report (several at once write the same bytes).
-  if (auto records = GatherParts(dir, identity, in.episodes, o.num_shards)) return write(*records);
+  if (auto records = GatherParts(dir, identity, in.episodes, o.num_shards)) {
+    write(*records);
+    return dir;
+  }
   spdlog::info("{}: waiting for the other parts in {}", name,
                fs::path(part_path).parent_path().string());
   return "";

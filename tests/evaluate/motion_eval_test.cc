@@ -1,7 +1,8 @@
 // wm-eval of a motion checkpoint (evaluate/imagination.h): a motion model trained in seconds on
 // the moving-square data (tests/motion/moving_square.h) is scored beside the baselines of a tiny
 // tokenizer of the same frames, with its plain rollout only; it follows its actions (delta_tpsnr)
-// and beats copying; two shard jobs write the single job's report; the closed loop refuses it.
+// and beats copying; two shard jobs write the single job's report; the closed loop and a model of
+// another image size are refused.
 #include <gtest/gtest.h>
 
 #include <map>
@@ -127,12 +128,26 @@ TEST_F(MotionEvalTest, TwoShardJobsWriteTheSingleJobsReport) {
   }
 }
 
-TEST_F(MotionEvalTest, ClosedLoopSaysItDoesNotSupportMotionCheckpoints) {
-  EvalOptions o = Options("policy");
+// One line each: the closed loop (no reward head yet), and frames of another size than the
+// tokenizer's (a motion model trained at 64 pixels against the 32-pixel tokenizer).
+TEST_F(MotionEvalTest, RefusesThePolicyLoopAndAnotherImageSize) {
+  EvalOptions o = Options("refused");
   o.policy_eval.policies = {{.name = "random", .command = "true", .in_distribution = true}};
-  const std::string error = test::ErrorText([&] { EvaluatePolicies(o); });
+  std::string error = test::ErrorText([&] { EvaluatePolicies(o); });
   EXPECT_NE(error.find("not supported for motion checkpoints"), std::string::npos) << error;
   EXPECT_EQ(error.find('\n'), std::string::npos) << error;
+
+  motion::TrainOptions m{.config = motion::test::TestConfig(), .data_dir = *dir_ / "train",
+                         .out_dir = *dir_ / "motion64"};
+  m.config.model.image_size = 64;
+  m.config.train.steps = 1;
+  m.show_progress = false;
+  motion::TrainMotion(m);
+  o = Options("refused");
+  o.checkpoints = {*dir_ / "motion64"};
+  error = test::ErrorText([&] { EvaluateCheckpoints(o); });
+  EXPECT_NE(error.find("imagines 64x64 frames, but --tokenizer scores 32x32"), std::string::npos)
+      << error;
 }
 
 }  // namespace
