@@ -1,6 +1,7 @@
 #include "evaluate/episode_record.h"
 
 #include <cmath>
+#include <filesystem>
 #include <stdexcept>
 
 #include "core/atomic_file.h"
@@ -116,6 +117,42 @@ EvalPart ReadEvalPart(const std::string& path) {
     throw Error(std::string("malformed wm-eval part file: ") + e.what(), {.file = path});
   }
   return part;
+}
+
+namespace fs = std::filesystem;
+
+std::string PartPath(const std::string& dir, int index, int count) {
+  return (fs::path(dir) / "parts" /
+          ("part-" + std::to_string(index) + "-of-" + std::to_string(count) + ".json"))
+      .string();
+}
+
+std::optional<std::vector<EpisodeRecord>> GatherParts(const std::string& dir,
+                                                      const nlohmann::json& identity,
+                                                      const std::vector<int64_t>& episodes,
+                                                      int num_shards) {
+  std::map<int64_t, EpisodeRecord> by_episode;
+  for (int i = 0; i < num_shards; ++i) {
+    const std::string path = PartPath(dir, i, num_shards);
+    if (!fs::exists(path)) return std::nullopt;
+    EvalPart part = ReadEvalPart(path);
+    Check(part.identity == identity && part.shard_index == i,
+          "part was written by a run with other settings, checkpoint or data than this one "
+          "(remove the parts folder to start over)",
+          {.file = path, .key = "identity"});
+    for (EpisodeRecord& r : part.records) {
+      const int64_t k = r.episode;
+      Check(by_episode.emplace(k, std::move(r)).second,
+            "episode " + std::to_string(k) + " is in more than one part", {.file = path});
+    }
+  }
+  std::vector<EpisodeRecord> records;
+  for (int64_t k : episodes) {
+    auto it = by_episode.find(k);
+    Check(it != by_episode.end(), "no part holds episode " + std::to_string(k), {.file = dir});
+    records.push_back(std::move(it->second));
+  }
+  return records;
 }
 
 }  // namespace wm::evaluate

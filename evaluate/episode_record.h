@@ -5,6 +5,7 @@
 #include <cstdint>
 #include <map>
 #include <nlohmann/json.hpp>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -38,5 +39,15 @@ struct EvalPart {
 void WriteEvalPart(const std::string& path, const EvalPart& part);
 // Throws wm::Error naming `path` when it is unreadable, truncated or its checksum differs.
 EvalPart ReadEvalPart(const std::string& path);
+
+// REPORT_DIR/<name>/parts/part-<index>-of-<count>.json
+std::string PartPath(const std::string& dir, int index, int count);
+
+// Every part's records in episode order once all `num_shards` parts exist; empty otherwise.
+// Parts of another `identity`, and overlapping or missing episodes, are errors naming the file.
+std::optional<std::vector<EpisodeRecord>> GatherParts(const std::string& dir,
+                                                      const nlohmann::json& identity,
+                                                      const std::vector<int64_t>& episodes,
+                                                      int num_shards);
 
 }  // namespace wm::evaluate

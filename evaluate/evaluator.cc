@@ -1,9 +1,11 @@
 #include "evaluate/evaluator.h"
 
+#include <spdlog/spdlog.h>
+
 #include <cmath>
 #include <filesystem>
+#include <functional>
 #include <optional>
-#include <spdlog/spdlog.h>
 
 #include "core/atomic_file.h"
 #include "core/error.h"
@@ -18,6 +20,7 @@
 #include "evaluate/episode_record.h"
 #include "evaluate/episode_strip.h"
 #include "evaluate/frame_scores.h"
+#include "evaluate/imagination.h"
 #include "evaluate/manifest.h"
 #include "evaluate/motion_scores.h"
 #include "evaluate/rollout_export.h"
@@ -26,7 +29,6 @@
 #include "metrics/value/correlation.h"
 #include "metrics/value/value_metrics.h"
 #include "tokenize/tokenizer.h"
-#include "train/dynamics_model.h"
 
 namespace wm::evaluate {
 namespace fs = std::filesystem;
@@ -79,32 +81,66 @@ std::string AddValues(ScoreTable& t, const std::string& checkpoint, const std::s
   return rows;
 }
 
-// Rolls out and scores `episodes` (positions `positions` in the whole evaluated list, for
-// the videos): one record per episode, nothing aggregated yet.
-std::vector<EpisodeRecord> ScoreEpisodes(const EvalOptions& o, const std::string& name,
-                                         const std::string& dir,
-                                         const train::DynamicsModel& model,
-                                         const tokenize::Tokenizer& tok,
-                                         const tokens::TokenDataset& data,
-                                         const shard::DatasetReader& shards,
-                                         const std::vector<int64_t>& episodes,
-                                         const std::vector<size_t>& positions,
-                                         metrics::Lpips* lpips) {
+using AddClip = std::function<void(const std::string& kind, const Clip& pred)>;
+
+// The baselines of one episode (`real`: frames 0..h): copy_last, and the tokenizer's
+// tokenizer_recon and copy_last_tokens; a copy's delta_tpsnr is 0 when controllability is scored.
+void AddBaselines(EpisodeRecord& rec, const Clip& real, const tokenize::Tokenizer& tok,
+                  const tokens::TokenDataset& data, bool controllability, const AddClip& add_clip) {
+  const int64_t h = rec.steps;
+  add_clip("copy_last", RepeatFrame(real, 0, h));
+  std::vector<int64_t> true_tokens(static_cast<size_t>((h + 1) * data.tokens_per_frame()));
+  data.CopyTokens(rec.episode, 0, h + 1, true_tokens.data());
+  const Clip given = SubClip(real, 0, 1);
+  add_clip("tokenizer_recon", DecodeClip(tok, true_tokens, 1, h, given));
+  add_clip("copy_last_tokens", RepeatFrame(DecodeClip(tok, true_tokens, 0, 1, given), 0, h));
+  // A copy reads no action: with perturbed ones it is the same clip, ΔtPSNR 0 by construction,
+  // the static reference beside plain's row (and in wm-report's vs copy_last).
+  for (const char* copy : {"copy_last", "copy_last_tokens"}) {
+    const auto& psnr = rec.scores[copy].at("psnr");
+    if (controllability) rec.scores[copy]["delta_tpsnr"] = DeltaPsnr(psnr, psnr);
+  }
+}
+
+// The model's rollouts of one episode: scores, controllability, return, contexts, the samples'
+// disagreement; `first_samples` gets each rollout's sample 0 (for the videos).
+void AddImagined(EpisodeRecord& rec, const ImaginedEpisode& imagined, const Clip& target,
+                 const tokenize::Tokenizer& tok, const AddClip& add_clip,
+                 std::map<std::string, Clip>& first_samples) {
+  for (const auto& [kind, r] : imagined) {
+    add_clip(kind, r.samples[0]);
+    first_samples[kind] = r.samples[0];
+    if (r.perturbed) {
+      rec.scores[kind]["delta_tpsnr"] =
+          DeltaPsnr(rec.scores[kind].at("psnr"), FramePsnr(target, *r.perturbed));
+    }
+    if (r.model_return) rec.model_return[kind] = *r.model_return;
+    if (!r.contexts.empty()) rec.contexts[kind] = r.contexts;
+    if (r.samples.size() >= 2) {
+      rec.spread[kind] = SampleDisagreement(r.samples);
+      rec.sample_mse[kind] = ScoreFrames(target, r.samples[0], tok).at("mse");
+    }
+  }
+}
+
+// Imagines and scores `episodes` (positions `positions` in the whole evaluated list, for
+// the videos and strips): one record per episode, nothing aggregated yet.
+std::vector<EpisodeRecord> ScoreEpisodes(
+    const CheckpointUnderEval& checkpoint, const std::string& name, const std::string& dir,
+    const tokenize::Tokenizer& tok, const tokens::TokenDataset& data,
+    const shard::DatasetReader& shards, const std::vector<int64_t>& episodes,
+    const std::vector<size_t>& positions, metrics::Lpips* lpips) {
+  const EvalOptions& o = checkpoint.options;
   const std::string image_key = data.index().tokenizer.image_key;
   const RegionMasks masks(o.masks);
-  std::map<RolloutMode, std::vector<EpisodeRollout>> rollouts;
-  for (RolloutMode mode : o.modes) rollouts[mode] = Rollout(model, data, episodes, mode, o.rollout);
-  std::vector<EpisodeRollout> perturbed;  // controllability: plain with perturbed actions
-  if (rollouts.contains(RolloutMode::kPlain) && o.controllability != Perturbation::kOff) {
-    perturbed = PerturbedRollout(model, data, episodes, o.rollout, o.controllability);
-  }
+  const Imagination imagine = checkpoint.start(episodes);
   std::vector<EpisodeRecord> records;
-  const RolloutExporter exporter(o, name, model.checkpoint_file(), tok.checkpoint_sha256());
+  const RolloutExporter exporter(o, name, checkpoint.info.file, tok.checkpoint_sha256());
   std::optional<Progress> progress;
   if (o.show_progress) progress.emplace("score " + name, episodes.size(), "episodes");
   for (size_t i = 0; i < episodes.size(); ++i) {
     const tokens::TokenEpisode& e = data.episode(episodes[i]);
-    const int64_t h = rollouts.begin()->second[i].steps;
+    const int64_t h = std::min(o.rollout.horizon, e.num_frames - 1);
     EpisodeRecord rec{.episode = episodes[i],
                       .policy_id = e.policy_id.empty() ? "unknown" : e.policy_id,
                       .steps = h};
@@ -117,7 +153,7 @@ std::vector<EpisodeRecord> ScoreEpisodes(const EvalOptions& o, const std::string
                         o.data_dir + "#episode " + std::to_string(e.source_episode));
     }
     std::map<std::string, Clip> pictures;  // every clip scored, for the strip and the export
-    auto add_clip = [&](const std::string& kind, const Clip& pred) {
+    const AddClip add_clip = [&](const std::string& kind, const Clip& pred) {
       pictures[kind] = pred;
       if (kind != "real") {  // the real clip's scores would all be perfect
         rec.scores[kind] = ScoreFrames(target, pred, tok, lpips);
@@ -127,50 +163,14 @@ std::vector<EpisodeRecord> ScoreEpisodes(const EvalOptions& o, const std::string
       rec.clip_descriptors[kind] = tok.ClipDescriptor(pred.pixels.data(), pred.frames);
     };
     add_clip("real", target);
-    add_clip("copy_last", RepeatFrame(real, 0, h));
-    std::vector<int64_t> true_tokens(static_cast<size_t>((h + 1) * data.tokens_per_frame()));
-    data.CopyTokens(episodes[i], 0, h + 1, true_tokens.data());
-    const Clip given = SubClip(real, 0, 1);
-    add_clip("tokenizer_recon", DecodeClip(tok, true_tokens, 1, h, given));
-    add_clip("copy_last_tokens", RepeatFrame(DecodeClip(tok, true_tokens, 0, 1, given), 0, h));
-    // A copy reads no action: with perturbed ones it is the same clip, ΔtPSNR 0 by construction,
-    // the static reference beside plain's row (and in wm-report's vs copy_last).
-    for (const char* copy : {"copy_last", "copy_last_tokens"}) {
-      const auto& psnr = rec.scores[copy].at("psnr");
-      if (!perturbed.empty()) rec.scores[copy]["delta_tpsnr"] = DeltaPsnr(psnr, psnr);
-    }
+    AddBaselines(rec, real, tok, data, ScoresControllability(o), add_clip);
     // Imagined frames are 1..h; each carries its step's reward, as the logged frames do.
     for (int64_t s = 1; s <= h; ++s) rec.real_return += ep.rewards.at(s);
+    const Clip given = SubClip(real, 0, 1);
+    const EpisodeToImagine episode{
+        .position = i, .episode = episodes[i], .given = given, .shard_episode = ep, .steps = h};
     std::map<std::string, Clip> first_samples;
-    for (RolloutMode mode : o.modes) {
-      const std::string kind = RolloutName(mode);
-      const EpisodeRollout& r = rollouts[mode][i];
-      std::vector<Clip> samples;
-      for (const auto& s : r.tokens) samples.push_back(DecodeClip(tok, s, 1, h, given));
-      add_clip(kind, samples[0]);
-      first_samples[kind] = samples[0];
-      if (mode == RolloutMode::kPlain && !perturbed.empty()) {
-        rec.scores[kind]["delta_tpsnr"] =
-            DeltaPsnr(rec.scores[kind].at("psnr"),
-                      FramePsnr(target, DecodeClip(tok, perturbed[i].tokens[0], 1, h, given)));
-      }
-      double model_return = 0;
-      for (int64_t s = 0; s < h; ++s) model_return += r.rewards[0][s];
-      rec.model_return[kind] = model_return;
-      for (size_t t = 0; t < r.contexts.size(); ++t) {
-        for (size_t slot = 0; slot < r.contexts[t].size(); ++slot) {
-          const ContextSlot& c = r.contexts[t][slot];
-          std::vector<double> row = {static_cast<double>(t), static_cast<double>(slot),
-                                     static_cast<double>(c.frame)};
-          row.insert(row.end(), c.action.begin(), c.action.end());
-          rec.contexts[kind].push_back(std::move(row));
-        }
-      }
-      if (samples.size() >= 2) {
-        rec.spread[kind] = SampleDisagreement(samples);
-        rec.sample_mse[kind] = ScoreFrames(target, samples[0], tok).at("mse");
-      }
-    }
+    AddImagined(rec, imagine(episode), target, tok, add_clip, first_samples);
     if (static_cast<int>(positions[i]) < o.videos) {
       WriteClipVideo((fs::path(dir) / "videos").string(), episodes[i], target, first_samples);
     }
@@ -193,7 +193,9 @@ std::string ContextsCsv(const std::string& name, const std::vector<RolloutMode>&
   csv += "\n";
   for (RolloutMode mode : modes) {
     for (const EpisodeRecord& rec : records) {
-      for (const auto& row : rec.contexts.at(RolloutName(mode))) {
+      const auto rows = rec.contexts.find(RolloutName(mode));  // none for a motion model
+      if (rows == rec.contexts.end()) continue;
+      for (const auto& row : rows->second) {
         const auto step = static_cast<int64_t>(row[0]) + 1;  // from 1, as in per_step.csv
         csv += name + "," + RolloutName(mode) + "," + std::to_string(rec.episode) + "," +
                std::to_string(step) + "," + std::to_string(static_cast<int64_t>(row[1])) + "," +
@@ -210,7 +212,7 @@ std::string ContextsCsv(const std::string& name, const std::vector<RolloutMode>&
 // `checkpoint` is the path given for it (the manifest records its basename).
 void WriteReport(const EvalOptions& o, const std::string& name, const std::string& checkpoint,
                  const std::string& dir, const std::vector<EpisodeRecord>& records,
-                 const train::DynamicsModel& model, const tokenize::Tokenizer& tok,
+                 const CheckpointInfo& info, const tokenize::Tokenizer& tok,
                  const tokens::TokenDataset& data, const shard::DatasetReader& shards) {
   ScoreTable t;
   std::map<std::string, metrics::FeatureSet> clips;
@@ -227,8 +229,11 @@ void WriteReport(const EvalOptions& o, const std::string& name, const std::strin
     }
     for (RolloutMode mode : o.modes) {
       const std::string kind = RolloutName(mode);
-      returns[mode].push_back({std::to_string(rec.episode), rec.policy_id, rec.real_return,
-                               rec.model_return.at(kind)});
+      // Value metrics need a reward head (a motion model has none: no value rows).
+      if (const auto r = rec.model_return.find(kind); r != rec.model_return.end()) {
+        returns[mode].push_back(
+            {std::to_string(rec.episode), rec.policy_id, rec.real_return, r->second});
+      }
       if (!rec.spread.count(kind)) continue;
       const auto& spread = rec.spread.at(kind);
       const auto& mse = rec.sample_mse.at(kind);
@@ -245,7 +250,9 @@ void WriteReport(const EvalOptions& o, const std::string& name, const std::strin
   }
   std::string values = "checkpoint,rollout,policy_id,n_episodes,real_value,model_value,value_gap\n";
   for (RolloutMode mode : o.modes) {
-    values += AddValues(t, name, RolloutName(mode), returns[mode], o.resamples, o.rollout.seed);
+    if (!returns[mode].empty()) {
+      values += AddValues(t, name, RolloutName(mode), returns[mode], o.resamples, o.rollout.seed);
+    }
     if (!uncertainty[mode].first.empty()) {
       t.whole_set[RolloutName(mode)]["uncertainty_error_corr"] = {
           metrics::Pearson(uncertainty[mode].first, uncertainty[mode].second), NAN, NAN,
@@ -258,7 +265,7 @@ void WriteReport(const EvalOptions& o, const std::string& name, const std::strin
   WriteFileAtomically((fs::path(dir) / "values.csv").string(), values);
   WriteFileAtomically((fs::path(dir) / "contexts.csv").string(),
                       ContextsCsv(name, o.modes, records, data.action_dim()));
-  WriteEvalManifest(dir, name, checkpoint, o, model, tok, data, shards);
+  WriteEvalManifest(dir, name, checkpoint, o, info, tok, data, shards);
 }
 
 // What every part of one report must share: settings, checkpoint, tokenizer, data, split.
@@ -275,52 +282,60 @@ nlohmann::json PartIdentity(const EvalOptions& o, const std::string& checkpoint_
           {"num_shards", o.num_shards}};
 }
 
-std::string PartPath(const std::string& dir, int index, int count) {
-  return (fs::path(dir) / "parts" /
-          ("part-" + std::to_string(index) + "-of-" + std::to_string(count) + ".json"))
-      .string();
-}
+// What every checkpoint is scored on: the data, and this job's share of the evaluated episodes.
+struct EvalInputs {
+  const tokens::TokenDataset& data;
+  const tokenize::Tokenizer& tok;
+  const shard::DatasetReader& shards;
+  std::vector<int64_t> episodes;  // every evaluated episode
+  std::vector<int64_t> mine;      // this shard job's, at `positions` in `episodes`
+  std::vector<size_t> positions;
+  metrics::Lpips* lpips = nullptr;
+};
 
-// Every part's records in episode order once all `num_shards` parts exist; empty otherwise.
-// Parts of other settings, checkpoints or data, and overlapping or missing episodes, are errors.
-std::optional<std::vector<EpisodeRecord>> GatherParts(const std::string& dir,
-                                                      const nlohmann::json& identity,
-                                                      const std::vector<int64_t>& episodes,
-                                                      int num_shards) {
-  std::map<int64_t, EpisodeRecord> by_episode;
-  for (int i = 0; i < num_shards; ++i) {
-    const std::string path = PartPath(dir, i, num_shards);
-    if (!fs::exists(path)) return std::nullopt;
-    EvalPart part = ReadEvalPart(path);
-    Check(part.identity == identity && part.shard_index == i,
-          "part was written by a run with other settings, checkpoint or data than this one "
-          "(remove the parts folder to start over)",
-          {.file = path, .key = "identity"});
-    for (EpisodeRecord& r : part.records) {
-      const int64_t k = r.episode;
-      Check(by_episode.emplace(k, std::move(r)).second,
-            "episode " + std::to_string(k) + " is in more than one part", {.file = path});
-    }
+// Scores checkpoint `c` and writes its report, or this job's part of a sharded one (the job that
+// completes the set writes the report). Returns the report directory, "" while parts are missing.
+std::string EvaluateCheckpoint(const EvalOptions& all, size_t c, const EvalInputs& in) {
+  const std::string name = ReportName(all, c);
+  std::string dir = (fs::path(all.out_dir) / name).string();
+  fs::create_directories(dir);
+  // manifest.json is written last and marks a complete report: a killed run leaves none, so
+  // wm-report refuses the folder instead of mixing old and new files.
+  fs::remove(fs::path(dir) / "manifest.json");
+  const CheckpointUnderEval checkpoint = LoadCheckpointUnderEval(all, c, name, in.tok, in.data);
+  const EvalOptions& o = checkpoint.options;
+  auto score = [&] {
+    return ScoreEpisodes(checkpoint, name, dir, in.tok, in.data, in.shards, in.mine, in.positions,
+                         in.lpips);
+  };
+  auto write = [&](const std::vector<EpisodeRecord>& records) {
+    WriteReport(o, name, all.checkpoints[c], dir, records, checkpoint.info, in.tok, in.data,
+                in.shards);
+  };
+  if (o.num_shards == 1) {
+    write(score());
+    return dir;
   }
-  std::vector<EpisodeRecord> records;
-  for (int64_t k : episodes) {
-    auto it = by_episode.find(k);
-    Check(it != by_episode.end(), "no part holds episode " + std::to_string(k), {.file = dir});
-    records.push_back(std::move(it->second));
+  const nlohmann::json identity =
+      PartIdentity(o, checkpoint.info.file, in.tok, in.data, in.episodes);
+  const std::string part_path = PartPath(dir, o.shard_index, o.num_shards);
+  if (fs::exists(part_path) && ReadEvalPart(part_path).identity == identity) {
+    spdlog::info("{}: part {} of {} already scored", name, o.shard_index, o.num_shards);
+  } else {
+    fs::create_directories(fs::path(part_path).parent_path());
+    WriteEvalPart(part_path, {identity, o.shard_index, score()});
   }
-  return records;
+  // The job that completes the set writes the report (several at once write the same bytes).
+  if (auto records = GatherParts(dir, identity, in.episodes, o.num_shards)) {
+    write(*records);
+    return dir;
+  }
+  spdlog::info("{}: waiting for the other parts in {}", name,
+               fs::path(part_path).parent_path().string());
+  return "";
 }
 
 }  // namespace
-
-std::unique_ptr<train::DynamicsModel> LoadModelFor(const EvalOptions& o,
-                                                   const std::string& checkpoint,
-                                                   const tokens::TokenDataset& data) {
-  const std::string& dataset = data.index().dataset;
-  return train::DynamicsModel::Load(
-      checkpoint, o.device,
-      train::DynamicsModel::HasActionDataset(checkpoint, dataset) ? dataset : "", o.threads);
-}
 
 std::vector<std::string> EvaluateCheckpoints(const EvalOptions& o) {
   Check(o.num_shards >= 1 && o.shard_index >= 0 && o.shard_index < o.num_shards,
@@ -343,46 +358,10 @@ std::vector<std::string> EvaluateCheckpoints(const EvalOptions& o) {
   Check(!episodes.empty(), "no episodes to evaluate", {.file = o.tokens_dir});
   std::optional<metrics::Lpips> lpips;
   if (!o.lpips_weights.empty()) lpips.emplace(o.lpips_weights, o.device);
+  const EvalInputs in{data, tok, shards, episodes, mine, positions, lpips ? &*lpips : nullptr};
   std::vector<std::string> written;
   for (size_t c = 0; c < o.checkpoints.size(); ++c) {
-    const std::string name = ReportName(o, c);
-    const std::string dir = (fs::path(o.out_dir) / name).string();
-    fs::create_directories(dir);
-    // manifest.json is written last and marks a complete report: a killed run leaves none, so
-    // wm-report refuses the folder instead of mixing old and new files.
-    fs::remove(fs::path(dir) / "manifest.json");
-    auto model = LoadModelFor(o, o.checkpoints[c], data);
-    if (o.rollout.samples >= 2 && model->DecodeTemperature(o.rollout.temperature) == 0) {
-      spdlog::warn("{}: --samples {} with argmax decoding (temperature 0) imagines {} identical "
-                   "rollouts: uncertainty is 0 and uncertainty_error_corr undefined; pass "
-                   "--temperature > 0 to sample", name, o.rollout.samples, o.rollout.samples);
-    }
-    auto score = [&] {
-      return ScoreEpisodes(o, name, dir, *model, tok, data, shards, mine, positions,
-                           lpips ? &*lpips : nullptr);
-    };
-    if (o.num_shards == 1) {
-      WriteReport(o, name, o.checkpoints[c], dir, score(), *model, tok, data, shards);
-      written.push_back(dir);
-      continue;
-    }
-    const nlohmann::json identity =
-        PartIdentity(o, model->checkpoint_file(), tok, data, episodes);
-    const std::string part_path = PartPath(dir, o.shard_index, o.num_shards);
-    if (fs::exists(part_path) && ReadEvalPart(part_path).identity == identity) {
-      spdlog::info("{}: part {} of {} already scored", name, o.shard_index, o.num_shards);
-    } else {
-      fs::create_directories(fs::path(part_path).parent_path());
-      WriteEvalPart(part_path, {identity, o.shard_index, score()});
-    }
-    // The job that completes the set writes the report (several at once write the same bytes).
-    if (auto records = GatherParts(dir, identity, episodes, o.num_shards)) {
-      WriteReport(o, name, o.checkpoints[c], dir, *records, *model, tok, data, shards);
-      written.push_back(dir);
-    } else {
-      spdlog::info("{}: waiting for the other parts in {}", name,
-                   fs::path(part_path).parent_path().string());
-    }
+    if (std::string dir = EvaluateCheckpoint(o, c, in); !dir.empty()) written.push_back(dir);
   }
   return written;
 }

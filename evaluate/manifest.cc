@@ -78,17 +78,23 @@ nlohmann::json EvalConfigJson(const EvalOptions& o) {
   return config;
 }
 
+CheckpointInfo DescribeDynamicsCheckpoint(const train::DynamicsModel& model) {
+  return {.file = model.checkpoint_file(),
+          .step = model.step(),
+          .extra = {{"policy_conditioning", model.config().model.policy_conditioning}}};
+}
+
 void WriteEvalManifest(const std::string& dir, const std::string& name,
                        const std::string& checkpoint, const EvalOptions& o,
-                       const train::DynamicsModel& model, const tokenize::Tokenizer& tok,
+                       const CheckpointInfo& info, const tokenize::Tokenizer& tok,
                        const tokens::TokenDataset& data, const shard::DatasetReader& shards) {
   nlohmann::json m =
       MakeProvenance("wm-eval", EvalConfigJson(o), {{"libtorch", trainkit::TorchVersion()}});
   m["checkpoint"] = {{"name", name},
                      {"path_basename", fs::path(checkpoint).filename().string()},
-                     {"sha256", Sha256File(model.checkpoint_file())},
-                     {"step", model.step()},
-                     {"policy_conditioning", model.config().model.policy_conditioning}};
+                     {"sha256", Sha256File(info.file)},
+                     {"step", info.step}};
+  m["checkpoint"].update(info.extra);
   m["seed"] = o.rollout.seed;
   m["tokenizer"] = {{"sha256", tok.checkpoint_sha256()}, {"config_hash", tok.config_hash()}};
   nlohmann::json parts = nlohmann::json::array();

@@ -1,5 +1,6 @@
 #pragma once
 // manifest.json of a checkpoint's report: what was evaluated, on what, with which settings.
+#include <cstdint>
 #include <nlohmann/json.hpp>
 #include <string>
 
@@ -20,6 +21,17 @@ class DynamicsModel;
 
 namespace wm::evaluate {
 
+// What a report's manifest says of the evaluated checkpoint besides its name and path; each kind
+// of model fills it (DescribeDynamicsCheckpoint; the motion model in motion_imagination.cc).
+struct CheckpointInfo {
+  std::string file;  // the checkpoint.wmt evaluated: its SHA-256 names it everywhere
+  int64_t step = 0;  // training step
+  // More manifest "checkpoint" keys: policy_conditioning for a token dynamics model;
+  // model_kind "motion", config and config_hash for a motion one.
+  nlohmann::json extra;
+};
+CheckpointInfo DescribeDynamicsCheckpoint(const train::DynamicsModel& model);
+
 // Throws wm::Error naming the file unless the token dataset was written by `tok` from exactly
 // the shards of `shards`: the three inputs must describe the same episodes.
 void CheckInputsBelongTogether(const tokens::TokenDataset& tokens, const tokenize::Tokenizer& tok,
@@ -34,7 +46,7 @@ nlohmann::json EvalConfigJson(const EvalOptions& options);
 // `checkpoint`: the path given for this report's checkpoint (a run directory or a file).
 void WriteEvalManifest(const std::string& dir, const std::string& name,
                        const std::string& checkpoint, const EvalOptions& o,
-                       const train::DynamicsModel& model, const tokenize::Tokenizer& tok,
+                       const CheckpointInfo& info, const tokenize::Tokenizer& tok,
                        const tokens::TokenDataset& data, const shard::DatasetReader& shards);
 
 }  // namespace wm::evaluate

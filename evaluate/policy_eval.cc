@@ -18,6 +18,7 @@
 #include "evaluate/evaluator.h"
 #include "evaluate/manifest.h"
 #include "evaluate/wpe_report.h"
+#include "motion/motion_model.h"
 #include "policy/policy_process.h"
 #include "policy/policy_value.h"
 #include "tokenize/tokenizer.h"
@@ -183,6 +184,12 @@ void WriteWpe(const EvalOptions& o, const std::string& dir, const std::string& c
 }  // namespace
 
 std::vector<std::string> EvaluatePolicies(const EvalOptions& o) {
+  // The closed loop needs the reward head to decide success; a motion model has none.
+  for (const std::string& checkpoint : o.checkpoints) {
+    Check(!motion::MotionModel::IsMotionCheckpoint(checkpoint),
+          "closed-loop policy evaluation (--policy) is not supported for motion checkpoints yet",
+          {.file = checkpoint, .key = "--policy"});
+  }
   tokens::TokenDataset data(o.tokens_dir);
   tokenize::Tokenizer tok(o.tokenizer, o.device);
   shard::DatasetReader shards(o.data_dir);
@@ -217,7 +224,8 @@ std::vector<std::string> EvaluatePolicies(const EvalOptions& o) {
     WriteFileAtomically((fs::path(dir) / "wm_values.csv").string(), ValuesCsv(runs));
     WriteStrips(dir, runs, starts, logged);
     if (!o.policy_eval.true_values.empty()) WriteWpe(o, dir, model->checkpoint_file(), runs);
-    WriteEvalManifest(dir, name, o.checkpoints[c], o, *model, tok, data, shards);
+    WriteEvalManifest(dir, name, o.checkpoints[c], o, DescribeDynamicsCheckpoint(*model), tok, data,
+                      shards);
     written.push_back(dir);
   }
   return written;

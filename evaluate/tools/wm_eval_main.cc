@@ -29,6 +29,10 @@ reversed (--controllability shuffled: seeded shuffle; off: skip) and scored as m
 delta_tpsnr = PSNR minus the perturbed rollout's PSNR (Genie's ΔtPSNR; 0 for a model that
 ignores its actions, and for the copies).
 Compare checkpoints with `wm-report compare`.
+Motion checkpoints (wm-motion train) are scored beside token ones in the same format: the plain
+rollout only, imagined from the real first frame under the logged actions (retrace skipped, with
+a warning when asked for), once (deterministic), with delta_tpsnr; no values.csv or contexts.csv
+rows (no reward head, no token window); --policy does not take them yet.
 Closed loop (--policy / --policies; docs/reports.md, "Policy evaluation in the world model"): each
 policy (a process speaking docs/policy-protocol.md) acts on the imagined frames from the real first
 frame of each of the first --episodes held-out episodes, for --policy-horizon steps or until the
@@ -93,7 +97,8 @@ int main(int argc, char** argv) {
   CLI::App app{"wm-eval: open-loop rollouts of world-model checkpoints, scored per step"};
   app.footer(kFooter);
   app.set_version_flag("--version", wm::VersionString("wm-eval"));
-  app.add_option("--checkpoint", o.checkpoints, "wm-train run directories (one report each)")
+  app.add_option("--checkpoint", o.checkpoints,
+                 "wm-train or wm-motion run directories (one report each)")
       ->required()
       ->check(CLI::ExistingPath);
   app.add_option("--name", o.names, "Report names (default: run directory names)");
@@ -169,6 +174,7 @@ int main(int argc, char** argv) {
   o.controllability = wm::evaluate::ParsePerturbation(controllability);
   try {
     if (rollout == "auto") o.modes = wm::evaluate::AutoRolloutModes(o.tokens_dir);
+    o.rollout_auto = rollout == "auto";
     for (const auto& dir : Evaluate(o, policy_args)) {
       spdlog::info("wrote {}", dir);
     }

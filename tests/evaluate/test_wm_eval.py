@@ -9,7 +9,10 @@ summary means and intervals agree with per_episode.csv; inputs that do not belon
 naming the file; the MP4s hold real | plain | retrace | error panels; the PNG strips hold the
 real frames above every rollout, pixel for pixel; --save-rollouts writes image folders that
 wm-ingest --format folder reads back into the same frames; two sharded jobs write the single
-job's report byte for byte and refuse a corrupted part."""
+job's report byte for byte and refuse a corrupted part. A motion checkpoint (wm-motion, 5 steps)
+evaluated beside the token one gets the plain rollout only, no value or context rows, rows that
+validate against the same schemas, the token report's baseline rows, and a wm-report compare
+row against copy_last; --policy refuses it in one line."""
 import csv
 import hashlib
 import json
@@ -184,6 +187,9 @@ class WmEval(unittest.TestCase):
                path("shards", split), "--out", path("tokens", split), "--threads", 1)
         ok("wm-train", "--config", os.path.join(CONFIGS, "dynamics", "tiny.yaml"), "--tokens",
            path("tokens", "train"), "--out", path("dyn"), "--steps", 10, "--threads", 1)
+        ok("wm-motion", "train", "--config", os.path.join(CONFIGS, "motion", "tiny.yaml"),
+           "--data", path("shards", "train"), "--out", path("motion"), "--steps", 5,
+           "--threads", 1)
         cls.reports = [path(out, "dyn") for out in ("reports", "rerun")]
         # The rerun also exports its frames, which must not change a byte of the report.
         for report, extra in zip(cls.reports, ([], ["--save-rollouts", path("exported")])):
@@ -275,6 +281,51 @@ class WmEval(unittest.TestCase):
             jsonschema.validate(json.load(f), schema("report-manifest"))
         self.assertEqual({r["rollout"] for r in self.rows["summary.csv"]},
                          {"plain", "retrace", "copy_last", "copy_last_tokens", "tokenizer_recon"})
+
+    def test_motion_checkpoint_beside_the_token_one(self):
+        """wm-eval --checkpoint dyn --checkpoint motion: the motion report's rows validate against
+        the schemas (values.csv and contexts.csv: header only, no reward head and no token
+        context), it has plain but no retrace (--rollout auto), the baselines equal the token
+        report's, the token report is the one wm-eval writes alone, and wm-report compare puts
+        the motion rollout against its copy_last."""
+        out = self.path("with_motion")
+        ok("wm-eval", *self.eval_args(out), "--checkpoint", self.path("motion"))
+        motion = os.path.join(out, "motion")
+        rows = {f: read_rows(os.path.join(motion, f)) for f in CSVS}
+        for file, name in CSVS.items():
+            validator = jsonschema.Draft202012Validator(schema(name))
+            with open(os.path.join(motion, file), encoding="utf-8") as f:
+                self.assertEqual(next(csv.reader(f))[:len(validator.schema["required"])],
+                                 validator.schema["required"], file)
+            for row in rows[file]:
+                validator.validate(typed(row))
+        self.assertEqual((rows["values.csv"], rows["contexts.csv"]), ([], []))
+        with open(os.path.join(motion, "manifest.json"), encoding="utf-8") as f:
+            m = json.load(f)
+        jsonschema.validate(m, schema("report-manifest"))
+        self.assertEqual((m["checkpoint"]["model_kind"], m["checkpoint"]["sha256"]),
+                         ("motion", sha256(self.path("motion", "checkpoint.wmt"))))
+        self.assertEqual(m["config"]["rollouts"], ["plain"])
+        self.assertEqual({r["rollout"] for r in rows["summary.csv"]},
+                         {"plain", "copy_last", "copy_last_tokens", "tokenizer_recon"})
+        self.assertTrue(any(r["metric"] == "delta_tpsnr" for r in rows["summary.csv"]
+                            if r["rollout"] == "plain"))
+        def baselines(report):
+            return [{**r, "checkpoint": ""} for r in read_rows(os.path.join(report, "summary.csv"))
+                    if r["rollout"] not in ("plain", "retrace")]
+        self.assertEqual(baselines(motion), baselines(self.reports[0]))
+        for file in CSVS:
+            self.assertEqual(read_bytes(os.path.join(out, "dyn", file)),
+                             read_bytes(os.path.join(self.reports[0], file)), file)
+        ok("wm-report", "compare", os.path.join(out, "dyn"), motion, "--out",
+           self.path("with_motion.csv"), "--metrics", "psnr,mse_arm")
+        (row,) = [r for r in read_rows(self.path("with_motion.csv"))
+                  if (r["checkpoint"], r["rollout"]) == ("motion", "plain")]
+        self.assertNotEqual(row["psnr_vs_copy_last_ci_low"], "")
+        p = tool("wm-eval", *self.eval_args(self.path("motion_policy")), "--checkpoint",
+                 self.path("motion"), "--policy", "idle=true")
+        self.assertEqual(p.returncode, 1, p.stderr)
+        self.assertIn("not supported for motion checkpoints", p.stderr)
 
     def test_rerun_gives_the_same_bytes_and_the_manifest_names_the_inputs(self):
         # The manifest records no time or host, so it is byte-identical too.

@@ -1,0 +1,104 @@
+#include "evaluate/imagination.h"
+
+#include <spdlog/spdlog.h>
+
+#include <algorithm>
+#include <memory>
+
+#include "core/tokens/token_dataset.h"
+#include "evaluate/clip_decode.h"
+#include "evaluate/controllability.h"
+#include "motion/motion_model.h"
+#include "train/dynamics_model.h"
+
+namespace wm::evaluate {
+namespace {
+
+// contexts.csv rows of one rollout's sample 0: step (from 0), slot, frame, then the action.
+std::vector<std::vector<double>> ContextRows(const std::vector<std::vector<ContextSlot>>& steps) {
+  std::vector<std::vector<double>> rows;
+  for (size_t t = 0; t < steps.size(); ++t) {
+    for (size_t slot = 0; slot < steps[t].size(); ++slot) {
+      const ContextSlot& c = steps[t][slot];
+      std::vector<double> row = {static_cast<double>(t), static_cast<double>(slot),
+                                 static_cast<double>(c.frame)};
+      row.insert(row.end(), c.action.begin(), c.action.end());
+      rows.push_back(std::move(row));
+    }
+  }
+  return rows;
+}
+
+// Episode `position`'s rollout `r` decoded: every sample, the perturbed one, return, contexts.
+ImaginedRollout DecodeRollout(const tokenize::Tokenizer& tok, const EpisodeRollout& r,
+                              const EpisodeRollout* perturbed, const EpisodeToImagine& e) {
+  ImaginedRollout out;
+  for (const auto& s : r.tokens) out.samples.push_back(DecodeClip(tok, s, 1, e.steps, e.given));
+  if (perturbed) out.perturbed = DecodeClip(tok, perturbed->tokens[0], 1, e.steps, e.given);
+  double model_return = 0;
+  for (int64_t s = 0; s < e.steps; ++s) model_return += r.rewards[0][s];
+  out.model_return = model_return;
+  out.contexts = ContextRows(r.contexts);
+  return out;
+}
+
+// A token dynamics model rolls out every episode up front (each mode, and plain with perturbed
+// actions for controllability), then decodes one episode at a time.
+CheckpointUnderEval LoadDynamicsCheckpoint(const EvalOptions& o, size_t c, const std::string& name,
+                                           const tokenize::Tokenizer& tok,
+                                           const tokens::TokenDataset& data) {
+  std::shared_ptr<const train::DynamicsModel> model = LoadModelFor(o, o.checkpoints[c], data);
+  if (o.rollout.samples >= 2 && model->DecodeTemperature(o.rollout.temperature) == 0) {
+    spdlog::warn(
+        "{}: --samples {} with argmax decoding (temperature 0) imagines {} identical "
+        "rollouts: uncertainty is 0 and uncertainty_error_corr undefined; pass "
+        "--temperature > 0 to sample",
+        name, o.rollout.samples, o.rollout.samples);
+  }
+  auto start = [o, model, &tok, &data](const std::vector<int64_t>& episodes) -> Imagination {
+    std::map<RolloutMode, std::vector<EpisodeRollout>> rollouts;
+    for (RolloutMode m : o.modes) rollouts[m] = Rollout(*model, data, episodes, m, o.rollout);
+    std::vector<EpisodeRollout> perturbed;
+    if (ScoresControllability(o)) {
+      perturbed = PerturbedRollout(*model, data, episodes, o.rollout, o.controllability);
+    }
+    return [rollouts = std::move(rollouts), perturbed = std::move(perturbed),
+            &tok](const EpisodeToImagine& e) {
+      ImaginedEpisode out;
+      for (const auto& [mode, r] : rollouts) {
+        const bool perturb = mode == RolloutMode::kPlain && !perturbed.empty();
+        out[RolloutName(mode)] =
+            DecodeRollout(tok, r[e.position], perturb ? &perturbed[e.position] : nullptr, e);
+      }
+      return out;
+    };
+  };
+  return {.options = o, .info = DescribeDynamicsCheckpoint(*model), .start = start};
+}
+
+}  // namespace
+
+std::unique_ptr<train::DynamicsModel> LoadModelFor(const EvalOptions& o,
+                                                   const std::string& checkpoint,
+                                                   const tokens::TokenDataset& data) {
+  const std::string& dataset = data.index().dataset;
+  return train::DynamicsModel::Load(
+      checkpoint, o.device,
+      train::DynamicsModel::HasActionDataset(checkpoint, dataset) ? dataset : "", o.threads);
+}
+
+bool ScoresControllability(const EvalOptions& o) {
+  return o.controllability != Perturbation::kOff &&
+         std::find(o.modes.begin(), o.modes.end(), RolloutMode::kPlain) != o.modes.end();
+}
+
+CheckpointUnderEval LoadCheckpointUnderEval(const EvalOptions& o, size_t c, const std::string& name,
+                                            const tokenize::Tokenizer& tok,
+                                            const tokens::TokenDataset& data) {
+  if (motion::MotionModel::IsMotionCheckpoint(o.checkpoints[c])) {
+    return LoadMotionCheckpoint(o, o.checkpoints[c], name, tok, data);
+  }
+  return LoadDynamicsCheckpoint(o, c, name, tok, data);
+}
+
+}  // namespace wm::evaluate
