@@ -102,7 +102,7 @@ echo "== 6/6 evaluate the checkpoints on val (plain + retracing rollouts, baseli
 COMPARE_ARGS="--metrics psnr,ssim,lpips_style,mse_arm,mse_object,delta_tpsnr,moved_error_ratio" \
 EVAL_ARGS="--horizon 8 --episodes 8 --temperature 0 --masks files --seg-config configs/segmentation/tabletop.yaml --resamples 500" \
   bash scripts/eval.sh "$BIN" "$OUT/reports" "$RUN/tokenizer" "$SHARDS/val" "$RUN/tokens/val" \
-  "$RUN/early/dynamics" "$RUN/dynamics"
+  "$RUN/early/dynamics" "$RUN/dynamics" "$RUN/motion"
 echo
 echo "demo finished in $(( $(date +%s) - start )) s: datasets $SHARDS, runs $RUN, reports" \
   "$OUT/reports (compare.csv, plots/, <checkpoint>/videos/)"
