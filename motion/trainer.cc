@@ -227,8 +227,7 @@ class MotionStage : public trainkit::TrainingStage {
         row = trainkit::MetricsRow{.before = before.str()};
       }
     }
-    if (val_ && (info.step == cfg_.train.steps ||
-                 (cfg_.train.val_every > 0 && info.step % cfg_.train.val_every == 0))) {
+    if (val_ && trainkit::IsValidationStep(info.step, cfg_.train.steps, cfg_.train.val_every)) {
       summary_.val = val_->Run(s_.model, device_, info.step);
     }
     return row;

@@ -35,6 +35,12 @@ LoopOptions LoopOptionsOf(const TrainSection& t, int64_t start_step, int64_t max
           .progress_label = std::move(progress_label)};
 }
 
+// Whether a stage validates after `step` (steps done): every `val_every` steps (0 = never
+// before the end) and always at the schedule's end `steps`.
+inline bool IsValidationStep(int64_t step, int64_t steps, int64_t val_every) {
+  return step == steps || (val_every > 0 && step % val_every == 0);
+}
+
 // Where a finished step stands.
 struct StepInfo {
   int64_t step = 0;      // steps done, this one included
