@@ -13,15 +13,6 @@
 #include "trainkit/torch_runtime.h"
 
 namespace wm::motion {
-namespace {
-
-std::string CheckpointFile(const std::string& path) {
-  return std::filesystem::is_directory(path)
-             ? (std::filesystem::path(path) / kCheckpointFile).string()
-             : path;
-}
-
-}  // namespace
 
 struct MotionModel::State {
   MotionConfig config;
@@ -36,7 +27,7 @@ MotionModel::MotionModel() : state_(std::make_unique<State>()) {}
 MotionModel::~MotionModel() = default;
 
 bool MotionModel::IsMotionCheckpoint(const std::string& path) {
-  const std::string file = CheckpointFile(path);
+  const std::string file = CheckpointFileIn(path);
   if (!std::filesystem::is_regular_file(file)) return false;
   return TensorArchiveReader(file).meta().value("model_kind", "") == "motion";
 }
@@ -47,7 +38,7 @@ std::unique_ptr<MotionModel> MotionModel::Load(const std::string& path,
   if (threads > 0) torch::set_num_threads(threads);
   std::unique_ptr<MotionModel> model(new MotionModel());
   State& s = *model->state_;
-  s.file = CheckpointFile(path);
+  s.file = CheckpointFileIn(path);
   const TensorArchiveReader reader(s.file);
   try {
     const nlohmann::json& meta = reader.meta();

@@ -21,7 +21,8 @@ WindowSampler::WindowSampler(const std::string& dir, std::string image_key, int 
   action_space_ = shard::ActionSpaceOf(index.features);
   uint64_t windows = 0;
   for (size_t k = 0; k < reader_->num_episodes(); ++k) {
-    const int64_t steps = reader_->ReadEpisode(k).num_steps;
+    const auto [shard, local] = reader_->Locate(k);  // the footer index: no episode is read
+    const int64_t steps = reader_->shard(shard).entries()[local].num_steps;
     if (steps <= unroll) continue;
     episodes_.push_back(static_cast<int64_t>(k));
     window_prefix_.push_back(windows += static_cast<uint64_t>(steps - unroll));

@@ -7,6 +7,7 @@
 #include <fstream>
 
 #include "core/error.h"
+#include "core/shard/dataset_writer.h"
 #include "core/tensor_archive.h"
 #include <unistd.h>
 
@@ -52,6 +53,21 @@ Episode MakeEpisode(int steps, uint64_t seed, const std::string& key) {
     f.frames.push_back(std::string("\xFF\xD8\xFF", 3) + std::string(10 + t, static_cast<char>('a' + t % 26)));
   }
   return e;
+}
+
+void SetPngFrames(Episode& episode, std::vector<std::string> frames, int size) {
+  EncodedFrames& f = episode.images["image"];
+  f.encoding = "png";
+  f.height = f.width = size;
+  f.channels = 3;
+  f.frames = std::move(frames);
+}
+
+void FinishTrainSplit(shard::DatasetWriter& writer, const std::string& name) {
+  shard::DatasetIndex meta;
+  meta.dataset = name;
+  meta.split = "train";
+  writer.Finish(meta);
 }
 
 std::vector<std::vector<uint32_t>> MakeTokenDataset(const std::string& dir, int episodes,

@@ -9,6 +9,10 @@
 #include "core/episode.h"
 #include "core/tokens/token_dataset.h"
 
+namespace wm::shard {
+class DatasetWriter;
+}
+
 namespace wm::test {
 
 // A fresh directory under the system temp dir, removed when the object dies.
@@ -25,6 +29,13 @@ class TempDir {
 
 // A deterministic episode with `steps` steps, actions from `seed`, fake JPEG-magic frames.
 Episode MakeEpisode(int steps, uint64_t seed, const std::string& key = "ep");
+
+// `episode`'s "image" stream replaced by `frames`: encoded size x size RGB PNGs, one per step
+// (the fixtures' own drawings).
+void SetPngFrames(Episode& episode, std::vector<std::string> frames, int size);
+
+// Finishes `writer`'s dataset as the "train" split of dataset `name`.
+void FinishTrainSplit(shard::DatasetWriter& writer, const std::string& name);
 
 // A token dataset in `dir`: `episodes` MakeEpisode episodes of 3..6 steps split over
 // `num_parts` parts, tokens drawn from `seed` on a grid_h x grid_w grid of `num_codes` codes.

@@ -40,14 +40,10 @@ void WriteMovingSquares(const std::string& dir, int episodes, int steps, uint64_
   std::mt19937_64 rng(seed);
   for (int e = 0; e < episodes; ++e) {
     Episode ep = wm::test::MakeEpisode(steps, seed + e, name + std::to_string(e));
-    EncodedFrames& f = ep.images["image"];
-    f.encoding = "png";
-    f.height = f.width = kSize;
-    f.channels = 3;
-    f.frames.clear();
+    std::vector<std::string> frames;
     int x = 4 + static_cast<int>(rng() % 20), y = 12 + static_cast<int>(rng() % 12);
     for (int t = 0; t < steps; ++t) {
-      f.frames.push_back(Frame(x, y));
+      frames.push_back(Frame(x, y));
       // Every step moves (no two equal frames): +-1 per axis, turned back at the borders.
       const int dx = Step(x, rng), dy = Step(y, rng);
       std::fill(ep.actions.begin() + t * kActionDim, ep.actions.begin() + (t + 1) * kActionDim, 0);
@@ -56,12 +52,10 @@ void WriteMovingSquares(const std::string& dir, int episodes, int steps, uint64_
       x += kPixelsPerUnit * dx;
       y += kPixelsPerUnit * dy;
     }
+    wm::test::SetPngFrames(ep, std::move(frames), kSize);
     writer.Add(ep, e);
   }
-  shard::DatasetIndex meta;
-  meta.dataset = name;
-  meta.split = "train";
-  writer.Finish(meta);
+  wm::test::FinishTrainSplit(writer, name);
 }
 
 MotionConfig TestConfig() {

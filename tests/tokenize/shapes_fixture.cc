@@ -32,18 +32,12 @@ void WriteShapesDataset(const std::string& dir, const std::string& name) {
   shard::DatasetWriter writer({.dir = dir, .config_hash = "tokenize-test"});
   for (int e = 0; e < 3; ++e) {
     Episode ep = test::MakeEpisode(6, e, "shapes" + std::to_string(e));
-    EncodedFrames& f = ep.images["image"];
-    f.encoding = "png";
-    f.height = f.width = 48;
-    f.channels = 3;
-    f.frames.clear();
-    for (int t = 0; t < 6; ++t) f.frames.push_back(ShapeFrame(e, t));
+    std::vector<std::string> frames;
+    for (int t = 0; t < 6; ++t) frames.push_back(ShapeFrame(e, t));
+    test::SetPngFrames(ep, std::move(frames), 48);
     writer.Add(ep, e);
   }
-  shard::DatasetIndex meta;
-  meta.dataset = name;
-  meta.split = "train";
-  writer.Finish(meta);
+  test::FinishTrainSplit(writer, name);
 }
 
 TokenizerConfig TestConfig() {
