@@ -10,7 +10,15 @@ over steps, and at step 8).
   next = (1 - g) * warp(x_t, flow) + g * tanh(rgb),  flow = b + sum_i J_i a_i  (or b only)
 
   bench/warp_predictor.py --train data/demo/shards/train --val data/demo/shards/val \
-      [--steps 600] [--unroll 1] [--channels 48] [--no-jacobian] [--strip OUT.png]
+      [--steps 600] [--unroll 1] [--channels 48] [--no-jacobian] [--strip OUT.png] \
+      [--self-condition P] [--post-refine C] [--edge-loss W] [--seed S]
+
+The last options are variants tried against the smear (docs/motion.md, "How the recipe was
+chosen"); none is in wm-motion: --self-condition P feeds the net, with probability P per batch,
+its own (gradient-free) prediction of frame t as the current frame, as an imagined rollout does;
+--post-refine C adds a zero-initialised C-channel conv block that corrects the composited frame
+from it and the decoder's features (it sees the warped result, so it could sharpen it);
+--edge-loss W adds W times the L1 of the image-gradient difference (Mathieu et al. 2016).
 """
 import argparse
 import os
@@ -40,29 +48,77 @@ def learning_rate(step, steps):  # trainkit::LearningRateAt: linear warmup, cosi
     return MIN_LR + 0.5 * (LR - MIN_LR) * (1 + np.cos(np.pi * progress))
 
 
+class PostRefinedNet(warp_twin.WarpNet):
+    """The twin plus a zero-initialised conv block that corrects the composited frame, reading it
+    and the decoder's full-resolution features (the twin's forward, repeated with the features
+    kept)."""
+
+    def __init__(self, model, action_dim, channels):
+        super().__init__(model, action_dim)
+        c = model["channels"]
+        self.post = nn.Sequential(nn.Conv2d(c + 3, channels, 3, 1, 1), nn.ReLU(),
+                                  nn.Conv2d(channels, 3, 3, 1, 1))
+        nn.init.zeros_(self.post[2].weight)
+        nn.init.zeros_(self.post[2].bias)
+
+    def forward(self, current, previous, action):
+        inp = torch.cat([current, previous], 1)
+        h1 = self.down1(inp)
+        h2 = self.down2(h1)
+        u = self.up3(self.middle(self.down3(h2) + self.action_in(action)[:, :, None, None]))
+        u = self.up1(torch.cat([self.up2(torch.cat([u, h2], 1)), h1], 1))
+        out = self.head(torch.cat([u, inp], 1))
+        b, _, h, w = out.shape
+        jac = out[:, warp_twin.JACOBIAN:].view(b, 2, self.action_dim, h, w)
+        flow = out[:, warp_twin.FLOW_BIAS:warp_twin.JACOBIAN]
+        flow = (flow + (jac * action.view(b, 1, self.action_dim, 1, 1)).sum(2)) * self.flow_scale
+        gate = torch.sigmoid(out[:, warp_twin.GATE:warp_twin.GATE + 1] + self.gate_bias)
+        rgb = torch.tanh(out[:, warp_twin.RGB:warp_twin.RGB + 3])
+        composite = (1 - gate) * warp_twin.warp(current, flow) + gate * rgb
+        return composite + self.post(torch.cat([composite, u], 1)), flow, gate
+
+
 def batch(episodes, norm, rng, unroll):
-    """[B, unroll + 2, 3, S, S] windows (frame t-1, t, t+1..t+unroll; t-1 = t at t = 0) and the
-    normalised actions a_t..a_{t+unroll-1}."""
-    clips, actions = [], []
+    """[B, unroll + 3, 3, S, S] windows (frames t-2, t-1, t, t+1..t+unroll, indices clamped at
+    0), the normalised actions a_{t-1}..a_{t+unroll-1} (a_0 again at t = 0) and whether t > 0."""
+    clips, actions, later = [], [], []
     for _ in range(BATCH):
         frames, _, acts = episodes[rng.integers(len(episodes))]
         t = int(rng.integers(len(frames) - unroll))
-        clips.append(torch.cat([frames[max(t - 1, 0):max(t - 1, 0) + 1], frames[t:t + unroll + 1]]))
-        actions.append(norm(acts[t:t + unroll]))
-    return torch.stack(clips), torch.tensor(np.stack(actions))
+        clips.append(frames[[max(t - 2, 0), max(t - 1, 0)] + list(range(t, t + unroll + 1))])
+        actions.append(norm(acts[[max(t - 1, 0)] + list(range(t, t + unroll))]))
+        later.append(t > 0)
+    return torch.stack(clips), torch.tensor(np.stack(actions)), torch.tensor(later)
 
 
-def fit(net, episodes, norm, steps, unroll, seed=0):
+def edge_l1(a, b):
+    """L1 between the horizontal and vertical differences of a and b."""
+    def dx(z):
+        return z[..., :, 1:] - z[..., :, :-1]
+
+    def dy(z):
+        return z[..., 1:, :] - z[..., :-1, :]
+    return (dx(a) - dx(b)).abs().mean() + (dy(a) - dy(b)).abs().mean()
+
+
+def fit(net, episodes, norm, steps, args):
     opt = torch.optim.AdamW(net.parameters(), LR, betas=(0.9, 0.9), weight_decay=0.01)
-    rng = np.random.default_rng(seed)
+    rng = np.random.default_rng(args.seed)
+    unroll = args.unroll
     for step in range(steps):
         for group in opt.param_groups:
             group["lr"] = learning_rate(step, steps)
-        clips, actions = batch(episodes, norm, rng, unroll)
-        previous, current, loss = clips[:, 0], clips[:, 1], 0
+        clips, actions, later = batch(episodes, norm, rng, unroll)
+        previous, current, loss = clips[:, 1], clips[:, 2], 0
+        if args.self_condition > 0 and rng.random() < args.self_condition:
+            with torch.no_grad():  # frame t as imagined from t-1 (kept real where t = 0)
+                imagined = net(clips[:, 1], clips[:, 0], actions[:, 0])[0].clamp(-1, 1)
+            current = torch.where(later.view(-1, 1, 1, 1), imagined, current)
         for u in range(unroll):
-            predicted = net(current, previous, actions[:, u])[0]
-            loss = loss + (predicted - clips[:, u + 2]).abs().mean() / unroll
+            predicted = net(current, previous, actions[:, u + 1])[0]
+            loss = loss + (predicted - clips[:, u + 3]).abs().mean() / unroll
+            if args.edge_loss > 0:
+                loss = loss + args.edge_loss * edge_l1(predicted, clips[:, u + 3]) / unroll
             previous, current = current, predicted
         opt.zero_grad()
         loss.backward()
@@ -111,9 +167,13 @@ def main():
     ap.add_argument("--channels", type=int, default=48)
     ap.add_argument("--no-jacobian", action="store_true", help="action added at the bottleneck only")
     ap.add_argument("--strip", help="PNG: real, predicted, reversed-actions rows, val episodes 0-2")
+    ap.add_argument("--self-condition", type=float, default=0, metavar="P")
+    ap.add_argument("--post-refine", type=int, default=0, metavar="C")
+    ap.add_argument("--edge-loss", type=float, default=0, metavar="W")
+    ap.add_argument("--seed", type=int, default=0)
     args = ap.parse_args()
     torch.set_num_threads(1)
-    torch.manual_seed(0)
+    torch.manual_seed(args.seed)
     train, val = recipes.load(args.train), recipes.load(args.val)
     actions = np.concatenate([a for _, _, a in train])
     mean, std = actions.mean(0), actions.std(0)
@@ -123,9 +183,12 @@ def main():
         return ((a - mean) / std).astype(np.float32)
     model = {"channels": args.channels, "flow_scale": 4.0, "gate_bias": -3.0,
              "action_jacobian": not args.no_jacobian}
-    net = warp_twin.WarpNet(model, actions.shape[1])
+    if args.post_refine:
+        net = PostRefinedNet(model, actions.shape[1], args.post_refine)
+    else:
+        net = warp_twin.WarpNet(model, actions.shape[1])
     start = time.time()
-    fit(net, train, norm, args.steps, args.unroll)
+    fit(net, train, norm, args.steps, args)
     seconds = time.time() - start
     r, rows = score(net.eval(), val, norm)
     m, c = r["model"], r["copy_last"]
