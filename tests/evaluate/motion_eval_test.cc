@@ -128,13 +128,13 @@ TEST_F(MotionEvalTest, TwoShardJobsWriteTheSingleJobsReport) {
   }
 }
 
-// One line each: the closed loop (no reward head yet), and frames of another size than the
-// tokenizer's (a motion model trained at 64 pixels against the 32-pixel tokenizer).
-TEST_F(MotionEvalTest, RefusesThePolicyLoopAndAnotherImageSize) {
+// One line each: the closed loop without --success-model (no reward head), and frames of another
+// size than the tokenizer's (a motion model trained at 64 pixels against the 32-pixel tokenizer).
+TEST_F(MotionEvalTest, RefusesThePolicyLoopWithoutASuccessModelAndAnotherImageSize) {
   EvalOptions o = Options("refused");
   o.policy_eval.policies = {{.name = "random", .command = "true", .in_distribution = true}};
   std::string error = test::ErrorText([&] { EvaluatePolicies(o); });
-  EXPECT_NE(error.find("not supported for motion checkpoints"), std::string::npos) << error;
+  EXPECT_NE(error.find("needs --success-model"), std::string::npos) << error;
   EXPECT_EQ(error.find('\n'), std::string::npos) << error;
 
   motion::TrainOptions m{.config = motion::test::TestConfig(), .data_dir = *dir_ / "train",
