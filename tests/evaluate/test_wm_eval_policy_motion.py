@@ -10,7 +10,8 @@ trained for a few steps here):
 - every step's success score is the classifier's probability: in [0, 1], an episode ends as a
   success exactly at its first step above 0.5;
 - wpe.csv rows and wpe_summary.json validate against their schemas; the manifest names the
-  motion model and the success classifier by hash;
+  motion model and the success classifier by hash; the success run's checkpoint.json validates
+  against schemas/success-checkpoint.schema.json and agrees with its archive;
 - a motion checkpoint without --success-model, or with a --success-model that is not a success
   classifier, exits 1 with one line that says so, and leaves no finished-looking report."""
 import csv
@@ -26,6 +27,7 @@ import unittest
 import cv2
 import jsonschema
 import numpy as np
+import yaml
 
 SRC = os.environ.get("WM_SOURCE_DIR", os.path.join(os.path.dirname(__file__), "..", ".."))
 BIN = os.environ.get("WM_BIN_DIR", os.path.join(SRC, "build", "bin"))
@@ -197,6 +199,32 @@ class WmEvalPolicyMotion(unittest.TestCase):
         self.assertEqual(manifest["config"]["policy_eval"]["success_model_sha256"], success_sha)
         summary = read_json(os.path.join(self.report, "wpe_summary.json"))
         self.assertEqual(summary["provenance"]["inputs"]["success_model_sha256"], success_sha)
+
+    def test_success_checkpoint_manifest_validates(self):
+        """checkpoint.json of the success run against schemas/success-checkpoint.schema.json,
+        its archive's meta and the config actually trained (tiny.yaml with --steps 40)."""
+        manifest = read_json(self.path("success", "checkpoint.json"))
+        with open(os.path.join(SRC, "schemas", "success-checkpoint.schema.json"),
+                  encoding="utf-8") as f:
+            v = jsonschema.Draft202012Validator(json.load(f))
+        v.validate(manifest)
+        with open(os.path.join(SRC, "configs", "success", "tiny.yaml"), encoding="utf-8") as f:
+            expected = yaml.safe_load(f)
+        expected["train"]["steps"] = 40
+        self.assertEqual(manifest["config"], expected)
+        self.assertEqual(manifest["checkpoint"]["sha256"],
+                         sha256(self.path("success", "checkpoint.wmt")))
+        data = manifest["data"][0]
+        self.assertEqual(data["success_frames"] + data["other_frames"], data["num_steps"])
+        for bad in ({"model_kind": "motion"}, {"step": 0}, {"action_dim": 7}):
+            self.assertFalse(v.is_valid({**manifest, **bad}), bad)
+        with open(self.path("success", "checkpoint.wmt"), "rb") as f:
+            blob = f.read()
+        n = int.from_bytes(blob[8:16], "little")
+        meta = json.loads(blob[16:16 + n].decode("utf-8"))["meta"]
+        for key in ("model_kind", "step", "config", "config_hash", "data"):
+            self.assertEqual(meta[key], manifest[key] if key != "data" else manifest["data"][0],
+                             key)
 
     def test_missing_or_wrong_success_model_is_one_clear_error(self):
         cases = [([], "needs --success-model"),
