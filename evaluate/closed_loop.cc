@@ -17,8 +17,13 @@ class TokenWorld : public ImaginedWorld {
  public:
   TokenWorld(const train::DynamicsModel& model, const tokenize::Tokenizer& tok,
              const ClosedLoopStart& start, int rollout, const ClosedLoopOptions& o)
-      : model_(model), tok_(tok), start_(start), rollout_(rollout), o_(o),
-        context_(ContextFrames(model, o.imagination.context)), tokens_(start.first_tokens) {}
+      : model_(model),
+        tok_(tok),
+        start_(start),
+        rollout_(rollout),
+        o_(o),
+        context_(ContextFrames(model, o.imagination.context)),
+        tokens_(start.first_tokens) {}
 
   ImaginedStep Next(const std::vector<float>& actions, int64_t t) override {
     // The policy z is left to the prior, which infers it from this rollout's own context.

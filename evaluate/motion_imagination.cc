@@ -71,11 +71,10 @@ LoadedMotionModel LoadMotionModelFor(const EvalOptions& o, const std::string& ch
       motion::MotionModel::Load(checkpoint, o.device, o.threads);
   CheckMotionModelFits(*model, tok, data);
   const nlohmann::json config = motion::ConfigToJson(model->config());
-  CheckpointInfo info{.file = model->checkpoint_file(),
-                      .step = model->step(),
-                      .extra = {{"model_kind", "motion"},
-                                {"config", config},
-                                {"config_hash", ConfigHash(config)}}};
+  CheckpointInfo info{
+      .file = model->checkpoint_file(),
+      .step = model->step(),
+      .extra = {{"model_kind", "motion"}, {"config", config}, {"config_hash", ConfigHash(config)}}};
   return {std::move(model), std::move(info)};
 }
 

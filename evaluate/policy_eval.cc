@@ -183,7 +183,8 @@ void WriteWpe(const EvalOptions& o, const std::string& dir, const std::string& c
   nlohmann::json provenance = MakeProvenance("wm-eval", EvalConfigJson(o));
   provenance["inputs"] = {{"checkpoint_sha256", Sha256File(checkpoint_file)},
                           {"true_values_sha256", Sha256File(o.policy_eval.true_values)}};
-  if (!success_file.empty()) provenance["inputs"]["success_model_sha256"] = Sha256File(success_file);
+  if (!success_file.empty())
+    provenance["inputs"]["success_model_sha256"] = Sha256File(success_file);
   const WpeSummary s = SummarizeWpe(rows);
   WriteWpeReport(dir, rows, s, provenance);
   spdlog::info(
@@ -214,8 +215,8 @@ ClosedLoopModel LoadMotionModel(const EvalOptions& o, const std::string& checkpo
   LoadedMotionModel motion = LoadMotionModelFor(o, checkpoint, tok, data);
   Check(success->image_size() == motion.model->image_size(),
         "the success classifier scores " + std::to_string(success->image_size()) +
-            " px frames, the motion model imagines " +
-            std::to_string(motion.model->image_size()) + " px ones (train both at one image_size)",
+            " px frames, the motion model imagines " + std::to_string(motion.model->image_size()) +
+            " px ones (train both at one image_size)",
         {.file = success->checkpoint_file(), .key = "model.image_size"});
   const nlohmann::json config = success::ConfigToJson(success->config());
   motion.info.extra["success_model"] = {{"sha256", Sha256File(success->checkpoint_file())},
@@ -259,9 +260,9 @@ std::vector<std::string> EvaluatePolicies(const EvalOptions& o) {
     fs::create_directories(dir);
     for (const char* f : kReportFiles) fs::remove(fs::path(dir) / f);
     const bool is_motion = motion::MotionModel::IsMotionCheckpoint(o.checkpoints[c]);
-    const ClosedLoopModel model =
-        is_motion ? LoadMotionModel(o, o.checkpoints[c], success, tok, data)
-                  : LoadTokenModel(o, o.checkpoints[c], tok, data);
+    const ClosedLoopModel model = is_motion
+                                      ? LoadMotionModel(o, o.checkpoints[c], success, tok, data)
+                                      : LoadTokenModel(o, o.checkpoints[c], tok, data);
     std::vector<PolicyRun> runs;
     for (const policy::PolicySpec& spec : o.policy_eval.policies) {
       runs.push_back(RunPolicy(o, spec, model, tok, starts));

@@ -19,7 +19,7 @@ struct EvalOptions;
 struct PolicyEvalOptions {
   std::vector<policy::PolicySpec> policies;  // empty: wm-eval's open-loop evaluation
   ClosedLoopOptions loop;
-  std::string true_values;      // wm-sim-policy's policy_values.json; empty: no WPE report
+  std::string true_values;  // wm-sim-policy's policy_values.json; empty: no WPE report
   // wm-success train's RUN_DIR (or checkpoint.wmt): the success classifier that scores a motion
   // checkpoint's imagined frames (a motion model has no reward head); required for motion
   // checkpoints, unused by token ones, which have their reward head.

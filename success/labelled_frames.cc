@@ -22,7 +22,10 @@ LabelledFrames::LabelledFrames(const std::string& dir, std::string image_key, in
     Episode e = reader.ReadEpisode(k);
     auto images = e.images.find(image_key);
     Check(images != e.images.end(), "episode has no image stream '" + image_key + "'",
-          {.file = dir, .record = static_cast<int64_t>(k), .record_label = "episode", .key = "data.image_key"});
+          {.file = dir,
+           .record = static_cast<int64_t>(k),
+           .record_label = "episode",
+           .key = "data.image_key"});
     for (int64_t t = 0; t < e.num_steps; ++t) {
       const bool success = e.rewards.at(static_cast<size_t>(t)) > reward_threshold;
       (success ? positives_ : negatives_).push_back(static_cast<uint32_t>(all_.size()));
@@ -62,9 +65,9 @@ std::vector<FrameRef> LabelledFrames::Draw(uint64_t seed, int64_t step, int batc
 void LabelledFrames::Load(const std::vector<FrameRef>& refs, float* frames, float* labels) const {
   const size_t frame_floats = 3ull * size_ * size_;
   for (size_t b = 0; b < refs.size(); ++b) {
-    trainkit::DecodeFrame(frames_.at(static_cast<size_t>(refs[b].episode))
-                              .at(static_cast<size_t>(refs[b].step)),
-                          size_, frames + b * frame_floats);
+    trainkit::DecodeFrame(
+        frames_.at(static_cast<size_t>(refs[b].episode)).at(static_cast<size_t>(refs[b].step)),
+        size_, frames + b * frame_floats);
     labels[b] = refs[b].success ? 1.0f : 0.0f;
   }
 }
@@ -72,7 +75,8 @@ void LabelledFrames::Load(const std::vector<FrameRef>& refs, float* frames, floa
 double Auroc(const std::vector<float>& scores, const std::vector<float>& labels) {
   std::vector<size_t> order(scores.size());
   std::iota(order.begin(), order.end(), size_t{0});
-  std::stable_sort(order.begin(), order.end(), [&](size_t a, size_t b) { return scores[a] < scores[b]; });
+  std::stable_sort(order.begin(), order.end(),
+                   [&](size_t a, size_t b) { return scores[a] < scores[b]; });
   // Mann-Whitney U: the sum of the positives' ranks (ties share their mean rank).
   double rank_sum = 0, positives = 0;
   for (size_t i = 0; i < order.size();) {

@@ -30,8 +30,8 @@ bool SuccessModel::IsSuccessCheckpoint(const std::string& path) {
   return TensorArchiveReader(file).meta().value("model_kind", "") == "success";
 }
 
-std::unique_ptr<SuccessModel> SuccessModel::Load(const std::string& path,
-                                                 const std::string& device, int threads) {
+std::unique_ptr<SuccessModel> SuccessModel::Load(const std::string& path, const std::string& device,
+                                                 int threads) {
   trainkit::CheckDevice(device);
   if (threads > 0) torch::set_num_threads(threads);
   std::unique_ptr<SuccessModel> model(new SuccessModel());
@@ -77,9 +77,9 @@ std::vector<float> SuccessModel::Probabilities(const std::vector<float>& frames,
         {.file = s.file});
   torch::NoGradGuard no_grad;
   const torch::Tensor p =
-      torch::sigmoid(s.net->forward(
-                         torch::from_blob(const_cast<float*>(frames.data()), {count, 3, S, S})
-                             .to(s.device)))
+      torch::sigmoid(
+          s.net->forward(
+              torch::from_blob(const_cast<float*>(frames.data()), {count, 3, S, S}).to(s.device)))
           .to(torch::kCPU)
           .contiguous();
   return {p.data_ptr<float>(), p.data_ptr<float>() + p.numel()};

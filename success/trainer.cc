@@ -112,11 +112,10 @@ class Validation {
     const torch::Tensor label = torch::from_blob(labels_.data(), {frames_.size(0)});
     const torch::Tensor p = torch::sigmoid(logit).contiguous();
     const std::vector<float> prob(p.data_ptr<float>(), p.data_ptr<float>() + p.numel());
-    ValidationScore v{
-        .loss = torch::binary_cross_entropy_with_logits(logit, label).item<double>(),
-        .auroc = Auroc(prob, labels_),
-        .frames = frames_.size(0),
-        .positives = static_cast<int64_t>(label.sum().item<double>())};
+    ValidationScore v{.loss = torch::binary_cross_entropy_with_logits(logit, label).item<double>(),
+                      .auroc = Auroc(prob, labels_),
+                      .frames = frames_.size(0),
+                      .positives = static_cast<int64_t>(label.sum().item<double>())};
     v.accuracy = ((p > 0.5).to(torch::kFloat) == label).to(torch::kDouble).mean().item<double>();
     v.majority_accuracy =
         static_cast<double>(std::max(v.positives, v.frames - v.positives)) / v.frames;
@@ -153,13 +152,14 @@ class Validation {
 // thread while this one trains.
 class SuccessStage : public trainkit::TrainingStage {
  public:
-  SuccessStage(const TrainOptions& o, const RunDir& run, const torch::Device& device,
-               TrainState& s, std::optional<Validation>& val, TrainSummary& summary)
+  SuccessStage(const TrainOptions& o, const RunDir& run, const torch::Device& device, TrainState& s,
+               std::optional<Validation>& val, TrainSummary& summary)
       : o_(o), cfg_(o.config), run_(run), device_(device), s_(s), val_(val), summary_(summary) {}
 
   void Train(int64_t step, int64_t stop) override {
     const int64_t B = cfg_.train.batch_size, S = cfg_.model.image_size;
-    if (!pending_.valid()) pending_ = std::async(std::launch::async, &SuccessStage::Load, this, step);
+    if (!pending_.valid())
+      pending_ = std::async(std::launch::async, &SuccessStage::Load, this, step);
     Batch batch = pending_.get();
     if (step + 1 < stop) {
       pending_ = std::async(std::launch::async, &SuccessStage::Load, this, step + 1);
@@ -236,13 +236,14 @@ TrainSummary TrainSuccess(const TrainOptions& o) {
   const RunDir run(o.out_dir, o.resume, /*create=*/true);
   trainkit::SetUpTorch(cfg.train.threads, cfg.train.seed, device.is_cuda());
   TrainState s;
-  s.frames = std::make_unique<LabelledFrames>(o.data_dir, cfg.data.image_key,
-                                              cfg.model.image_size, cfg.data.reward_threshold,
+  s.frames = std::make_unique<LabelledFrames>(o.data_dir, cfg.data.image_key, cfg.model.image_size,
+                                              cfg.data.reward_threshold,
                                               /*need_both=*/true);
   s.model = SuccessNet(cfg.model);  // draws from the torch seed
   s.model->to(device);
   std::vector<std::pair<std::string, torch::Tensor>> params;
-  for (const auto& item : s.model->named_parameters()) params.emplace_back(item.key(), item.value());
+  for (const auto& item : s.model->named_parameters())
+    params.emplace_back(item.key(), item.value());
   const TrainConfig& t = cfg.train;
   s.optimizer = std::make_unique<trainkit::AdamW>(
       std::move(params),

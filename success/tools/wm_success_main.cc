@@ -33,7 +33,8 @@ void AddTrain(CLI::App& app, TrainArgs& a) {
       "Labels: a frame is a success frame when the reward logged with it exceeds\n"
       "data.reward_threshold (tabletop: the frame showing the block in the goal). Re-running\n"
       "with --resume continues from RUN_DIR/checkpoint.wmt; the final checkpoint is\n"
-      "byte-identical to an uninterrupted CPU run. Use: wm-eval --policy ... --success-model RUN_DIR.");
+      "byte-identical to an uninterrupted CPU run. Use: wm-eval --policy ... --success-model "
+      "RUN_DIR.");
   train->add_option("--config", a.config, "Success classifier YAML (configs/success/*.yaml)")
       ->required()
       ->check(CLI::ExistingFile);

@@ -14,7 +14,6 @@ trained for a few steps here):
   against schemas/success-checkpoint.schema.json and agrees with its archive;
 - a motion checkpoint without --success-model, or with a --success-model that is not a success
   classifier, exits 1 with one line that says so, and leaves no finished-looking report."""
-import csv
 import filecmp
 import hashlib
 import json
@@ -31,14 +30,10 @@ import yaml
 
 SRC = os.environ.get("WM_SOURCE_DIR", os.path.join(os.path.dirname(__file__), "..", ".."))
 BIN = os.environ.get("WM_BIN_DIR", os.path.join(SRC, "build", "bin"))
-sys.path.insert(0, os.path.join(SRC, "scripts"))
-import wmshard  # noqa: E402
-
-HORIZON, EPISODES, SIZE = 6, 2, 64
-RECORDER = os.path.join(SRC, "tests", "evaluate", "recording_policy.py")
-FINISHED = ["manifest.json", "wm_values.csv", "wm_episodes.csv", "wpe.csv", "wpe_summary.json"]
-# evaluate/episode_strip.h geometry: label column, header row, gap; 64 px frames drawn 3x.
-STRIP_LABEL, STRIP_HEADER, STRIP_GAP, STRIP_SCALE = 144, 24, 2, 3
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+# The token model's closed-loop test: its tools, readers, strip geometry and recording policies.
+from test_wm_eval_policy import (EPISODES, FINISHED, HORIZON, ok, read_json,  # noqa: E402
+                                 read_rows, recorders, strip_cell, wmshard, write_truth)
 
 
 def run(name, *args):
@@ -46,33 +41,9 @@ def run(name, *args):
                           text=True)
 
 
-def ok(name, *args):
-    p = run(name, *args)
-    if p.returncode != 0:
-        raise AssertionError(f"{name} {' '.join(map(str, args))}: exit {p.returncode}\n{p.stderr}")
-    return p
-
-
-def read_rows(path):
-    with open(path, newline="", encoding="utf-8") as f:
-        return list(csv.DictReader(f))
-
-
-def read_json(path):
-    with open(path, encoding="utf-8") as f:
-        return json.load(f)
-
-
 def sha256(path):
     with open(path, "rb") as f:
         return hashlib.sha256(f.read()).hexdigest()
-
-
-def strip_cell(strip, row, column):
-    """Frame (row, column) of a strip, back at 64 px, RGB."""
-    cell = SIZE * STRIP_SCALE
-    y, x = STRIP_HEADER + row * (cell + STRIP_GAP), STRIP_LABEL + column * (cell + STRIP_GAP)
-    return cv2.cvtColor(strip[y:y + cell:STRIP_SCALE, x:x + cell:STRIP_SCALE], cv2.COLOR_BGR2RGB)
 
 
 class WmEvalPolicyMotion(unittest.TestCase):
@@ -85,7 +56,7 @@ class WmEvalPolicyMotion(unittest.TestCase):
         cls.tmp = tempfile.TemporaryDirectory()
         path = cls.path
         # The expert reaches the goal in most episodes: success frames for the classifier.
-        ok("wm-gen-tabletop", "--out", path("raw"), "--size", SIZE, "--train-episodes", 8,
+        ok("wm-gen-tabletop", "--out", path("raw"), "--size", 64, "--train-episodes", 8,
            "--val-episodes", EPISODES, "--max-steps", 40, "--seed", 0, "--look", "plain",
            "--policies", "expert")
         for split in ("train", "val"):
@@ -103,15 +74,9 @@ class WmEvalPolicyMotion(unittest.TestCase):
         ok("wm-success", "train", "--config", os.path.join(SRC, "configs", "success", "tiny.yaml"),
            "--data", path("shards", "train"), "--val-data", path("shards", "val"),
            "--out", path("success"), "--steps", 40, "--threads", 1)
-        cls.truth = path("policy_values.json")
-        with open(cls.truth, "w", encoding="utf-8") as f:
-            json.dump({"format": "wmkit-policy-values", "policies": [
-                {"policy": "minus", "in_distribution": False, "episodes": 10, "true_value": 0.2,
-                 "ci_low": 0.05, "ci_high": 0.5},
-                {"policy": "plus", "in_distribution": True, "episodes": 10, "true_value": 0.7,
-                 "ci_low": 0.4, "ci_high": 0.9}]}, f)
+        cls.truth = write_truth(path("policy_values.json"))
         for out in ("run", "rerun"):
-            ok("wm-eval", *cls.args(path(out), cls.recorders(path(out + "_seen")),
+            ok("wm-eval", *cls.args(path(out), recorders(path(out + "_seen")),
                                     "--success-model", path("success")))
         cls.report = path("run", "motion")
 
@@ -123,13 +88,6 @@ class WmEvalPolicyMotion(unittest.TestCase):
                 "--threads", 1, "--episodes", EPISODES, "--policy-horizon", HORIZON,
                 "--strips", EPISODES, "--true-values", cls.truth, *policies, *extra]
 
-    @classmethod
-    def recorders(cls, seen):
-        plus = ",".join(["0.04"] * 6 + ["1"])
-        minus = ",".join(["-0.04"] * 6 + ["0"])
-        return ["--policy", f"plus={RECORDER} --out {seen}/plus --action={plus}",
-                "--policy", f"minus={RECORDER} --out {seen}/minus --action={minus}",
-                "--in-distribution", "plus"]
 
     def test_rerun_gives_identical_bytes(self):
         files = ["wm_episodes.csv", "wm_values.csv", "wpe.csv"] + [
@@ -232,7 +190,7 @@ class WmEvalPolicyMotion(unittest.TestCase):
         for extra, problem in cases:
             with self.subTest(problem=problem):
                 out = self.path("bad_" + str(len(extra)))
-                p = run("wm-eval", *self.args(out, self.recorders(self.path("bad_seen")), *extra))
+                p = run("wm-eval", *self.args(out, recorders(self.path("bad_seen")), *extra))
                 self.assertEqual(p.returncode, 1, p.stderr)
                 self.assertIn(problem, p.stderr)
                 self.assertEqual(len(p.stderr.strip().splitlines()), 1, p.stderr)
