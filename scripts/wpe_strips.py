@@ -27,7 +27,7 @@ import wmshard  # noqa: E402
 
 # evaluate/episode_strip.h geometry: label column, header row, gap; 64 px frames drawn 3x.
 STRIP_LABEL, STRIP_HEADER, STRIP_GAP, STRIP_SCALE, SIZE = 144, 24, 2, 3, 64
-LABEL_WIDTH, CELL = 250, 96  # this picture's label column and cell size (1.5x)
+LABEL_WIDTH, CELL = 250, 80  # this picture's label column and cell size (1.25x)
 
 
 def run(*args):
@@ -126,7 +126,7 @@ def main():
                                1 + names.index(args.policy))
             blocks.append(labelled_row(f"{model} model\n({end})", frames, steps, int(r[7])))
         blocks.append(np.full((8, header.shape[1], 3), 255, np.uint8))
-    cv2.imwrite(args.out, np.vstack(blocks))
+    cv2.imwrite(args.out, np.vstack(blocks), [cv2.IMWRITE_PNG_COMPRESSION, 9])
     print(f"wrote {args.out}")
 
 

@@ -39,9 +39,9 @@ frame of each of the first --episodes held-out episodes, for --policy-horizon st
 reward head says success (reward > 0.5) or the terminal head says done; --policy-rollouts per
 start. A motion checkpoint has no reward head: pass --success-model RUN_DIR (wm-success train, a
 classifier trained on real frames), and a step whose imagined frame it gives P(success) > 0.5 is
-a success (docs/success.md). Writes wm_values.csv (success rate, Wilson 95%), wm_episodes.csv, strips/episode_K.png and,
-with --true-values (wm-sim-policy's policy_values.json), wpe.csv and wpe_summary.json; no
-open-loop scores. Example:
+a success (docs/success.md). Writes wm_values.csv (success rate, Wilson 95%), wm_episodes.csv,
+strips/episode_K.png and, with --true-values (wm-sim-policy's policy_values.json), wpe.csv and
+wpe_summary.json; no open-loop scores. Example:
   wm-eval --checkpoint runs/dyn-tiny --tokenizer runs/tok-tiny --data data/tabletop/val \
     --tokens data/tabletop-tokens/val --out reports/ --episodes 16 \
     --policies configs/policies/tabletop.yaml --true-values truth/policy_values.json
