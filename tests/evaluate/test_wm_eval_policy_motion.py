@@ -149,6 +149,9 @@ class WmEvalPolicyMotion(unittest.TestCase):
                          None if v == "" else float(v)) for k, v in row.items()}
             jsonschema.validate(typed, row_schema)
         manifest = read_json(os.path.join(self.report, "manifest.json"))
+        with open(os.path.join(SRC, "schemas", "report-manifest.schema.json"),
+                  encoding="utf-8") as f:
+            jsonschema.validate(manifest, json.load(f))
         success_sha = sha256(self.path("success", "checkpoint.wmt"))
         self.assertEqual(manifest["checkpoint"]["model_kind"], "motion")
         self.assertEqual(manifest["checkpoint"]["sha256"], sha256(self.path("motion",
