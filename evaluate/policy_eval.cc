@@ -204,14 +204,11 @@ ClosedLoopModel LoadTokenModel(const EvalOptions& o, const std::string& checkpoi
           .keep = model};
 }
 
-// The motion model of `checkpoint` with the success classifier `success` scoring its frames.
+// The motion model of `checkpoint` with the success classifier `success` (not null) scoring its
+// frames.
 ClosedLoopModel LoadMotionModel(const EvalOptions& o, const std::string& checkpoint,
                                 const std::shared_ptr<const success::SuccessModel>& success,
                                 const tokenize::Tokenizer& tok, const tokens::TokenDataset& data) {
-  Check(success != nullptr,
-        "a motion checkpoint has no reward head: closed-loop policy evaluation (--policy) of it "
-        "needs --success-model RUN_DIR (a success classifier from wm-success train)",
-        {.file = checkpoint, .key = "--success-model"});
   LoadedMotionModel motion = LoadMotionModelFor(o, checkpoint, tok, data);
   Check(success->image_size() == motion.model->image_size(),
         "the success classifier scores " + std::to_string(success->image_size()) +
@@ -234,6 +231,14 @@ ClosedLoopModel LoadMotionModel(const EvalOptions& o, const std::string& checkpo
 }  // namespace
 
 std::vector<std::string> EvaluatePolicies(const EvalOptions& o) {
+  // Before any work: a motion checkpoint has no reward head to read success from.
+  for (const std::string& checkpoint : o.checkpoints) {
+    Check(!o.policy_eval.success_model.empty() ||
+              !motion::MotionModel::IsMotionCheckpoint(checkpoint),
+          "a motion checkpoint has no reward head: closed-loop policy evaluation (--policy) of it "
+          "needs --success-model RUN_DIR (a success classifier from wm-success train)",
+          {.file = checkpoint, .key = "--success-model"});
+  }
   tokens::TokenDataset data(o.tokens_dir);
   tokenize::Tokenizer tok(o.tokenizer, o.device);
   shard::DatasetReader shards(o.data_dir);
