@@ -32,6 +32,7 @@ LabelledFrames::LabelledFrames(const std::string& dir, std::string image_key, in
       all_.push_back({static_cast<int32_t>(k), static_cast<int32_t>(t), success});
     }
     frames_.push_back(std::move(images->second.frames));
+    policy_ids_.push_back(e.policy_id);
   }
   Check(!all_.empty(), "the dataset has no frames", {.file = dir});
   Check(!need_both || (!positives_.empty() && !negatives_.empty()),

@@ -34,6 +34,9 @@ class LabelledFrames {
   int64_t positives() const { return static_cast<int64_t>(positives_.size()); }
   int64_t negatives() const { return static_cast<int64_t>(negatives_.size()); }
   int64_t num_episodes() const { return static_cast<int64_t>(frames_.size()); }
+  const std::string& policy_id(int64_t episode) const {
+    return policy_ids_.at(static_cast<size_t>(episode));
+  }
   // {"dataset", "split", "index_config_hash", "num_episodes", "num_steps", "shards": [{"file",
   // "sha256"}]}; no paths, so manifests do not depend on where data lives.
   const nlohmann::json& provenance() const { return provenance_; }
@@ -41,6 +44,7 @@ class LabelledFrames {
  private:
   int size_;
   std::vector<std::vector<std::string>> frames_;  // [episode][step]: encoded image
+  std::vector<std::string> policy_ids_;           // [episode], "" when unknown
   std::vector<FrameRef> all_;
   std::vector<uint32_t> positives_, negatives_;  // indices into all_
   nlohmann::json provenance_;

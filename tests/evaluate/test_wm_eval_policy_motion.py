@@ -11,7 +11,8 @@ trained for a few steps here):
   success exactly at its first step above 0.5;
 - wpe.csv rows and wpe_summary.json validate against their schemas; the manifest names the
   motion model and the success classifier by hash; the success run's checkpoint.json validates
-  against schemas/success-checkpoint.schema.json and agrees with its archive;
+  against schemas/success-checkpoint.schema.json and agrees with its archive; `wm-success score`
+  rows against schemas/success-scores-row.schema.json;
 - a motion checkpoint without --success-model, or with a --success-model that is not a success
   classifier, exits 1 with one line that says so, and leaves no finished-looking report."""
 import filecmp
@@ -186,6 +187,23 @@ class WmEvalPolicyMotion(unittest.TestCase):
         for key in ("model_kind", "step", "config", "config_hash", "data"):
             self.assertEqual(meta[key], manifest[key] if key != "data" else manifest["data"][0],
                              key)
+
+    def test_success_scores_of_real_episodes_validate(self):
+        """wm-success score on the val episodes: one schema-valid row per episode."""
+        out = self.path("scores.csv")
+        ok("wm-success", "score", "--checkpoint", self.path("success"), "--data",
+           self.path("shards", "val"), "--out", out)
+        with open(os.path.join(SRC, "schemas", "success-scores-row.schema.json"),
+                  encoding="utf-8") as f:
+            row_schema = json.load(f)
+        rows = read_rows(out)
+        self.assertEqual([int(r["episode"]) for r in rows], list(range(EPISODES)))
+        for r in rows:
+            typed = {k: v if k == "policy_id" else float(v) if k == "max_probability" else int(v)
+                     for k, v in r.items()}
+            jsonschema.validate(typed, row_schema)
+            self.assertEqual(typed["predicted_success"], int(typed["first_success_step"] >= 0))
+            self.assertEqual(r["policy_id"], "expert")
 
     def test_missing_or_wrong_success_model_is_one_clear_error(self):
         cases = [([], "needs --success-model"),

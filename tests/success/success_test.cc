@@ -14,6 +14,7 @@
 #include "core/shard/dataset_writer.h"
 #include "success/config.h"
 #include "success/labelled_frames.h"
+#include "success/score.h"
 #include "success/success_model.h"
 #include "success/trainer.h"
 #include "tests/core/test_util.h"
@@ -145,6 +146,22 @@ TEST_F(SuccessTest, LearnsTheSeparableToyCase) {
   EXPECT_GT(p[0], 0.5f);
   EXPECT_LT(p[1], 0.5f);
   EXPECT_THROW(model->Probabilities(off, 2), Error);
+
+  // Every val episode ends with the square on the disc (its one success frame, the last).
+  const std::vector<EpisodeScore> scores = ScoreEpisodes(*model, dir_ / "val");
+  ASSERT_EQ(scores.size(), 8u);
+  int right = 0;
+  for (const EpisodeScore& e : scores) {
+    EXPECT_TRUE(e.logged_success);
+    EXPECT_EQ(e.steps, 8);
+    EXPECT_EQ(e.predicted_success, e.first_success_step >= 0);
+    EXPECT_EQ(e.predicted_success, e.max_probability > 0.5);
+    right += e.first_success_step == 7;
+  }
+  EXPECT_GE(right, 6);
+  EXPECT_EQ(ScoresCsv(scores).substr(0, ScoresCsv(scores).find('\n')),
+            "episode,policy_id,steps,logged_success,predicted_success,first_success_step,"
+            "max_probability");
 }
 
 TEST_F(SuccessTest, SameSeedIdenticalAndResumeReachesTheSameBytes) {
