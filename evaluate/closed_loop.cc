@@ -10,18 +10,52 @@
 #include "train/dynamics_model.h"
 
 namespace wm::evaluate {
+namespace {
 
-ClosedLoopRollout ImagineClosedLoop(const train::DynamicsModel& model,
-                                    const tokenize::Tokenizer& tok, policy::PolicyProcess& policy,
-                                    const ClosedLoopStart& start, int rollout,
-                                    const ClosedLoopOptions& o) {
+// The token model's imagination of one episode: the tokens so far, frame 0's the real ones.
+class TokenWorld : public ImaginedWorld {
+ public:
+  TokenWorld(const train::DynamicsModel& model, const tokenize::Tokenizer& tok,
+             const ClosedLoopStart& start, int rollout, const ClosedLoopOptions& o)
+      : model_(model),
+        tok_(tok),
+        start_(start),
+        rollout_(rollout),
+        o_(o),
+        context_(ContextFrames(model, o.imagination.context)),
+        tokens_(start.first_tokens) {}
+
+  ImaginedStep Next(const std::vector<float>& actions, int64_t t) override {
+    // The policy z is left to the prior, which infers it from this rollout's own context.
+    const ImaginedFrame next = ImagineNextFrame(
+        model_, tokens_, PlainContext(actions.data(), model_.action_dim(), t, context_), {},
+        ImaginationSeed(o_.imagination.seed, start_.episode, rollout_, t), o_.imagination);
+    tokens_.insert(tokens_.end(), next.tokens.begin(), next.tokens.end());
+    return {.frame = DecodeClip(tok_, tokens_, t + 1, 1, start_.first_frame),
+            .reward = next.reward,
+            .terminal_prob = next.terminal_prob};
+  }
+
+ private:
+  const train::DynamicsModel& model_;
+  const tokenize::Tokenizer& tok_;
+  const ClosedLoopStart& start_;
+  const int rollout_;
+  const ClosedLoopOptions& o_;
+  const int64_t context_;
+  std::vector<int64_t> tokens_;  // [(t + 1) * N]
+};
+
+}  // namespace
+
+ClosedLoopRollout RunClosedLoop(ImaginedWorld& world, policy::PolicyProcess& policy,
+                                const ClosedLoopStart& start, int rollout,
+                                const ClosedLoopOptions& o) {
   const int size = start.first_frame.size;
-  const int64_t context = ContextFrames(model, o.imagination.context);
   ClosedLoopRollout r{.episode = start.episode,
                       .rollout = rollout,
                       .episode_seed = start.episode_seed,
                       .policy_seed = policy::RolloutPolicySeed(start.episode_seed, rollout),
-                      .tokens = start.first_tokens,
                       .frames = start.first_frame,
                       .end = "horizon"};
   policy.Reset(start.episode, r.policy_seed, start.instruction);
@@ -31,17 +65,13 @@ ClosedLoopRollout ImagineClosedLoop(const train::DynamicsModel& model,
         policy.Act({rgb.data(), size, size, start.instruction, start.episode, t});
     if (o.clamp_tabletop) policy::ClampTabletopAction(action.data());
     r.actions.insert(r.actions.end(), action.begin(), action.end());
-    // The policy z is left to the prior, which infers it from this rollout's own context.
-    const ImaginedFrame next = ImagineNextFrame(
-        model, r.tokens, PlainContext(r.actions.data(), model.action_dim(), t, context), {},
-        ImaginationSeed(o.imagination.seed, start.episode, rollout, t), o.imagination);
-    r.tokens.insert(r.tokens.end(), next.tokens.begin(), next.tokens.end());
+    const ImaginedStep next = world.Next(r.actions, t);
     r.rewards.push_back(next.reward);
     r.terminal_probs.push_back(next.terminal_prob);
     r.episode_return += next.reward;
     r.steps = t + 1;
-    const Clip decoded = DecodeClip(tok, r.tokens, t + 1, 1, start.first_frame);
-    r.frames.pixels.insert(r.frames.pixels.end(), decoded.pixels.begin(), decoded.pixels.end());
+    r.frames.pixels.insert(r.frames.pixels.end(), next.frame.pixels.begin(),
+                           next.frame.pixels.end());
     r.frames.frames += 1;
     if (next.reward > o.success_threshold) {
       r.success = true, r.end = "success";
@@ -53,6 +83,13 @@ ClosedLoopRollout ImagineClosedLoop(const train::DynamicsModel& model,
     }
   }
   return r;
+}
+
+WorldFactory TokenWorlds(const train::DynamicsModel& model, const tokenize::Tokenizer& tok,
+                         const ClosedLoopOptions& options) {
+  return [&model, &tok, &options](const ClosedLoopStart& start, int rollout) {
+    return std::make_unique<TokenWorld>(model, tok, start, rollout, options);
+  };
 }
 
 }  // namespace wm::evaluate

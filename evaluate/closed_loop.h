@@ -1,10 +1,14 @@
 #pragma once
 // A policy rolled out inside the world model (WPE, wpe-policy-evaluation.txt Sec. 3): from a
 // held-out episode's real first frame, the policy sees each imagined frame, decoded as a user of
-// the model sees it, and its action drives the next imagined frame; the model's reward and
-// terminal heads score the episode. One episode at a time; every step is one model call per
-// start, so batching starts (issue 21 item 7) can later stack the calls of several rollouts.
+// the model sees it, and its action drives the next imagined frame; each step's success score
+// (a token model's reward head, or a success classifier on the frames of a motion model) and
+// terminal probability decide how the episode ends. The loop is one (RunClosedLoop); what
+// imagines is an ImaginedWorld per episode. One episode at a time; every step is one model call
+// per start, so batching starts (issue 21 item 7) can later stack the calls of several rollouts.
 #include <cstdint>
+#include <functional>
+#include <memory>
 #include <string>
 #include <vector>
 
@@ -17,6 +21,12 @@ class PolicyProcess;
 namespace wm::tokenize {
 class Tokenizer;
 }
+namespace wm::motion {
+class MotionModel;
+}
+namespace wm::success {
+class SuccessModel;
+}
 
 namespace wm::evaluate {
 
@@ -26,9 +36,10 @@ struct ClosedLoopOptions {
   int64_t horizon = 40;
   int rollouts = 1;            // rollouts per start, with distinct policy and sampling seeds
   bool clamp_tabletop = true;  // clamp actions to the tabletop world's limits, as the simulator
-  // A step whose predicted reward exceeds this is a success and ends the episode (the tabletop
-  // dataset logs reward 1 on reaching the goal, else 0); a predicted terminal probability above
-  // terminal_threshold ends it without success.
+  // A step whose success score (predicted reward, or P(success) of a success classifier)
+  // exceeds this is a success and ends the episode (the tabletop dataset logs reward 1 on
+  // reaching the goal, else 0); a predicted terminal probability above terminal_threshold ends
+  // it without success.
   double success_threshold = 0.5;
   double terminal_threshold = 0.5;
   // Context length, sampling seed, temperature and MaskGIT rounds (horizon and samples unused).
@@ -49,23 +60,49 @@ struct ClosedLoopRollout {
   int rollout = 0;
   uint64_t episode_seed = 0, policy_seed = 0;
   int64_t steps = 0;                           // actions taken = imagined frames
-  std::vector<int64_t> tokens;                 // [(steps + 1) * N]; frame 0 is the real one
   std::vector<float> actions;                  // [steps, D], as the model got them (clamped)
-  std::vector<float> rewards, terminal_probs;  // [steps]: the heads' view of each step
+  std::vector<float> rewards, terminal_probs;  // [steps]: the success score of each step
   Clip frames;                // frame 0 (real) and the imagined frames 1..steps, decoded
-  bool success = false;       // some step's reward > success_threshold
-  double episode_return = 0;  // sum of the predicted rewards
+  bool success = false;       // some step's success score > success_threshold
+  double episode_return = 0;  // sum of the success scores
   std::string end;            // "success", "terminal" or "horizon"
 };
 
-// Rolls out `policy` from `start` (rollout `rollout` of it). The policy is reset with
+// What a world model says of one closed-loop step.
+struct ImaginedStep {
+  Clip frame;               // [1, 3, S, S] in [-1, 1]: imagined frame t + 1, as the policy sees it
+  float reward = 0;         // success score: predicted reward, or P(success | frame)
+  float terminal_prob = 0;  // P(episode over); 0 for a model without a terminal head
+};
+
+// A world model's side of one closed-loop episode, holding its imagination so far.
+class ImaginedWorld {
+ public:
+  virtual ~ImaginedWorld() = default;
+  // Imagined frame t + 1 after actions rows 0..t ([(t + 1) * D], as the model gets them).
+  virtual ImaginedStep Next(const std::vector<float>& actions, int64_t t) = 0;
+};
+// A fresh world for rollout `rollout` of `start`.
+using WorldFactory =
+    std::function<std::unique_ptr<ImaginedWorld>(const ClosedLoopStart& start, int rollout)>;
+
+// Rolls out `policy` in `world` from `start` (rollout `rollout` of it). The policy is reset with
 // RolloutPolicySeed(start.episode_seed, rollout) and asked at steps 0..; step 0 shows the real
-// first frame, step t > 0 imagined frame t decoded with the real first frame as anchor. Sampling
-// seeds are ImaginationSeed(seed, episode, rollout, step): byte-reproducible on CPU. A policy
-// failure throws the policy's wm::Error (naming policy, episode and step).
-ClosedLoopRollout ImagineClosedLoop(const train::DynamicsModel& model,
-                                    const tokenize::Tokenizer& tok, policy::PolicyProcess& policy,
-                                    const ClosedLoopStart& start, int rollout,
-                                    const ClosedLoopOptions& options);
+// first frame, step t > 0 imagined frame t. A policy failure throws the policy's wm::Error
+// (naming policy, episode and step).
+ClosedLoopRollout RunClosedLoop(ImaginedWorld& world, policy::PolicyProcess& policy,
+                                const ClosedLoopStart& start, int rollout,
+                                const ClosedLoopOptions& options);
+
+// The token dynamics model: frames decoded with the real first frame as anchor, the reward and
+// terminal heads score each step. Sampling seeds are ImaginationSeed(seed, episode, rollout,
+// step): byte-reproducible on CPU.
+WorldFactory TokenWorlds(const train::DynamicsModel& model, const tokenize::Tokenizer& tok,
+                         const ClosedLoopOptions& options);
+
+// The motion model (deterministic: every rollout of a start imagines the same under the same
+// actions), each imagined frame scored by the success classifier's P(success); no terminal
+// head (evaluate/motion_closed_loop.cc).
+WorldFactory MotionWorlds(const motion::MotionModel& model, const success::SuccessModel& success);
 
 }  // namespace wm::evaluate

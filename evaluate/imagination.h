@@ -7,6 +7,7 @@
 #include <cstdint>
 #include <functional>
 #include <map>
+#include <memory>
 #include <optional>
 #include <string>
 #include <vector>
@@ -17,6 +18,9 @@
 
 namespace wm {
 struct Episode;
+}
+namespace wm::motion {
+class MotionModel;
 }
 
 namespace wm::evaluate {
@@ -56,6 +60,16 @@ struct CheckpointUnderEval {
 CheckpointUnderEval LoadCheckpointUnderEval(const EvalOptions& o, size_t c, const std::string& name,
                                             const tokenize::Tokenizer& tok,
                                             const tokens::TokenDataset& data);
+
+// A motion checkpoint of `o` loaded for `tok` and `data` (its frame size and action width
+// checked: wm::Error naming the checkpoint otherwise), and what its report manifests say of it.
+struct LoadedMotionModel {
+  std::shared_ptr<const motion::MotionModel> model;
+  CheckpointInfo info;
+};
+LoadedMotionModel LoadMotionModelFor(const EvalOptions& o, const std::string& checkpoint,
+                                     const tokenize::Tokenizer& tok,
+                                     const tokens::TokenDataset& data);
 
 // The motion model's side of LoadCheckpointUnderEval (evaluate/motion_imagination.cc).
 CheckpointUnderEval LoadMotionCheckpoint(const EvalOptions& o, const std::string& checkpoint,

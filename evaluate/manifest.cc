@@ -4,6 +4,7 @@
 
 #include "core/atomic_file.h"
 #include "core/error.h"
+#include "core/paths.h"
 #include "core/provenance.h"
 #include "core/sha256.h"
 #include "core/shard/dataset_reader.h"
@@ -45,13 +46,19 @@ nlohmann::json PolicyEvalConfigJson(const PolicyEvalOptions& p) {
     policies.push_back(
         {{"name", s.name}, {"command", s.command}, {"in_distribution", s.in_distribution}});
   }
-  return {{"policies", policies},
-          {"horizon", p.loop.horizon},
-          {"rollouts", p.loop.rollouts},
-          {"clamp_actions", p.loop.clamp_tabletop ? "tabletop" : "none"},
-          {"success_threshold", p.loop.success_threshold},
-          {"terminal_threshold", p.loop.terminal_threshold},
-          {"true_values_sha256", p.true_values.empty() ? "" : Sha256File(p.true_values)}};
+  nlohmann::json config = {
+      {"policies", policies},
+      {"horizon", p.loop.horizon},
+      {"rollouts", p.loop.rollouts},
+      {"clamp_actions", p.loop.clamp_tabletop ? "tabletop" : "none"},
+      {"success_threshold", p.loop.success_threshold},
+      {"terminal_threshold", p.loop.terminal_threshold},
+      {"true_values_sha256", p.true_values.empty() ? "" : Sha256File(p.true_values)}};
+  // Only with a success classifier, so a token model's config hash is what it always was.
+  if (!p.success_model.empty()) {
+    config["success_model_sha256"] = Sha256File(CheckpointFileIn(p.success_model));
+  }
+  return config;
 }
 
 nlohmann::json EvalConfigJson(const EvalOptions& o) {

@@ -64,19 +64,26 @@ Clip ImagineClip(const motion::MotionModel& model, const Clip& given, const floa
 
 }  // namespace
 
-CheckpointUnderEval LoadMotionCheckpoint(const EvalOptions& o, const std::string& checkpoint,
-                                         const std::string& name, const tokenize::Tokenizer& tok,
-                                         const tokens::TokenDataset& data) {
+LoadedMotionModel LoadMotionModelFor(const EvalOptions& o, const std::string& checkpoint,
+                                     const tokenize::Tokenizer& tok,
+                                     const tokens::TokenDataset& data) {
   std::shared_ptr<const motion::MotionModel> model =
       motion::MotionModel::Load(checkpoint, o.device, o.threads);
   CheckMotionModelFits(*model, tok, data);
   const nlohmann::json config = motion::ConfigToJson(model->config());
-  CheckpointUnderEval c{.options = MotionOptions(o, name),
-                        .info = {.file = model->checkpoint_file(),
-                                 .step = model->step(),
-                                 .extra = {{"model_kind", "motion"},
-                                           {"config", config},
-                                           {"config_hash", ConfigHash(config)}}}};
+  CheckpointInfo info{
+      .file = model->checkpoint_file(),
+      .step = model->step(),
+      .extra = {{"model_kind", "motion"}, {"config", config}, {"config_hash", ConfigHash(config)}}};
+  return {std::move(model), std::move(info)};
+}
+
+CheckpointUnderEval LoadMotionCheckpoint(const EvalOptions& o, const std::string& checkpoint,
+                                         const std::string& name, const tokenize::Tokenizer& tok,
+                                         const tokens::TokenDataset& data) {
+  LoadedMotionModel loaded = LoadMotionModelFor(o, checkpoint, tok, data);
+  std::shared_ptr<const motion::MotionModel> model = loaded.model;
+  CheckpointUnderEval c{.options = MotionOptions(o, name), .info = std::move(loaded.info)};
   const bool perturb = ScoresControllability(c.options);
   const Perturbation p = o.controllability;
   const uint64_t seed = o.rollout.seed;

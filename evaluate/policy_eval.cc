@@ -16,11 +16,13 @@
 #include "evaluate/clip_decode.h"
 #include "evaluate/episode_strip.h"
 #include "evaluate/evaluator.h"
+#include "evaluate/imagination.h"
 #include "evaluate/manifest.h"
 #include "evaluate/wpe_report.h"
 #include "motion/motion_model.h"
 #include "policy/policy_process.h"
 #include "policy/policy_value.h"
+#include "success/success_model.h"
 #include "tokenize/tokenizer.h"
 #include "train/dynamics_model.h"
 
@@ -67,15 +69,23 @@ std::vector<ClosedLoopStart> LoadStarts(const EvalOptions& o, const tokens::Toke
   return starts;
 }
 
+// A checkpoint's world in closed loop: how to imagine, and what its manifests say of it.
+struct ClosedLoopModel {
+  WorldFactory worlds;
+  int64_t action_dim = 0;
+  CheckpointInfo info;
+  std::shared_ptr<const void> keep;  // the models `worlds` refers to
+};
+
 // Runs one policy from every start; keeps the decoded frames of rollout 0 of the first `strips`
 // starts only.
 PolicyRun RunPolicy(const EvalOptions& o, const policy::PolicySpec& spec,
-                    const train::DynamicsModel& model, const tokenize::Tokenizer& tok,
+                    const ClosedLoopModel& model, const tokenize::Tokenizer& tok,
                     const std::vector<ClosedLoopStart>& starts) {
   const PolicyEvalOptions& p = o.policy_eval;
   policy::PolicyProcess process({.name = spec.name,
                                  .command = spec.command,
-                                 .action_dim = static_cast<int>(model.action_dim()),
+                                 .action_dim = static_cast<int>(model.action_dim),
                                  .image_height = tok.image_size(),
                                  .image_width = tok.image_size(),
                                  .start_timeout_s = p.start_timeout_s,
@@ -85,9 +95,9 @@ PolicyRun RunPolicy(const EvalOptions& o, const policy::PolicySpec& spec,
   if (o.show_progress) progress.emplace("imagine " + spec.name, starts.size(), "starts");
   for (size_t i = 0; i < starts.size(); ++i) {
     for (int r = 0; r < p.loop.rollouts; ++r) {
-      ClosedLoopRollout rollout = ImagineClosedLoop(model, tok, process, starts[i], r, p.loop);
+      ClosedLoopRollout rollout =
+          RunClosedLoop(*model.worlds(starts[i], r), process, starts[i], r, p.loop);
       if (r > 0 || static_cast<int>(i) >= o.strips) rollout.frames = {};
-      rollout.tokens.clear();
       run.rollouts.push_back(std::move(rollout));
     }
     if (progress) progress->Add(1);
@@ -165,7 +175,7 @@ void WriteStrips(const std::string& dir, const std::vector<PolicyRun>& runs,
 }
 
 void WriteWpe(const EvalOptions& o, const std::string& dir, const std::string& checkpoint_file,
-              const std::vector<PolicyRun>& runs) {
+              const std::string& success_file, const std::vector<PolicyRun>& runs) {
   std::vector<PolicyEstimate> model;
   for (const PolicyRun& run : runs) model.push_back(Estimate(run));
   const std::vector<WpeRow> rows =
@@ -173,6 +183,8 @@ void WriteWpe(const EvalOptions& o, const std::string& dir, const std::string& c
   nlohmann::json provenance = MakeProvenance("wm-eval", EvalConfigJson(o));
   provenance["inputs"] = {{"checkpoint_sha256", Sha256File(checkpoint_file)},
                           {"true_values_sha256", Sha256File(o.policy_eval.true_values)}};
+  if (!success_file.empty())
+    provenance["inputs"]["success_model_sha256"] = Sha256File(success_file);
   const WpeSummary s = SummarizeWpe(rows);
   WriteWpeReport(dir, rows, s, provenance);
   spdlog::info(
@@ -181,14 +193,51 @@ void WriteWpe(const EvalOptions& o, const std::string& dir, const std::string& c
       s.num_policies, s.spearman, s.kendall, s.pairwise_accuracy, s.mean_abs_gap);
 }
 
+// The token model of `checkpoint` with its reward and terminal heads.
+ClosedLoopModel LoadTokenModel(const EvalOptions& o, const std::string& checkpoint,
+                               const tokenize::Tokenizer& tok, const tokens::TokenDataset& data) {
+  std::shared_ptr<const train::DynamicsModel> model = LoadModelFor(o, checkpoint, data);
+  CheckModelFitsTokens(*model, data);
+  return {.worlds = TokenWorlds(*model, tok, o.policy_eval.loop),
+          .action_dim = model->action_dim(),
+          .info = DescribeDynamicsCheckpoint(*model),
+          .keep = model};
+}
+
+// The motion model of `checkpoint` with the success classifier `success` (not null) scoring its
+// frames.
+ClosedLoopModel LoadMotionModel(const EvalOptions& o, const std::string& checkpoint,
+                                const std::shared_ptr<const success::SuccessModel>& success,
+                                const tokenize::Tokenizer& tok, const tokens::TokenDataset& data) {
+  LoadedMotionModel motion = LoadMotionModelFor(o, checkpoint, tok, data);
+  Check(success->image_size() == motion.model->image_size(),
+        "the success classifier scores " + std::to_string(success->image_size()) +
+            " px frames, the motion model imagines " + std::to_string(motion.model->image_size()) +
+            " px ones (train both at one image_size)",
+        {.file = success->checkpoint_file(), .key = "model.image_size"});
+  const nlohmann::json config = success::ConfigToJson(success->config());
+  motion.info.extra["success_model"] = {{"sha256", Sha256File(success->checkpoint_file())},
+                                        {"step", success->step()},
+                                        {"config_hash", ConfigHash(config)}};
+  auto keep = std::make_shared<std::pair<std::shared_ptr<const motion::MotionModel>,
+                                         std::shared_ptr<const success::SuccessModel>>>(
+      motion.model, success);
+  return {.worlds = MotionWorlds(*motion.model, *success),
+          .action_dim = motion.model->action_dim(),
+          .info = std::move(motion.info),
+          .keep = keep};
+}
+
 }  // namespace
 
 std::vector<std::string> EvaluatePolicies(const EvalOptions& o) {
-  // The closed loop needs the reward head to decide success; a motion model has none.
+  // Before any work: a motion checkpoint has no reward head to read success from.
   for (const std::string& checkpoint : o.checkpoints) {
-    Check(!motion::MotionModel::IsMotionCheckpoint(checkpoint),
-          "closed-loop policy evaluation (--policy) is not supported for motion checkpoints yet",
-          {.file = checkpoint, .key = "--policy"});
+    Check(!o.policy_eval.success_model.empty() ||
+              !motion::MotionModel::IsMotionCheckpoint(checkpoint),
+          "a motion checkpoint has no reward head: closed-loop policy evaluation (--policy) of it "
+          "needs --success-model RUN_DIR (a success classifier from wm-success train)",
+          {.file = checkpoint, .key = "--success-model"});
   }
   tokens::TokenDataset data(o.tokens_dir);
   tokenize::Tokenizer tok(o.tokenizer, o.device);
@@ -203,6 +252,10 @@ std::vector<std::string> EvaluatePolicies(const EvalOptions& o) {
       {.file = data.dir(), .key = "--clamp-actions"});
   Check(o.policy_eval.loop.horizon >= 1 && o.policy_eval.loop.rollouts >= 1,
         "--policy-horizon and --policy-rollouts must be at least 1", {.key = "--policy-horizon"});
+  std::shared_ptr<const success::SuccessModel> success;
+  if (!o.policy_eval.success_model.empty()) {
+    success = success::SuccessModel::Load(o.policy_eval.success_model, o.device, o.threads);
+  }
   std::vector<Clip> logged;
   const std::vector<ClosedLoopStart> starts = LoadStarts(o, data, tok, shards, &logged);
   std::vector<std::string> written;
@@ -211,11 +264,13 @@ std::vector<std::string> EvaluatePolicies(const EvalOptions& o) {
     const std::string dir = (fs::path(o.out_dir) / name).string();
     fs::create_directories(dir);
     for (const char* f : kReportFiles) fs::remove(fs::path(dir) / f);
-    auto model = LoadModelFor(o, o.checkpoints[c], data);
-    CheckModelFitsTokens(*model, data);
+    const bool is_motion = motion::MotionModel::IsMotionCheckpoint(o.checkpoints[c]);
+    const ClosedLoopModel model = is_motion
+                                      ? LoadMotionModel(o, o.checkpoints[c], success, tok, data)
+                                      : LoadTokenModel(o, o.checkpoints[c], tok, data);
     std::vector<PolicyRun> runs;
     for (const policy::PolicySpec& spec : o.policy_eval.policies) {
-      runs.push_back(RunPolicy(o, spec, *model, tok, starts));
+      runs.push_back(RunPolicy(o, spec, model, tok, starts));
       const PolicyEstimate e = Estimate(runs.back());
       spdlog::info("{}: {} in the world model: value {:.3f} [{:.3f}, {:.3f}] over {} episodes",
                    name, spec.name, e.value, e.ci_low, e.ci_high, e.episodes);
@@ -223,9 +278,10 @@ std::vector<std::string> EvaluatePolicies(const EvalOptions& o) {
     WriteFileAtomically((fs::path(dir) / "wm_episodes.csv").string(), EpisodesCsv(runs));
     WriteFileAtomically((fs::path(dir) / "wm_values.csv").string(), ValuesCsv(runs));
     WriteStrips(dir, runs, starts, logged);
-    if (!o.policy_eval.true_values.empty()) WriteWpe(o, dir, model->checkpoint_file(), runs);
-    WriteEvalManifest(dir, name, o.checkpoints[c], o, DescribeDynamicsCheckpoint(*model), tok, data,
-                      shards);
+    if (!o.policy_eval.true_values.empty()) {
+      WriteWpe(o, dir, model.info.file, is_motion ? success->checkpoint_file() : "", runs);
+    }
+    WriteEvalManifest(dir, name, o.checkpoints[c], o, model.info, tok, data, shards);
     written.push_back(dir);
   }
   return written;

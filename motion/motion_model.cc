@@ -75,14 +75,54 @@ int64_t MotionModel::action_dim() const { return state_->net->action_dim(); }
 int64_t MotionModel::step() const { return state_->step; }
 const std::string& MotionModel::checkpoint_file() const { return state_->file; }
 
+namespace {
+
+// Throws wm::Error naming `file` unless `values` holds `count` x `what`'s shape.
+void CheckSize(const std::vector<float>& values, int64_t count, const std::string& what,
+               const std::string& shape, const std::string& file) {
+  Check(static_cast<int64_t>(values.size()) == count,
+        what + ": expected " + shape + " values (" + std::to_string(count) + "), got " +
+            std::to_string(values.size()),
+        {.file = file});
+}
+
+}  // namespace
+
+std::vector<float> MotionModel::ImagineNext(const std::vector<float>& current,
+                                            const std::vector<float>& previous,
+                                            const std::vector<float>& raw_actions,
+                                            int64_t batch) const {
+  State& s = *state_;  // the net's forward is not const
+  const int64_t S = image_size(), D = action_dim();
+  const std::string frames =
+      std::to_string(batch) + " x 3 x " + std::to_string(S) + " x " + std::to_string(S);
+  CheckSize(current, batch * 3 * S * S, "current frames", frames, s.file);
+  CheckSize(previous, batch * 3 * S * S, "previous frames", frames, s.file);
+  CheckSize(raw_actions, batch * D, "actions", std::to_string(batch) + " x " + std::to_string(D),
+            s.file);
+  std::vector<float> normed(raw_actions.size());
+  s.norm.Apply(raw_actions.data(), normed.data(), batch);
+  const auto planar = [&](const std::vector<float>& v) {
+    return torch::from_blob(const_cast<float*>(v.data()), {batch, 3, S, S}).to(s.device);
+  };
+  torch::NoGradGuard no_grad;
+  const torch::Tensor next = s.net
+                                 ->forward(planar(current), planar(previous),
+                                           torch::from_blob(normed.data(), {batch, D}).to(s.device))
+                                 .next.clamp(-1, 1)
+                                 .to(torch::kCPU)
+                                 .contiguous();
+  return {next.data_ptr<float>(), next.data_ptr<float>() + next.numel()};
+}
+
 std::vector<float> MotionModel::Imagine(const std::vector<float>& first,
                                         const std::vector<float>& raw_actions, int64_t batch,
                                         int64_t horizon) const {
   State& s = *state_;  // the net's forward is not const
   const int64_t S = image_size(), D = action_dim();
   Check(static_cast<int64_t>(first.size()) == batch * 3 * S * S,
-        "first frames: expected " + std::to_string(batch) + " x 3 x " + std::to_string(S) +
-            " x " + std::to_string(S) + " values, got " + std::to_string(first.size()),
+        "first frames: expected " + std::to_string(batch) + " x 3 x " + std::to_string(S) + " x " +
+            std::to_string(S) + " values, got " + std::to_string(first.size()),
         {.file = s.file});
   Check(static_cast<int64_t>(raw_actions.size()) == batch * horizon * D,
         "actions: the model takes " + std::to_string(D) + " values per step; expected " +
@@ -92,8 +132,7 @@ std::vector<float> MotionModel::Imagine(const std::vector<float>& first,
   std::vector<float> normed(raw_actions.size());
   s.norm.Apply(raw_actions.data(), normed.data(), batch * horizon);
   const torch::Tensor frames = motion::Imagine(
-      s.net,
-      torch::from_blob(const_cast<float*>(first.data()), {batch, 3, S, S}).to(s.device),
+      s.net, torch::from_blob(const_cast<float*>(first.data()), {batch, 3, S, S}).to(s.device),
       torch::from_blob(normed.data(), {batch, horizon, D}).to(s.device));
   const torch::Tensor out = frames.to(torch::kCPU).contiguous();
   return {out.data_ptr<float>(), out.data_ptr<float>() + out.numel()};

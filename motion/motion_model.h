@@ -35,6 +35,15 @@ class MotionModel {
                              const std::vector<float>& raw_actions, int64_t batch,
                              int64_t horizon) const;
 
+  // One step of Imagine, for a caller that picks each action after seeing the last frame (a
+  // policy in closed loop): the frame after `current`, `previous` being the frame before it
+  // (`current` again at an episode's first frame), under `raw_actions` [batch, action_dim()].
+  // Frames as for Imagine; returns [batch, 3, S, S] in [-1, 1], clamped. Chained, these are
+  // Imagine's frames.
+  std::vector<float> ImagineNext(const std::vector<float>& current,
+                                 const std::vector<float>& previous,
+                                 const std::vector<float>& raw_actions, int64_t batch) const;
+
  private:
   MotionModel();
   struct State;

@@ -32,17 +32,20 @@ Compare checkpoints with `wm-report compare`.
 Motion checkpoints (wm-motion train) are scored beside token ones in the same format: the plain
 rollout only, imagined from the real first frame under the logged actions (retrace skipped, with
 a warning when asked for), once (deterministic), with delta_tpsnr; no values.csv or contexts.csv
-rows (no reward head, no token window); --policy does not take them yet.
+rows (no reward head, no token window).
 Closed loop (--policy / --policies; docs/reports.md, "Policy evaluation in the world model"): each
 policy (a process speaking docs/policy-protocol.md) acts on the imagined frames from the real first
 frame of each of the first --episodes held-out episodes, for --policy-horizon steps or until the
 reward head says success (reward > 0.5) or the terminal head says done; --policy-rollouts per
-start. Writes wm_values.csv (success rate, Wilson 95%), wm_episodes.csv, strips/episode_K.png and,
-with --true-values (wm-sim-policy's policy_values.json), wpe.csv and wpe_summary.json; no
-open-loop scores. Example:
+start. A motion checkpoint has no reward head: pass --success-model RUN_DIR (wm-success train, a
+classifier trained on real frames), and a step whose imagined frame it gives P(success) > 0.5 is
+a success (docs/success.md). Writes wm_values.csv (success rate, Wilson 95%), wm_episodes.csv,
+strips/episode_K.png and, with --true-values (wm-sim-policy's policy_values.json), wpe.csv and
+wpe_summary.json; no open-loop scores. Example:
   wm-eval --checkpoint runs/dyn-tiny --tokenizer runs/tok-tiny --data data/tabletop/val \
     --tokens data/tabletop-tokens/val --out reports/ --episodes 16 \
     --policies configs/policies/tabletop.yaml --true-values truth/policy_values.json
+  wm-eval --checkpoint runs/motion --success-model runs/success --tokenizer runs/tok-tiny ...
 Sharded (e.g. a Slurm array): --shard-index $SLURM_ARRAY_TASK_ID --num-shards N in every job;
 each writes REPORT_DIR/<name>/parts/, and the job that completes the set writes the report,
 byte-identical to a single job's. Rerunning a job whose part exists only retries the report.
@@ -72,6 +75,10 @@ void AddPolicyOptions(CLI::App& app, PolicyArgs& a, wm::evaluate::PolicyEvalOpti
   app.add_option("--true-values", p.true_values,
                  "wm-sim-policy's policy_values.json: writes wpe.csv and wpe_summary.json")
       ->check(CLI::ExistingFile);
+  app.add_option("--success-model", p.success_model,
+                 "Closed loop of motion checkpoints: wm-success train's RUN_DIR, whose "
+                 "P(success | imagined frame) > 0.5 is a success")
+      ->check(CLI::ExistingPath);
   app.add_option("--policy-timeout", p.step_timeout_s, "Seconds a policy may take per answer")
       ->capture_default_str();
   app.add_option("--policy-start-timeout", p.start_timeout_s,

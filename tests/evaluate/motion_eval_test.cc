@@ -1,8 +1,9 @@
 // wm-eval of a motion checkpoint (evaluate/imagination.h): a motion model trained in seconds on
 // the moving-square data (tests/motion/moving_square.h) is scored beside the baselines of a tiny
 // tokenizer of the same frames, with its plain rollout only; it follows its actions (delta_tpsnr)
-// and beats copying; two shard jobs write the single job's report; the closed loop and a model of
-// another image size are refused.
+// and beats copying; two shard jobs write the single job's report; the closed loop's one-step
+// imagination chains to the open-loop one exactly; the closed loop without a success classifier
+// and a model of another image size are refused.
 #include <gtest/gtest.h>
 
 #include <map>
@@ -10,9 +11,11 @@
 #include <set>
 
 #include "core/atomic_file.h"
+#include "core/error.h"
 #include "core/sha256.h"
 #include "evaluate/evaluator.h"
 #include "metrics/value/csv_table.h"
+#include "motion/motion_model.h"
 #include "motion/trainer.h"
 #include "tests/core/test_util.h"
 #include "tests/motion/moving_square.h"
@@ -128,13 +131,36 @@ TEST_F(MotionEvalTest, TwoShardJobsWriteTheSingleJobsReport) {
   }
 }
 
-// One line each: the closed loop (no reward head yet), and frames of another size than the
-// tokenizer's (a motion model trained at 64 pixels against the 32-pixel tokenizer).
-TEST_F(MotionEvalTest, RefusesThePolicyLoopAndAnotherImageSize) {
+// The closed loop imagines with ImagineNext, one step at a time: chained from a frame under the
+// same actions, its frames are Imagine's, bit for bit (so a policy that repeats the logged actions
+// sees the open-loop rollout).
+TEST_F(MotionEvalTest, ImagineNextChainedIsImagine) {
+  const auto model = motion::MotionModel::Load(*dir_ / "motion");
+  const int64_t S = model->image_size(), D = model->action_dim(), H = 5;
+  std::vector<float> first(static_cast<size_t>(3 * S * S)), actions(static_cast<size_t>(H * D));
+  for (size_t i = 0; i < first.size(); ++i) first[i] = static_cast<float>((i * 37) % 200) / 100 - 1;
+  for (size_t i = 0; i < actions.size(); ++i) actions[i] = (i % 3 == 0 ? 1.0f : -0.5f);
+  const std::vector<float> open_loop = model->Imagine(first, actions, 1, H);
+  std::vector<float> previous = first, current = first, chained;
+  for (int64_t t = 0; t < H; ++t) {
+    const std::vector<float> a(actions.begin() + t * D, actions.begin() + (t + 1) * D);
+    std::vector<float> next = model->ImagineNext(current, previous, a, 1);
+    chained.insert(chained.end(), next.begin(), next.end());
+    previous = std::move(current);
+    current = std::move(next);
+  }
+  EXPECT_EQ(chained, open_loop);
+  EXPECT_NE(std::vector<float>(open_loop.begin(), open_loop.begin() + 3 * S * S), first);
+  EXPECT_THROW(model->ImagineNext(first, previous, std::vector<float>(D + 1), 1), Error);
+}
+
+// One line each: the closed loop without --success-model (no reward head), and frames of another
+// size than the tokenizer's (a motion model trained at 64 pixels against the 32-pixel tokenizer).
+TEST_F(MotionEvalTest, RefusesThePolicyLoopWithoutASuccessModelAndAnotherImageSize) {
   EvalOptions o = Options("refused");
   o.policy_eval.policies = {{.name = "random", .command = "true", .in_distribution = true}};
   std::string error = test::ErrorText([&] { EvaluatePolicies(o); });
-  EXPECT_NE(error.find("not supported for motion checkpoints"), std::string::npos) << error;
+  EXPECT_NE(error.find("needs --success-model"), std::string::npos) << error;
   EXPECT_EQ(error.find('\n'), std::string::npos) << error;
 
   motion::TrainOptions m{.config = motion::test::TestConfig(), .data_dir = *dir_ / "train",

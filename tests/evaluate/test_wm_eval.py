@@ -325,7 +325,7 @@ class WmEval(unittest.TestCase):
         p = tool("wm-eval", *self.eval_args(self.path("motion_policy")), "--checkpoint",
                  self.path("motion"), "--policy", "idle=true")
         self.assertEqual(p.returncode, 1, p.stderr)
-        self.assertIn("not supported for motion checkpoints", p.stderr)
+        self.assertIn("needs --success-model", p.stderr)
 
     def test_rerun_gives_the_same_bytes_and_the_manifest_names_the_inputs(self):
         # The manifest records no time or host, so it is byte-identical too.

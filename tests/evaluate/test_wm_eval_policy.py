@@ -72,6 +72,26 @@ def strip_cell(strip, row, column):
     return cv2.cvtColor(strip[y:y + cell:STRIP_SCALE, x:x + cell:STRIP_SCALE], cv2.COLOR_BGR2RGB)
 
 
+def recorders(seen):
+    """Two recording policies with opposite constant actions, writing what they see to seen/."""
+    plus = ",".join(["0.04"] * 6 + ["1"])
+    minus = ",".join(["-0.04"] * 6 + ["0"])
+    return ["--policy", f"plus={RECORDER} --out {seen}/plus --action={plus}",
+            "--policy", f"minus={RECORDER} --out {seen}/minus --action={minus}",
+            "--in-distribution", "plus"]
+
+
+def write_truth(path):
+    """Made-up true values of the two recorders (a policy_values.json); returns `path`."""
+    with open(path, "w", encoding="utf-8") as f:
+        json.dump({"format": "wmkit-policy-values", "policies": [
+            {"policy": "minus", "in_distribution": False, "episodes": 10, "true_value": 0.2,
+             "ci_low": 0.05, "ci_high": 0.5},
+            {"policy": "plus", "in_distribution": True, "episodes": 10, "true_value": 0.7,
+             "ci_low": 0.4, "ci_high": 0.9}]}, f)
+    return path
+
+
 class WmEvalPolicy(unittest.TestCase):
     @classmethod
     def path(cls, *parts):
@@ -98,15 +118,9 @@ class WmEvalPolicy(unittest.TestCase):
         ok("wm-train", "--config", os.path.join(SRC, "configs", "dynamics", "tiny.yaml"),
            "--tokens", path("tokens", "train"), "--out", path("dyn"), "--steps", 10,
            "--threads", 1)
-        cls.truth = path("policy_values.json")
-        with open(cls.truth, "w", encoding="utf-8") as f:
-            json.dump({"format": "wmkit-policy-values", "policies": [
-                {"policy": "minus", "in_distribution": False, "episodes": 10, "true_value": 0.2,
-                 "ci_low": 0.05, "ci_high": 0.5},
-                {"policy": "plus", "in_distribution": True, "episodes": 10, "true_value": 0.7,
-                 "ci_low": 0.4, "ci_high": 0.9}]}, f)
+        cls.truth = write_truth(path("policy_values.json"))
         for out in ("run", "rerun"):
-            ok("wm-eval", *cls.args(path(out), cls.recorders(path(out + "_seen"))))
+            ok("wm-eval", *cls.args(path(out), recorders(path(out + "_seen"))))
         cls.report = path("run", "dyn")
 
     @classmethod
@@ -116,14 +130,6 @@ class WmEvalPolicy(unittest.TestCase):
                 path("shards", "val"), "--tokens", path("tokens", "val"), "--out", out,
                 "--threads", 1, "--episodes", EPISODES, "--policy-horizon", HORIZON,
                 "--strips", EPISODES, "--true-values", cls.truth, *policies, *extra]
-
-    @classmethod
-    def recorders(cls, seen):
-        plus = ",".join(["0.04"] * 6 + ["1"])
-        minus = ",".join(["-0.04"] * 6 + ["0"])
-        return ["--policy", f"plus={RECORDER} --out {seen}/plus --action={plus}",
-                "--policy", f"minus={RECORDER} --out {seen}/minus --action={minus}",
-                "--in-distribution", "plus"]
 
     def test_rerun_gives_identical_bytes(self):
         files = ["wm_episodes.csv", "wm_values.csv", "wpe.csv"] + [

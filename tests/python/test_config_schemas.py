@@ -1,9 +1,10 @@
 #!/usr/bin/python3
-"""The config schemas (schemas/{tokenizer,dynamics,motion,segmentation}-config, mixture) and the
-schemas of the tokenizer and motion runs' checkpoint.json and of `wm-metrics` frame comparison,
-against what the C++ reads and writes:
+"""The config schemas (schemas/{tokenizer,dynamics,motion,success,segmentation}-config, mixture)
+and the schemas of the tokenizer and motion runs' checkpoint.json and of `wm-metrics` frame
+comparison, against what the C++ reads and writes (a success run's checkpoint.json:
+tests/evaluate/test_wm_eval_policy_motion.py):
 
-- every file in configs/{tokenizer,dynamics,motion,mixtures,segmentation} validates (after
+- every file in configs/{tokenizer,dynamics,motion,success,mixtures,segmentation} validates (after
   YAML -> JSON), and the keys of each schema are those of its doc's field table;
 - each schema rejects unknown keys, wrong types and out-of-range values, and the C++ loader
   rejects the very same files (exit 1, naming the file and the key);
@@ -42,6 +43,7 @@ FAMILIES = {
     "tokenizer": ("tokenizer", "tokenizer-config", "tokenizer.md", "## Config"),
     "dynamics": ("dynamics", "dynamics-config", "dynamics.md", "## Config keys"),
     "motion": ("motion", "motion-config", "motion.md", "## Config"),
+    "success": ("success", "success-config", "success.md", "## Config"),
     "mixture": ("mixtures", "mixture", None, None),
     "segmentation": ("segmentation", "segmentation-config", "metrics-segmentation.md", "## Config"),
 }
@@ -150,7 +152,7 @@ class ShippedConfigs(unittest.TestCase):
     def test_schemas_are_draft_2020_12(self):
         for name in ("tokenizer-config", "dynamics-config", "motion-config", "mixture",
                      "segmentation-config", "tokenizer-checkpoint", "motion-checkpoint",
-                     "metrics-compare"):
+                     "metrics-compare", "success-config", "success-checkpoint"):
             s = schema(name)
             self.assertEqual(s["$schema"], "https://json-schema.org/draft/2020-12/schema")
             self.assertTrue(s["$id"].endswith("/%s.schema.json" % name))
@@ -183,7 +185,7 @@ class ShippedConfigs(unittest.TestCase):
             self.assertEqual(documented, keys, doc)
 
     def test_checkpoint_config_rules_equal_the_config_schema(self):
-        for family in ("tokenizer", "motion"):
+        for family in ("tokenizer", "motion", "success"):
             cfg, ckpt = schema(family + "-config"), schema(family + "-checkpoint")
             self.assertEqual(set(ckpt["$defs"]["config"]["required"]), set(cfg["properties"]))
             for sec, body in cfg["properties"].items():
@@ -195,7 +197,7 @@ class ShippedConfigs(unittest.TestCase):
 
     def test_empty_file_means_defaults(self):
         for name in ("tokenizer-config", "dynamics-config", "motion-config",
-                     "segmentation-config"):
+                     "segmentation-config", "success-config"):
             validator(name).validate(None)
         self.assertFalse(validator("mixture").is_valid(None))
 
@@ -252,6 +254,13 @@ MUTATIONS = [
      "train.val_episodes"),
     ("motion", "tiny", "out of range", setting(["train", "val_horizon"], 0), "train.val_horizon"),
     ("motion", "tiny", "out of range", setting(["data", "image_key"], ""), "data.image_key"),
+    ("success", "tiny", "unknown key", setting(["train", "positive_fracton"], 0.5),
+     "train.positive_fracton"),
+    ("success", "tiny", "wrong type", setting(["data", "reward_threshold"], "half"),
+     "data.reward_threshold"),
+    ("success", "tiny", "out of range", setting(["train", "positive_fraction"], 1.0),
+     "train.positive_fraction"),
+    ("success", "tiny", "out of range", setting(["model", "image_size"], 60), "model.image_size"),
     ("mixture", "tabletop", "wrong type", setting(["datasets", 0, "weight"], "heavy"),
      "datasets[0]"),
     ("mixture", "tabletop", "missing weight", lambda d: d["datasets"][0].pop("weight"),
@@ -307,6 +316,9 @@ class ConfigMutations(unittest.TestCase):
         if family == "motion":
             return tool("wm-motion", "train", "--config", path, "--data", FIX["shards"], "--out",
                         out, "--steps", 1, "--threads", 1)
+        if family == "success":  # the config is read before --data is opened
+            return tool("wm-success", "train", "--config", path, "--data", FIX["shards"],
+                        "--out", out, "--steps", 1, "--threads", 1)
         if family == "mixture":
             return tool("wm-tokenize", "train", "--config", tiny, "--mixture", path, "--data",
                         FIX["shards"], "--out", out, "--steps", 1, "--threads", 1)
