@@ -9,7 +9,6 @@ when its output exists, so a killed run resumes. docs/finetune.md.
 
   scripts/finetune.py --bin build/bin --config configs/finetune/tiny.yaml --out data/finetune
 """
-import argparse
 import csv
 import io
 import json
@@ -17,7 +16,7 @@ import os
 import sys
 import time
 
-from pipeline_steps import ConfigError, ConfigKeys, Pipeline, load_yaml_config, sha256, \
+from pipeline_steps import ConfigKeys, Pipeline, load_yaml_config, sha256, start, \
     write_atomically
 
 MODELS = ["finetuned", "scratch", "pretrained"]  # finetune.csv's rows, then copy_last
@@ -31,9 +30,7 @@ def load_config(path):
     cfg = load_yaml_config(path)
     keys = ConfigKeys(path, cfg)
     get, positive = keys.get, ConfigKeys.POSITIVE
-    get("seed", int, *ConfigKeys.NON_NEGATIVE)
-    get("data.size", int, lambda v: 64 <= v <= 256, "an integer in 64..256")
-    get("data.policies", str)
+    keys.seed_and_frames()
     for part in ["pretrain", "finetune"]:
         get(f"data.{part}.look", str, lambda v: v in ("varied", "plain"), "varied or plain")
         get(f"data.{part}.goal_region", str)
@@ -74,9 +71,7 @@ def summary_from_compare(finetuned, episodes, resamples, seed):
 
 class Finetune(Pipeline):
     def __init__(self, args):
-        self.cfg = load_config(args.config)
-        self.config_path = args.config
-        super().__init__(args.bin, args.out, "finetune")
+        super().__init__(args, "finetune", load_config)
 
     def data(self):
         """Two generations: the pretraining set (its val split: the pretraining run's validation
@@ -268,17 +263,7 @@ def markdown(path):
 
 
 def main():
-    ap = argparse.ArgumentParser(description=__doc__,
-                                 formatter_class=argparse.RawDescriptionHelpFormatter)
-    ap.add_argument("--bin", default="build/bin")
-    ap.add_argument("--config", default="configs/finetune/tiny.yaml")
-    ap.add_argument("--out", default="data/finetune")
-    args = ap.parse_args()
-    started = time.time()
-    try:
-        f = Finetune(args)
-    except ConfigError as e:
-        sys.exit(f"finetune: {e}")
+    f, started = start(__doc__, Finetune, "finetune")
     f.timed("data", f.data)
     f.timed("tokenizer", f.tokenizer)
     f.train_all()

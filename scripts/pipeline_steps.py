@@ -70,6 +70,12 @@ class ConfigKeys:
                               f"got {node!r}")
         return node
 
+    def seed_and_frames(self):
+        """seed, data.size and data.policies: the keys every tabletop experiment has."""
+        self.get("seed", int, *self.NON_NEGATIVE)
+        self.get("data.size", int, lambda v: 64 <= v <= 256, "an integer in 64..256")
+        self.get("data.policies", str)
+
     def existing_file(self, dotted):
         if not os.path.isfile(self.get(dotted, str)):
             raise ConfigError(f"{self.path}: key '{dotted}': no such file {self.get(dotted, str)}")
@@ -80,9 +86,12 @@ class Pipeline:
     skipped when its output exists, and a trainer resumes (a finished run is a no-op), so a killed
     script continues where it stopped. Commands are logged to OUT/<who>.log."""
 
-    def __init__(self, bin_dir, out, who):
-        self.bin, self.out, self.who = bin_dir, out, who
-        os.makedirs(out, exist_ok=True)
+    def __init__(self, args, who, load_config):
+        """args: --bin, --config, --out (start()); load_config(path) checks every key first, so a
+        bad config stops before the output directory exists."""
+        self.cfg, self.config_path = load_config(args.config), args.config
+        self.bin, self.out, self.who = args.bin, args.out, who
+        os.makedirs(self.out, exist_ok=True)
         self.log = self.path(f"{who}.log")
         self.stage_seconds = {}
 
@@ -158,3 +167,21 @@ def run_output(cmd, log, who):
     if p.returncode != 0:
         sys.exit(f"{who}: command failed (log: {log}): {' '.join(cmd)}")
     return p.stdout
+
+
+def start(doc, experiment, who):
+    """Parses an experiment script's command line (--bin, --config, --out; `doc` is its --help)
+    and builds `experiment(args)`; a bad config exits with its one line, before anything runs.
+    Returns (the experiment, its start time)."""
+    import argparse
+    ap = argparse.ArgumentParser(description=doc,
+                                 formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap.add_argument("--bin", default="build/bin")
+    ap.add_argument("--config", default=f"configs/{who}/tiny.yaml")
+    ap.add_argument("--out", default=f"data/{who}")
+    args = ap.parse_args()
+    started = time.time()
+    try:
+        return experiment(args), started
+    except ConfigError as e:
+        sys.exit(f"{who}: {e}")

@@ -10,7 +10,6 @@ its output exists and the trainers resume, so a killed run continues. docs/scali
 
   scripts/scaling.py --bin build/bin --config configs/scaling/tiny.yaml --out data/scaling
 """
-import argparse
 import concurrent.futures
 import csv
 import io
@@ -25,7 +24,7 @@ import time
 import yaml
 
 from pipeline_steps import ConfigError, ConfigKeys, Pipeline, load_yaml_config, run_output, \
-    sha256, write_atomically
+    sha256, start, write_atomically
 import scaling_plot
 
 EVAL_METRICS = ["psnr", "mse", "mse_arm"]  # scaling.csv's evaluation columns (plain rollout)
@@ -38,9 +37,7 @@ def load_config(path):
     cfg = load_yaml_config(path)
     keys = ConfigKeys(path, cfg)
     get, positive = keys.get, ConfigKeys.POSITIVE
-    get("seed", int, *ConfigKeys.NON_NEGATIVE)
-    get("data.size", int, lambda v: 64 <= v <= 256, "an integer in 64..256")
-    get("data.policies", str)
+    keys.seed_and_frames()
     get("data.look", str, lambda v: v in ("varied", "plain"), "varied or plain")
     get("data.seed", int, *ConfigKeys.NON_NEGATIVE)
     ascending = lambda v: len(v) >= 2 and all(isinstance(n, int) and not isinstance(n, bool) and
@@ -117,9 +114,7 @@ def training_curve(metrics_csv):
 
 class Scaling(Pipeline):
     def __init__(self, args):
-        self.cfg = load_config(args.config)
-        self.config_path = args.config
-        super().__init__(args.bin, args.out, "scaling")
+        super().__init__(args, "scaling", load_config)
         self.sizes = [size_name(s) for s in self.cfg["dynamics"]["sizes"]]
         self.episodes = self.cfg["data"]["train_episodes"]
 
@@ -368,26 +363,17 @@ def markdown(rows, summary):
             "|---|---|---|---|---|---|"]
     for f in summary["fits"]:
         se = "" if f["b_std_error"] is None else f" ± {f['b_std_error']:.3g}"
+        r2 = "" if f["r2"] is None else f"{f['r2']:.3f}"
         extra = ", ".join(f"{e['x']:.3g}: {e['y']:.4g}" + (
             "" if e["std_error"] is None else f" ± {e['std_error']:.2g}")
             for e in f["extrapolation"])
         out.append(f"| {f['name']} | {100 * f['change']:+.2f}% | {f['falls_monotonically']} | "
-                   f"{f['b']:.3g}{se} | {'' if f['r2'] is None else format(f['r2'], '.3f')} | {extra} |")
+                   f"{f['b']:.3g}{se} | {r2} | {extra} |")
     return "\n".join(out) + "\n"
 
 
 def main():
-    ap = argparse.ArgumentParser(description=__doc__,
-                                 formatter_class=argparse.RawDescriptionHelpFormatter)
-    ap.add_argument("--bin", default="build/bin")
-    ap.add_argument("--config", default="configs/scaling/tiny.yaml")
-    ap.add_argument("--out", default="data/scaling")
-    args = ap.parse_args()
-    started = time.time()
-    try:
-        s = Scaling(args)
-    except ConfigError as e:
-        sys.exit(f"scaling: {e}")
+    s, started = start(__doc__, Scaling, "scaling")
     s.timed("data", s.data)
     s.timed("tokenizer", s.tokenizer)
     s.timed("dynamics", s.train_all)

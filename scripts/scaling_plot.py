@@ -1,7 +1,8 @@
 """scaling.png of `make scaling` (scripts/scaling.py) in the manner of Whale-X Fig. 5: training
 loss curves per model size; final validation loss against dynamics parameters, one line per data
 size; against training episodes, one line per model size; and the rollout MSE against parameters.
-Each line carries its wm-metrics scaling fit, dashed out to the extrapolated sizes (docs/scaling.md)."""
+Each line carries its wm-metrics scaling fit, dashed out to the extrapolated sizes
+(docs/scaling.md)."""
 import matplotlib
 
 matplotlib.use("Agg")
@@ -73,7 +74,7 @@ def plot(path, rows, summary, curves):
                  "dynamics_parameters", "train_episodes", by_episodes)
     axes[3].axhline(summary["copy_last"]["mse"], color="grey", linestyle=":", label="copy_last")
     axes[3].legend(fontsize=7)
-    axes[3].set_title(f"rollout MSE vs parameters (val, plain)")
+    axes[3].set_title("rollout MSE vs parameters (val, plain)")
     fig.suptitle(f"make scaling: {summary['form']} fits (solid), extrapolated (dashed, x); "
                  f"{summary['train_steps']} steps per run", fontsize=10)
     fig.tight_layout()

@@ -8,48 +8,23 @@ fit is finite, converged, valid against scaling-fit.schema.json, and its extrapo
 own law evaluated; summary and manifest validate; a rerun skips every finished stage and gives
 the same bytes; a bad config is one line naming the key."""
 import csv
-import hashlib
 import json
 import math
 import os
 import re
 import subprocess
-import tempfile
 import unittest
 
 import jsonschema
 import yaml
 
-SRC = os.environ.get("WM_SOURCE_DIR", os.path.join(os.path.dirname(__file__), "..", ".."))
-BIN = os.environ.get("WM_BIN_DIR", os.path.join(SRC, "build", "bin"))
-SCRIPT = os.path.join(SRC, "scripts", "scaling.py")
+from experiment_files import BIN, SRC, run_experiment, schema, set_up_experiment, sha256, \
+    typed
+
 SIZES = [{"d_model": 16, "num_layers": 1}, {"d_model": 32, "num_layers": 1},
          {"d_model": 32, "num_layers": 2}]
 EPISODES, VAL_EPISODES, STEPS = [3, 6], 3, 3
 TEXT_COLUMNS = {"size", "checkpoint_sha256"}
-
-
-def sha256(path):
-    with open(path, "rb") as f:
-        return hashlib.sha256(f.read()).hexdigest()
-
-
-def schema(name):
-    with open(os.path.join(SRC, "schemas", name + ".schema.json"), encoding="utf-8") as f:
-        return json.load(f)
-
-
-def typed(row):
-    """A CSV row as its schema sees it: empty cell -> null, numeric columns -> numbers."""
-    out = {}
-    for k, v in row.items():
-        if v == "":
-            out[k] = None
-        elif k in TEXT_COLUMNS:
-            out[k] = v
-        else:
-            out[k] = int(v) if v.lstrip("-").isdigit() else float(v)
-    return out
 
 
 def reduced_config(path):
@@ -64,26 +39,13 @@ def reduced_config(path):
     return cfg
 
 
-def run_scaling(config, out):
-    return subprocess.run(["/usr/bin/python3", SCRIPT, "--bin", BIN, "--config", config,
-                           "--out", out], cwd=SRC, capture_output=True, text=True)
-
-
 class ScalingTest(unittest.TestCase):
     @classmethod
     def setUpClass(cls):
-        cls.tmp = tempfile.TemporaryDirectory()
-        cls.out = os.path.join(cls.tmp.name, "scaling")
-        cls.config = os.path.join(cls.tmp.name, "reduced.yaml")
-        cls.cfg = reduced_config(cls.config)
-        p = run_scaling(cls.config, cls.out)
-        assert p.returncode == 0, p.stdout + p.stderr
-        cls.bytes = {}
-        for name in ["scaling.csv", "scaling_summary.json", "scaling.png", "scaling.md"]:
-            with open(os.path.join(cls.out, name), "rb") as f:
-                cls.bytes[name] = f.read()
+        set_up_experiment(cls, "scaling", reduced_config,
+                          ["scaling.csv", "scaling_summary.json", "scaling.png", "scaling.md"])
         with open(os.path.join(cls.out, "scaling.csv"), encoding="utf-8") as f:
-            cls.rows = [typed(r) for r in csv.DictReader(f)]
+            cls.rows = [typed(r, TEXT_COLUMNS) for r in csv.DictReader(f)]
         with open(os.path.join(cls.out, "scaling_summary.json"), encoding="utf-8") as f:
             cls.summary = json.load(f)
 
@@ -192,7 +154,7 @@ class ScalingTest(unittest.TestCase):
             self.assertEqual(run["step"], STEPS)
 
     def test_rerun_skips_finished_work_and_gives_the_same_bytes(self):
-        p = run_scaling(self.config, self.out)
+        p = run_experiment("scaling", self.config, self.out)
         self.assertEqual(p.returncode, 0, p.stdout + p.stderr)
         commands = [line for line in p.stdout.splitlines() if line.startswith("+ ")]
         for tool in ["wm-gen-tabletop", "wm-ingest", "wm-tokenize encode", "wm-eval"]:
@@ -212,7 +174,7 @@ class ScalingTest(unittest.TestCase):
             path = os.path.join(self.tmp.name, "bad.yaml")
             with open(path, "w", encoding="utf-8") as f:
                 yaml.safe_dump({**self.cfg, section: bad}, f)
-            p = run_scaling(path, os.path.join(self.tmp.name, "never"))
+            p = run_experiment("scaling", path, os.path.join(self.tmp.name, "never"))
             self.assertNotEqual(p.returncode, 0)
             self.assertIn(key, p.stderr)
             self.assertIn(path, p.stderr)
