@@ -27,6 +27,9 @@ ABLATION_DIR ?= data/ablation
 # make finetune [FINETUNE_CONFIG=configs/finetune/tiny.yaml] [FINETUNE_DIR=data/finetune]
 FINETUNE_CONFIG ?= configs/finetune/tiny.yaml
 FINETUNE_DIR ?= data/finetune
+# make scaling [SCALING_CONFIG=configs/scaling/tiny.yaml] [SCALING_DIR=data/scaling]
+SCALING_CONFIG ?= configs/scaling/tiny.yaml
+SCALING_DIR ?= data/scaling
 # make ingest RAW=<input> OUT=<dataset dir> FORMAT=rlds|hdf5|folder [SPLIT=train] [ARGS=...]
 RAW ?=
 OUT ?=
@@ -49,7 +52,7 @@ MODEL_ONLY_TESTS ?= ImageCodec|TrainTest|EncodeTest|Overfit|FrameScores
 # ccache keys on relative paths below the checkout, so other clones and worktrees share hits.
 export CCACHE_BASEDIR ?= $(CURDIR)
 
-.PHONY: all deps configure build test test-sanitize test-model-only fuzz demo wpe ingest tokenize train eval report ablation finetune bench format lint clean
+.PHONY: all deps configure build test test-sanitize test-model-only fuzz demo wpe ingest tokenize train eval report ablation finetune scaling bench format lint clean
 
 all: build
 
@@ -115,6 +118,9 @@ ablation: build
 
 finetune: build
 	@/usr/bin/python3 scripts/finetune.py --bin $(BIN) --config $(FINETUNE_CONFIG) --out $(FINETUNE_DIR)
+
+scaling: build
+	@/usr/bin/python3 scripts/scaling.py --bin $(BIN) --config $(SCALING_CONFIG) --out $(SCALING_DIR)
 
 bench: build
 	@bash bench/run.sh $(BIN)

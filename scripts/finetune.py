@@ -9,7 +9,6 @@ when its output exists, so a killed run resumes. docs/finetune.md.
 
   scripts/finetune.py --bin build/bin --config configs/finetune/tiny.yaml --out data/finetune
 """
-import argparse
 import csv
 import io
 import json
@@ -17,9 +16,8 @@ import os
 import sys
 import time
 
-import yaml
-
-from pipeline_steps import run, sha256, write_atomically
+from pipeline_steps import ConfigKeys, Pipeline, load_yaml_config, sha256, start, \
+    write_atomically
 
 MODELS = ["finetuned", "scratch", "pretrained"]  # finetune.csv's rows, then copy_last
 METRICS = ["psnr", "ssim", "lpips_style", "mse_arm", "mse_object", "delta_tpsnr"]
@@ -27,50 +25,26 @@ SUMMARY_METRICS = {"psnr": 1, "mse_arm": -1}  # summary gains, oriented so posit
 STRIP_ROWS = ["real", "finetuned", "scratch", "pretrained", "copy_last"]
 
 
-class ConfigError(Exception):
-    pass
-
-
 def load_config(path):
     """The config, every key checked; a bad one is one line naming the file and the key."""
-    try:
-        with open(path, encoding="utf-8") as f:
-            cfg = yaml.safe_load(f)
-    except (OSError, yaml.YAMLError) as e:
-        raise ConfigError(f"{path}: cannot read the config: {e}") from e
-
-    def get(dotted, kind, check=None, what=""):
-        node = cfg
-        for part in dotted.split("."):
-            if not isinstance(node, dict) or part not in node:
-                raise ConfigError(f"{path}: key '{dotted}' is missing")
-            node = node[part]
-        if not isinstance(node, kind) or isinstance(node, bool) or (check and not check(node)):
-            raise ConfigError(f"{path}: key '{dotted}': expected {what or kind.__name__}, "
-                              f"got {node!r}")
-        return node
-
-    positive = (lambda v: v >= 1, "an integer >= 1")
-    get("seed", int, lambda v: v >= 0, "an integer >= 0")
-    get("data.size", int, lambda v: 64 <= v <= 256, "an integer in 64..256")
-    get("data.policies", str)
+    cfg = load_yaml_config(path)
+    keys = ConfigKeys(path, cfg)
+    get, positive = keys.get, ConfigKeys.POSITIVE
+    keys.seed_and_frames()
     for part in ["pretrain", "finetune"]:
         get(f"data.{part}.look", str, lambda v: v in ("varied", "plain"), "varied or plain")
         get(f"data.{part}.goal_region", str)
         get(f"data.{part}.train_episodes", int, *positive)
-        get(f"data.{part}.seed", int, lambda v: v >= 0, "an integer >= 0")
+        get(f"data.{part}.seed", int, *ConfigKeys.NON_NEGATIVE)
     get("data.pretrain.val_episodes", int, *positive)
     get("data.finetune.eval_episodes", int, lambda v: v >= 2, "an integer >= 2 (paired intervals)")
-    get("tokenizer.config", str)
-    get("dynamics.config", str)
     for key in ["tokenizer.steps", "dynamics.pretrain_steps", "dynamics.finetune_steps",
                 "dynamics.threads", "eval.horizon", "eval.resamples"]:
         get(key, int, *positive)
     get("dynamics.freeze", str, lambda v: v in ("", "policy"), "'' or 'policy'")
     get("eval.strips", int, lambda v: v >= 1, "an integer >= 1")
     for key in ["tokenizer.config", "dynamics.config"]:
-        if not os.path.isfile(get(key, str)):
-            raise ConfigError(f"{path}: key '{key}': no such file {get(key, str)}")
+        keys.existing_file(key)
     return cfg
 
 
@@ -95,66 +69,35 @@ def summary_from_compare(finetuned, episodes, resamples, seed):
     return summary
 
 
-class Finetune:
+class Finetune(Pipeline):
     def __init__(self, args):
-        self.bin, self.out, self.config_path = args.bin, args.out, args.config
-        self.cfg = load_config(args.config)
-        os.makedirs(self.out, exist_ok=True)
-        self.log = self.path("finetune.log")
-        self.stage_seconds = {}
-
-    def path(self, *parts):
-        return os.path.join(self.out, *parts)
-
-    def tool(self, name, *args):
-        run([os.path.join(self.bin, name), *map(str, args)], self.log, "finetune")
-
-    def timed(self, stage, fn, *args):
-        started = time.time()
-        fn(*args)
-        self.stage_seconds[stage] = round(time.time() - started, 1)
+        super().__init__(args, "finetune", load_config)
 
     def data(self):
         """Two generations: the pretraining set (its val split: the pretraining run's validation
         loss) and the new scene (its val split: the held-out evaluation episodes)."""
         d = self.cfg["data"]
         for part in ["pretrain", "finetune"]:
-            p, raw = d[part], self.path("raw", part)
-            if not os.path.exists(os.path.join(raw, "wm_tabletop", "1.0.0", "dataset_info.json")):
-                self.tool("wm-gen-tabletop", "--out", raw, "--size", d["size"], "--policies",
-                          d["policies"], "--train-episodes", p["train_episodes"],
-                          "--val-episodes", p.get("val_episodes", p.get("eval_episodes")),
-                          "--seed", p["seed"], "--look", p["look"],
-                          f"--goal-region={p['goal_region']}")
+            p, raw = d[part], os.path.join("raw", part)
+            self.generate(raw, d["size"], d["policies"], p["train_episodes"],
+                          p.get("val_episodes", p.get("eval_episodes")), p["seed"], p["look"],
+                          p["goal_region"])
             for split in ["train", "val"]:
-                shards = self.path("shards", f"{part}_{split}")
-                if not os.path.exists(os.path.join(shards, "index.json")):
-                    self.tool("wm-ingest", "--format", "rlds", "--input",
-                              os.path.join(raw, "wm_tabletop", "1.0.0"), "--split", split,
-                              "--output", shards)
+                self.ingest(raw, split, f"{part}_{split}")
 
     def tokenizer(self):
         """Trained on the pretraining set only; every split is encoded with it, so the new scene's
         tokens come from the pretrained tokenizer unchanged (frozen)."""
         t = self.cfg["tokenizer"]
-        run_dir = self.path("tokenizer")
-        resume = ["--resume"] if os.path.exists(os.path.join(run_dir, "checkpoint.wmt")) else []
-        self.tool("wm-tokenize", "train", "--config", t["config"], "--data",
-                  self.path("shards", "pretrain_train"), "--val-data",
-                  self.path("shards", "pretrain_val"), "--out", run_dir, "--steps", t["steps"],
-                  "--seed", self.cfg["seed"], *resume)
+        self.train_tokenizer(t["config"], t["steps"], self.cfg["seed"], "pretrain_train",
+                             "pretrain_val")
         for split in ["pretrain_train", "pretrain_val", "finetune_train", "finetune_val"]:
-            if not os.path.exists(self.path("tokens", split, "index.json")):
-                self.tool("wm-tokenize", "encode", "--checkpoint", run_dir, "--data",
-                          self.path("shards", split), "--out", self.path("tokens", split))
+            self.encode(split)
 
     def dynamics(self, name, tokens, val_tokens, steps, *extra):
         d = self.cfg["dynamics"]
-        run_dir = self.path(name, "dynamics")
-        resume = ["--resume"] if os.path.exists(os.path.join(run_dir, "checkpoint.wmt")) else []
-        self.tool("wm-train", "--config", d["config"], "--tokens", self.path("tokens", tokens),
-                  "--val-tokens", self.path("tokens", val_tokens), "--out", run_dir, "--steps",
-                  steps, "--seed", self.cfg["seed"], "--threads", d["threads"], *extra, *resume)
+        self.train_dynamics(self.path(name, "dynamics"), d["config"], tokens, val_tokens, steps,
+                            self.cfg["seed"], d["threads"], *extra)
 
     def train_all(self):
         d = self.cfg["dynamics"]
@@ -168,18 +111,13 @@ class Finetune:
         self.timed("scratch", self.dynamics, "scratch", "finetune_train", "finetune_val",
                    d["finetune_steps"])
 
-    def evaluate(self):
-        e, reports = self.cfg["eval"], self.path("reports")
-        if not all(os.path.exists(os.path.join(reports, m, "manifest.json")) for m in MODELS):
-            self.tool("wm-eval", "--checkpoint", *[self.path(m, "dynamics") for m in MODELS],
-                      "--name", *MODELS, "--tokenizer", self.path("tokenizer"), "--data",
-                      self.path("shards", "finetune_val"), "--tokens",
-                      self.path("tokens", "finetune_val"), "--out", reports, "--horizon",
-                      e["horizon"], "--rollout", "plain", "--temperature", 0, "--seed",
-                      self.cfg["seed"], "--resamples", e["resamples"], "--masks", "files",
-                      "--seg-config", "configs/segmentation/tabletop.yaml", "--strips",
-                      e["strips"], "--videos", 0, "--threads", self.cfg["dynamics"]["threads"])
+    def evaluate_all(self):
+        e = self.cfg["eval"]
+        self.evaluate("reports", MODELS, [self.path(m, "dynamics") for m in MODELS],
+                      "finetune_val", e["horizon"], self.cfg["seed"], e["resamples"],
+                      e["strips"], self.cfg["dynamics"]["threads"])
         # The paired bootstrap over episodes is wm-report compare's (docs/reports.md).
+        reports = self.path("reports")
         self.tool("wm-report", "compare", *[os.path.join(reports, m) for m in MODELS],
                   "--baseline", "scratch", "--metrics", ",".join(METRICS), "--out",
                   self.path("compare.csv"), "--markdown", self.path("compare.md"), "--seed",
@@ -325,21 +263,11 @@ def markdown(path):
 
 
 def main():
-    ap = argparse.ArgumentParser(description=__doc__,
-                                 formatter_class=argparse.RawDescriptionHelpFormatter)
-    ap.add_argument("--bin", default="build/bin")
-    ap.add_argument("--config", default="configs/finetune/tiny.yaml")
-    ap.add_argument("--out", default="data/finetune")
-    args = ap.parse_args()
-    started = time.time()
-    try:
-        f = Finetune(args)
-    except ConfigError as e:
-        sys.exit(f"finetune: {e}")
+    f, started = start(__doc__, Finetune, "finetune")
     f.timed("data", f.data)
     f.timed("tokenizer", f.tokenizer)
     f.train_all()
-    f.timed("evaluate", f.evaluate)
+    f.timed("evaluate", f.evaluate_all)
     rows = f.compare_rows()
     f.write_csv(rows)
     summary = f.write_summary(rows)

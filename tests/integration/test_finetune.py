@@ -7,13 +7,10 @@ summary's gains equal a recomputation from the reports' per-episode values and f
 finetune.csv, and their intervals are compare.csv's, oriented so positive = better; a rerun
 skips every finished stage and gives the same bytes; a bad config is one line naming the key."""
 import csv
-import hashlib
 import json
 import math
 import os
-import subprocess
 import sys
-import tempfile
 import unittest
 
 import cv2
@@ -21,35 +18,11 @@ import jsonschema
 import numpy as np
 import yaml
 
-SRC = os.environ.get("WM_SOURCE_DIR", os.path.join(os.path.dirname(__file__), "..", ".."))
-BIN = os.environ.get("WM_BIN_DIR", os.path.join(SRC, "build", "bin"))
-SCRIPT = os.path.join(SRC, "scripts", "finetune.py")
+from experiment_files import SRC, run_experiment, schema, set_up_experiment, sha256, typed
+
 MODELS = ["finetuned", "scratch", "pretrained"]
 EVAL_EPISODES, STRIPS, HORIZON = 3, 2, 4
 TEXT_COLUMNS = {"model", "rollout", "init_from_sha256"}
-
-
-def sha256(path):
-    with open(path, "rb") as f:
-        return hashlib.sha256(f.read()).hexdigest()
-
-
-def schema(name):
-    with open(os.path.join(SRC, "schemas", name + ".schema.json"), encoding="utf-8") as f:
-        return json.load(f)
-
-
-def typed(row):
-    """A CSV row as its schema sees it: empty cell -> null, numeric columns -> numbers."""
-    out = {}
-    for k, v in row.items():
-        if v == "":
-            out[k] = None
-        elif k in TEXT_COLUMNS:
-            out[k] = v
-        else:
-            out[k] = int(v) if v.lstrip("-").isdigit() else float(v)
-    return out
 
 
 def per_episode(report, metric, rollout="plain"):
@@ -103,24 +76,11 @@ def reduced_config(path):
     return cfg
 
 
-def run_finetune(config, out):
-    return subprocess.run(["/usr/bin/python3", SCRIPT, "--bin", BIN, "--config", config,
-                           "--out", out], cwd=SRC, capture_output=True, text=True)
-
-
 class FinetuneTest(unittest.TestCase):
     @classmethod
     def setUpClass(cls):
-        cls.tmp = tempfile.TemporaryDirectory()
-        cls.out = os.path.join(cls.tmp.name, "finetune")
-        cls.config = os.path.join(cls.tmp.name, "reduced.yaml")
-        cls.cfg = reduced_config(cls.config)
-        p = run_finetune(cls.config, cls.out)
-        assert p.returncode == 0, p.stdout + p.stderr
-        cls.bytes = {}
-        for name in ["finetune.csv", "finetune_summary.json", "strips/episode_0.png"]:
-            with open(os.path.join(cls.out, name), "rb") as f:
-                cls.bytes[name] = f.read()
+        set_up_experiment(cls, "finetune", reduced_config,
+                          ["finetune.csv", "finetune_summary.json", "strips/episode_0.png"])
         with open(os.path.join(cls.out, "finetune.csv"), encoding="utf-8") as f:
             cls.rows = list(csv.DictReader(f))
         with open(os.path.join(cls.out, "finetune_summary.json"), encoding="utf-8") as f:
@@ -143,7 +103,7 @@ class FinetuneTest(unittest.TestCase):
         self.assertEqual([r["rollout"] for r in self.rows], ["plain"] * 3 + ["copy_last"])
         validator = jsonschema.Draft202012Validator(schema("finetune-row"))
         for row in self.rows:
-            validator.validate(typed(row))
+            validator.validate(typed(row, TEXT_COLUMNS))
             self.assertEqual(int(row["n_episodes"]), EVAL_EPISODES)
             for m in ["psnr", "mse_arm"]:
                 mean, lo, hi = (float(row[m + s]) for s in ["", "_ci_low", "_ci_high"])
@@ -158,7 +118,7 @@ class FinetuneTest(unittest.TestCase):
         self.assertEqual(int(rows["pretrained"]["train_steps"]), d["pretrain_steps"])
         self.assertEqual(int(rows["finetuned"]["train_episodes"]), 3)
         with self.assertRaises(jsonschema.ValidationError):  # the schema can fail
-            validator.validate({**typed(self.rows[0]), "model": "other"})
+            validator.validate({**typed(self.rows[0], TEXT_COLUMNS), "model": "other"})
 
     def test_the_finetuned_run_started_from_the_pretrained_checkpoint(self):
         def checkpoint_json(model):
@@ -245,7 +205,7 @@ class FinetuneTest(unittest.TestCase):
         self.assertEqual(manifest["config_sha256"], sha256(self.config))
 
     def test_rerun_skips_finished_work_and_gives_the_same_bytes(self):
-        p = run_finetune(self.config, self.out)
+        p = run_experiment("finetune", self.config, self.out)
         self.assertEqual(p.returncode, 0, p.stdout + p.stderr)
         commands = [line for line in p.stdout.splitlines() if line.startswith("+ ")]
         for tool in ["wm-gen-tabletop", "wm-ingest", "wm-tokenize encode", "wm-eval"]:
@@ -263,7 +223,7 @@ class FinetuneTest(unittest.TestCase):
         path = os.path.join(self.tmp.name, "bad.yaml")
         with open(path, "w", encoding="utf-8") as f:
             yaml.safe_dump(bad, f)
-        p = run_finetune(path, os.path.join(self.tmp.name, "never"))
+        p = run_experiment("finetune", path, os.path.join(self.tmp.name, "never"))
         self.assertNotEqual(p.returncode, 0)
         self.assertIn("data.finetune.train_episodes", p.stderr)
         self.assertIn(path, p.stderr)
