@@ -11,14 +11,16 @@ over steps, and at step 8).
 
   bench/warp_predictor.py --train data/demo/shards/train --val data/demo/shards/val \
       [--steps 600] [--unroll 1] [--channels 48] [--no-jacobian] [--strip OUT.png] \
-      [--self-condition P] [--post-refine C] [--edge-loss W] [--seed S]
+      [--self-condition P] [--post-refine C] [--edge-loss W] [--flow-l1 W] [--seed S]
 
 The last options are variants tried against the smear (docs/motion.md, "How the recipe was
 chosen"); none is in wm-motion: --self-condition P feeds the net, with probability P per batch,
 its own (gradient-free) prediction of frame t as the current frame, as an imagined rollout does;
 --post-refine C adds a zero-initialised C-channel conv block that corrects the composited frame
 from it and the decoder's features (it sees the warped result, so it could sharpen it);
---edge-loss W adds W times the L1 of the image-gradient difference (Mathieu et al. 2016).
+--edge-loss W adds W times the L1 of the image-gradient difference (Mathieu et al. 2016);
+--flow-l1 W adds W times the mean flow length in pixels (most of the scene is static, and on a
+plain table the photometric loss leaves the flow of uniform regions free).
 """
 import argparse
 import os
@@ -115,8 +117,10 @@ def fit(net, episodes, norm, steps, args):
                 imagined = net(clips[:, 1], clips[:, 0], actions[:, 0])[0].clamp(-1, 1)
             current = torch.where(later.view(-1, 1, 1, 1), imagined, current)
         for u in range(unroll):
-            predicted = net(current, previous, actions[:, u + 1])[0]
+            predicted, flow, _ = net(current, previous, actions[:, u + 1])
             loss = loss + (predicted - clips[:, u + 3]).abs().mean() / unroll
+            if args.flow_l1 > 0:
+                loss = loss + args.flow_l1 * flow.norm(dim=1).mean() / unroll
             if args.edge_loss > 0:
                 loss = loss + args.edge_loss * edge_l1(predicted, clips[:, u + 3]) / unroll
             previous, current = current, predicted
@@ -170,6 +174,7 @@ def main():
     ap.add_argument("--self-condition", type=float, default=0, metavar="P")
     ap.add_argument("--post-refine", type=int, default=0, metavar="C")
     ap.add_argument("--edge-loss", type=float, default=0, metavar="W")
+    ap.add_argument("--flow-l1", type=float, default=0, metavar="W")
     ap.add_argument("--seed", type=int, default=0)
     args = ap.parse_args()
     torch.set_num_threads(1)
