@@ -1,0 +1,37 @@
+#include "ingest/lerobot/columns.h"
+
+#include "core/error.h"
+
+namespace wm::ingest {
+namespace {
+
+parquet::Column ReadRows(const parquet::ParquetFile& file, const std::string& key, int64_t width) {
+  parquet::Column c = file.Read(key);
+  for (int64_t r = 0; r < c.rows(); ++r) {
+    Check(c.RowSize(r) == width,
+          "row " + std::to_string(r) + " holds " + std::to_string(c.RowSize(r)) +
+              " values, expected " + std::to_string(width),
+          {.file = file.name(), .key = key});
+  }
+  return c;
+}
+
+}  // namespace
+
+std::vector<double> NumberColumn(const parquet::ParquetFile& file, const std::string& key,
+                                 int64_t width) {
+  parquet::Column c = ReadRows(file, key, width);
+  if (!c.values.reals.empty() || c.values.size() == 0) return c.values.reals;
+  Check(c.values.strings.empty(), "expected numbers, found strings",
+        {.file = file.name(), .key = key});
+  return {c.values.ints.begin(), c.values.ints.end()};
+}
+
+std::vector<std::string> TextColumn(const parquet::ParquetFile& file, const std::string& key) {
+  parquet::Column c = ReadRows(file, key, 1);
+  Check(c.values.strings.size() == static_cast<size_t>(c.rows()), "expected text, found numbers",
+        {.file = file.name(), .key = key});
+  return c.values.strings;
+}
+
+}  // namespace wm::ingest
