@@ -18,3 +18,6 @@ target_link_libraries(wm_lerobot_v30_fixture PUBLIC wm_ingest wm_parquet_test_wr
   PRIVATE PkgConfig::LIBAV nlohmann_json::nlohmann_json wm_warnings)
 target_include_directories(wm_lerobot_v30_fixture PUBLIC ${PROJECT_SOURCE_DIR})
 wm_add_test(lerobot_v30_test SOURCES lerobot_v30_test.cc LIBS wm_lerobot_v30_fixture wm_ingest wm_parquet)
+# wm-ingest --suggest-mapping on the samples in ../shared (skipped where absent).
+wm_add_test(suggest_mapping_test SOURCES suggest_mapping_test.cc
+  LIBS wm_lerobot_v30_fixture wm_ingest wm_rlds)
