@@ -13,6 +13,7 @@
 #include "core/error.h"
 #include "ingest/lerobot/lerobot_meta.h"
 #include "ingest/lerobot/lerobot_source.h"
+#include "tests/core/test_util.h"
 #include "tests/ingest/lerobot_v30_fixture.h"
 
 namespace wm::ingest {
@@ -23,13 +24,8 @@ using ::testing::HasSubstr;
 using testing::V30FixtureOptions;
 using testing::WriteV30Fixture;
 
-std::string SampleDir() {
-  const char* shared = std::getenv("WM_SHARED_DIR");
-  const char* source = std::getenv("WM_SOURCE_DIR");
-  const fs::path dir = shared ? fs::path(shared) : fs::path(source ? source : ".") / "../shared";
-  return (dir / "samples/lerobot/unitree_g1_v21").string();
-}
-std::string SourceDir() { return std::getenv("WM_SOURCE_DIR"); }
+std::string SampleDir() { return test::SamplesDir() + "/lerobot/unitree_g1_v21"; }
+std::string SourceDir() { return test::SourceDir(); }
 std::string Mapping() { return SourceDir() + "/configs/lerobot/unitree_g1_v21.yaml"; }
 
 #define REQUIRE_SAMPLE() \

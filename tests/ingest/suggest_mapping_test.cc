@@ -14,6 +14,7 @@
 #include "ingest/rlds/dataset_mapping.h"
 #include "ingest/rlds/tfds_dataset.h"
 #include "ingest/suggest_mapping.h"
+#include "tests/core/test_util.h"
 #include "tests/ingest/lerobot_v30_fixture.h"
 
 namespace wm::ingest {
@@ -21,12 +22,8 @@ namespace {
 namespace fs = std::filesystem;
 using ::testing::HasSubstr;
 
-fs::path Samples() {
-  const char* shared = std::getenv("WM_SHARED_DIR");
-  const char* source = std::getenv("WM_SOURCE_DIR");
-  return (shared ? fs::path(shared) : fs::path(source ? source : ".") / "../shared") / "samples";
-}
-fs::path Configs() { return fs::path(std::getenv("WM_SOURCE_DIR")) / "configs"; }
+fs::path Samples() { return test::SamplesDir(); }
+fs::path Configs() { return fs::path(test::SourceDir()) / "configs"; }
 
 #define REQUIRE(path) \
   if (!fs::exists(path)) GTEST_SKIP() << "no sample at " << (path)
