@@ -8,6 +8,10 @@
 #include <string>
 #include <vector>
 
+namespace wm::parquet {
+class ParquetFile;
+}
+
 namespace wm::ingest {
 
 // Where one camera's frames of an episode lie in a v3.0 video file, which concatenates episodes:
@@ -56,6 +60,10 @@ LeRobotMeta ReadLeRobotMeta(const std::string& root);
 // The v3.0 part: meta/tasks.parquet and meta/episodes/chunk-*/file-*.parquet into `meta`
 // (lerobot_meta_v30.cc).
 void ReadLeRobotMetaV30(LeRobotMeta& meta);
+// Appends the episodes of one meta/episodes parquet file (`rel_path` names it in errors) to
+// `meta`, reading the video columns of meta.video_keys. Also the fuzz target's entry point.
+void ReadLeRobotEpisodesV30(const parquet::ParquetFile& file, const std::string& rel_path,
+                            LeRobotMeta& meta);
 
 // Fills "{name}" and "{name:0Nd}" fields of a LeRobot path template.
 std::string FormatPathTemplate(const std::string& pattern,

@@ -28,10 +28,11 @@ void ReadTasks(LeRobotMeta& m) {
   for (size_t i = 0; i < index.size(); ++i) m.tasks[static_cast<int64_t>(index[i])] = text[i];
 }
 
+}  // namespace
+
 // One meta/episodes parquet file: a row per episode.
-void ReadEpisodes(const fs::path& path, LeRobotMeta& m) {
-  const parquet::ParquetFile file(path.string());
-  const std::string rel = fs::relative(path, m.root).string();
+void ReadLeRobotEpisodesV30(const parquet::ParquetFile& file, const std::string& rel,
+                            LeRobotMeta& m) {
   auto column = [&](const std::string& key) { return NumberColumn(file, key, 1); };
   const std::vector<double> index = column("episode_index"), length = column("length"),
                             data_chunk = column("data/chunk_index"),
@@ -78,8 +79,6 @@ void ReadEpisodes(const fs::path& path, LeRobotMeta& m) {
   }
 }
 
-}  // namespace
-
 void ReadLeRobotMetaV30(LeRobotMeta& m) {
   ReadTasks(m);
   const fs::path dir = fs::path(m.root) / "meta" / "episodes";
@@ -96,7 +95,8 @@ void ReadLeRobotMetaV30(LeRobotMeta& m) {
   std::sort(files.begin(), files.end());  // chunk-000/file-000, file-001, ...: episode order
   for (const fs::path& f : files) {
     try {
-      ReadEpisodes(f, m);
+      ReadLeRobotEpisodesV30(parquet::ParquetFile(f.string()), fs::relative(f, m.root).string(),
+                             m);
     } catch (const Error& e) {
       throw e.WithFile(f.string());
     }
