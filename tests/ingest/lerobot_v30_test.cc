@@ -9,6 +9,8 @@
 
 #include <cstdlib>
 #include <filesystem>
+#include <fstream>
+#include <nlohmann/json.hpp>
 
 #include "core/error.h"
 #include "ingest/lerobot/lerobot_meta.h"
@@ -90,6 +92,20 @@ TEST_F(LeRobotV30, EveryFrameAndActionEqualsTheV21Original) {
       for (size_t t = 0; t < frames.size(); ++t) ASSERT_EQ(frames[t], want_frames[t]) << "step " << t;
     }
   }
+}
+
+// The command line end to end: wm-ingest writes all three episodes of a v3.0 dataset.
+TEST_F(LeRobotV30, WmIngestWritesEveryEpisode) {
+  REQUIRE_SAMPLE();
+  const std::string in = Build({}), out = (dir_ / "shards").string();
+  const std::string cmd = test::BinDir() + "/wm-ingest --format lerobot --input " + in +
+                          " --mapping " + Mapping() + " --output " + out +
+                          " --resize 32x32 --log-level warn";
+  ASSERT_EQ(std::system(cmd.c_str()), 0) << cmd;
+  std::ifstream index(out + "/index.json");
+  const nlohmann::json j = nlohmann::json::parse(index);
+  EXPECT_EQ(j["num_episodes"], 3) << j.dump(1).substr(0, 2000);
+  EXPECT_EQ(j["num_steps"], 1093);
 }
 
 TEST_F(LeRobotV30, ToTimestampPastTheVideoEndIsAnError) {
