@@ -68,9 +68,9 @@ void CollectNames(const ordered_json& j, std::vector<std::string>& out) {
 // eef_delta only when the names say delta; joint names -> joint_position; else other.
 std::string GuessActionSpace(const std::vector<std::string>& names, std::string& why) {
   static const std::vector<std::string> joint_words = {
-      "joint", "shoulder", "elbow", "wrist", "hip", "knee", "ankle", "waist", "finger",
-      "pinky",  "thumb",    "motor", "hand"};
-  static const std::vector<std::string> pose_words = {"x", "y", "z", "dx", "dy", "dz",
+      "joint", "shoulder", "elbow", "wrist", "hip",   "knee", "ankle",
+      "waist", "finger",   "pinky", "thumb", "motor", "hand"};
+  static const std::vector<std::string> pose_words = {"x",    "y",     "z",   "dx", "dy", "dz",
                                                       "roll", "pitch", "yaw", "rx", "ry", "rz"};
   int joint = 0, pose = 0, delta = 0;
   for (const auto& n : names) {
@@ -94,13 +94,15 @@ std::string GuessActionSpace(const std::vector<std::string>& names, std::string&
     return "eef_delta";
   }
   if (pose >= 3) {
-    why = "UNCERTAIN action_space: end-effector names without 'delta' (an absolute pose?); "
-          "eef_delta only if these are deltas";
+    why =
+        "UNCERTAIN action_space: end-effector names without 'delta' (an absolute pose?); "
+        "eef_delta only if these are deltas";
     return "other";
   }
   if (2 * joint >= static_cast<int>(names.size())) {
-    why = "UNCERTAIN action_space: joint names, taken as position targets (say other for "
-          "velocities or torques)";
+    why =
+        "UNCERTAIN action_space: joint names, taken as position targets (say other for "
+        "velocities or torques)";
     return "joint_position";
   }
   why = "UNCERTAIN action_space: the names say neither joints nor end-effector deltas";
@@ -188,8 +190,8 @@ std::string SuggestRlds(const std::string& input) {
   }
   auto has = [&](const std::string& k) { return d.features.count(k) > 0; };
   std::ostringstream note, out;
-  out << "# Suggested by wm-ingest --suggest-mapping from " << d.dir << "/features.json ("
-      << d.name << " " << d.version << "). Review the lines marked UNCERTAIN, then save as\n"
+  out << "# Suggested by wm-ingest --suggest-mapping from " << d.dir << "/features.json (" << d.name
+      << " " << d.version << "). Review the lines marked UNCERTAIN, then save as\n"
       << "# configs/datasets/" << d.name << ".yaml. Fields: docs/dataset-mapping.md.\n";
   const std::string image = ChooseCamera(cameras, note);
   if (image.empty()) note << "# UNCERTAIN image: no per-step Image feature; fill it in\n";
@@ -208,8 +210,7 @@ std::string SuggestRlds(const std::string& input) {
   if (has("steps/action/world_vector") && has("steps/action/rotation_delta") && !gripper.empty()) {
     out << "action:\n  - key: steps/action/world_vector\n  - key: steps/action/rotation_delta\n";
     if (Contains(gripper, "open")) {
-      out << "  # UNCERTAIN gripper: '" << gripper
-          << "' reads as 1 = open; mapped to 1 = closed\n";
+      out << "  # UNCERTAIN gripper: '" << gripper << "' reads as 1 = open; mapped to 1 = closed\n";
       out << "  - key: " << gripper << "\n    scale: -1\n    offset: 1\n";
     } else {
       out << "  # check the gripper's sign: wmkit wants 1 = closed\n  - key: " << gripper << "\n";

@@ -23,8 +23,8 @@ struct LeRobotVideoSpan {
 
 struct LeRobotEpisodeMeta {
   int64_t index = 0;
-  int64_t length = 0;      // steps, as meta/ says
-  std::string listed_in;   // the meta file listing it, relative to the root (for messages)
+  int64_t length = 0;     // steps, as meta/ says
+  std::string listed_in;  // the meta file listing it, relative to the root (for messages)
   // v3.0 only (meta/episodes/*.parquet): the data file holding the episode's rows, their global
   // `index` range [from_row, to_row), and per camera its span of a video file.
   int64_t data_chunk = 0, data_file = 0;
@@ -33,8 +33,8 @@ struct LeRobotEpisodeMeta {
 };
 
 struct LeRobotMeta {
-  std::string root;              // the dataset directory (holds meta/, data/, videos/)
-  std::string codebase_version;  // "v2.0", "v2.1" or "v3.0"
+  std::string root;                     // the dataset directory (holds meta/, data/, videos/)
+  std::string codebase_version;         // "v2.0", "v2.1" or "v3.0"
   bool many_episodes_per_file = false;  // v3.0
   double fps = 0;
   int64_t chunks_size = 1000;                // episodes per chunk-XXX directory

@@ -37,7 +37,8 @@ void ReadLeRobotEpisodesV30(const parquet::ParquetFile& file, const std::string&
   const std::vector<double> index = column("episode_index"), length = column("length"),
                             data_chunk = column("data/chunk_index"),
                             data_file = column("data/file_index"),
-                            from_row = column("dataset_from_index"), to_row = column("dataset_to_index");
+                            from_row = column("dataset_from_index"),
+                            to_row = column("dataset_to_index");
   struct VideoColumns {
     std::string key;
     std::vector<double> chunk, file, from, to;
@@ -70,8 +71,7 @@ void ReadLeRobotEpisodesV30(const parquet::ParquetFile& file, const std::string&
                                   v.from[r], v.to[r]};
       Check(span.from_s >= 0 && span.to_s > span.from_s,
             "videos/" + v.key + "/from_timestamp " + std::to_string(span.from_s) +
-                " and to_timestamp " + std::to_string(span.to_s) +
-                " (expected 0 <= from < to)",
+                " and to_timestamp " + std::to_string(span.to_s) + " (expected 0 <= from < to)",
             where);
       e.videos[v.key] = span;
     }
@@ -95,8 +95,7 @@ void ReadLeRobotMetaV30(LeRobotMeta& m) {
   std::sort(files.begin(), files.end());  // chunk-000/file-000, file-001, ...: episode order
   for (const fs::path& f : files) {
     try {
-      ReadLeRobotEpisodesV30(parquet::ParquetFile(f.string()), fs::relative(f, m.root).string(),
-                             m);
+      ReadLeRobotEpisodesV30(parquet::ParquetFile(f.string()), fs::relative(f, m.root).string(), m);
     } catch (const Error& e) {
       throw e.WithFile(f.string());
     }

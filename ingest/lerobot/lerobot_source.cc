@@ -198,15 +198,15 @@ void LeRobotSource::ReadFrames(const LeRobotEpisodeMeta& listed,
   frames.encoding = "jpeg";
   frames.frames.assign(timestamps.size(), "");
   FrameMatcher matcher(in_file, mapping_.tolerance_s);
-  const VideoStreamInfo info = DecodeVideo(
-      (fs::path(meta_.root) / video).string(),
-      [&](const RgbFrame& f) {
-        std::vector<size_t> steps = matcher.Offer(f.timestamp_s);
-        if (steps.empty()) return;
-        std::string jpeg = EncodeRgb(f.pixels, f.height, f.width, 3, "jpeg");
-        for (size_t s : steps) frames.frames[s] = jpeg;
-      },
-      {span.from_s, span.to_s});
+  const VideoStreamInfo info =
+      DecodeVideo((fs::path(meta_.root) / video).string(),
+                  [&](const RgbFrame& f) {
+                    std::vector<size_t> steps = matcher.Offer(f.timestamp_s);
+                    if (steps.empty()) return;
+                    std::string jpeg = EncodeRgb(f.pixels, f.height, f.width, 3, "jpeg");
+                    for (size_t s : steps) frames.frames[s] = jpeg;
+                  },
+                  {span.from_s, span.to_s});
   const ErrorContext where{
       .file = video, .record = listed.index, .record_label = "episode", .key = camera_};
   if (meta_.many_episodes_per_file) {

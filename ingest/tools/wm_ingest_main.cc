@@ -47,7 +47,8 @@ int main(int argc, char** argv) {
                  "RLDS dataset dir (<name>/<version>), HDF5 file/dir, episode folder root, or "
                  "LeRobot dataset dir (holding meta/info.json)")
       ->required();
-  app.add_option("--output", o.output, "Dataset directory to write (required unless --suggest-mapping)");
+  app.add_option("--output", o.output,
+                 "Dataset directory to write (required unless --suggest-mapping)");
   bool suggest = false;
   app.add_flag("--suggest-mapping", suggest,
                "RLDS / LeRobot: print a guessed mapping YAML (from features.json / info.json) "

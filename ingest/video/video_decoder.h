@@ -12,7 +12,7 @@ struct VideoStreamInfo {
   std::string codec;    // the stream's own codec ("av1", "h264", ...), whatever metadata claims
   std::string decoder;  // the libavcodec decoder used ("libdav1d", "h264", ...)
   int width = 0, height = 0;
-  int64_t frames = 0;  // frames decoded
+  int64_t frames = 0;            // frames decoded
   double last_timestamp_s = -1;  // presentation time of the last frame decoded; -1: none
 };
 

@@ -151,7 +151,8 @@ int main(int argc, char** argv) {
   }
   try {
     const fs::path out = argv[1];
-    for (const char* target : {"tfrecord", "example", "shard", "tokens", "hdf5", "parquet", "lerobot_meta"}) {
+    for (const char* target :
+         {"tfrecord", "example", "shard", "tokens", "hdf5", "parquet", "lerobot_meta"}) {
       fs::create_directories(out / target);
     }
     WriteRlds(out);

@@ -130,8 +130,8 @@ std::vector<std::pair<double, double>> ConcatenateVideos(const std::vector<std::
                                                          const std::string& output) {
   av_log_set_level(AV_LOG_ERROR);
   AVFormatContext* out = nullptr;
-  Check(avformat_alloc_output_context2(&out, nullptr, "mp4", output.c_str()) >= 0,
-        "cannot create", {.file = output});
+  Check(avformat_alloc_output_context2(&out, nullptr, "mp4", output.c_str()) >= 0, "cannot create",
+        {.file = output});
   AVStream* out_stream = nullptr;
   std::vector<std::pair<double, double>> spans;
   int64_t offset = 0;  // in the output stream's time base
@@ -185,7 +185,8 @@ void WriteV30Fixture(const std::string& v21_root, const std::string& out_dir,
   fs::remove_all(root);
   fs::create_directories(root / "meta");
   for (size_t f = 0; f < o.data_files.size(); ++f) {
-    WriteDataFile(v21, o.data_files[f], root / "data" / FilePath(static_cast<int64_t>(f), "parquet"));
+    WriteDataFile(v21, o.data_files[f],
+                  root / "data" / FilePath(static_cast<int64_t>(f), "parquet"));
   }
   // Episodes in meta/ order, with their global row range: the v2.1 rows' own `index` (the
   // sample lacks episodes, so episode 1 starts at 479).
@@ -196,18 +197,18 @@ void WriteV30Fixture(const std::string& v21_root, const std::string& out_dir,
     const int64_t n = v21.Episode(e).length;
     const ParquetFile rows((fs::path(v21_root) / v21.DataPath(v21.Episode(e))).string());
     const int64_t row = rows.Read("index").values.ints.at(0);
-    const int64_t file = e == o.misplaced_episode ? (FileOf(o.data_files, e) + 1) % 2
-                                                  : FileOf(o.data_files, e);
+    const int64_t file =
+        e == o.misplaced_episode ? (FileOf(o.data_files, e) + 1) % 2 : FileOf(o.data_files, e);
     index.ints.push_back(e), length.ints.push_back(n), data_file.ints.push_back(file);
     rows_from.ints.push_back(row), rows_to.ints.push_back(row + n);
   }
-  std::vector<OutColumn> columns = {
-      Scalars("episode_index", PhysicalType::kInt64, index),
-      Scalars("length", PhysicalType::kInt64, length),
-      Scalars("data/chunk_index", PhysicalType::kInt64, {.ints = std::vector<int64_t>(order.size())}),
-      Scalars("data/file_index", PhysicalType::kInt64, data_file),
-      Scalars("dataset_from_index", PhysicalType::kInt64, rows_from),
-      Scalars("dataset_to_index", PhysicalType::kInt64, rows_to)};
+  std::vector<OutColumn> columns = {Scalars("episode_index", PhysicalType::kInt64, index),
+                                    Scalars("length", PhysicalType::kInt64, length),
+                                    Scalars("data/chunk_index", PhysicalType::kInt64,
+                                            {.ints = std::vector<int64_t>(order.size())}),
+                                    Scalars("data/file_index", PhysicalType::kInt64, data_file),
+                                    Scalars("dataset_from_index", PhysicalType::kInt64, rows_from),
+                                    Scalars("dataset_to_index", PhysicalType::kInt64, rows_to)};
   for (const std::string& key : v21.video_keys) {
     std::map<int64_t, std::pair<double, double>> span;
     for (size_t f = 0; f < o.video_files.size(); ++f) {
@@ -236,7 +237,8 @@ void WriteV30Fixture(const std::string& v21_root, const std::string& out_dir,
   WriteParquet(root / "meta/episodes" / FilePath(0, "parquet"), columns);
   // tasks.parquet as pandas writes a DataFrame indexed by the task text (unnamed index).
   Values task_index, task_text;
-  for (const auto& [i, text] : v21.tasks) task_index.ints.push_back(i), task_text.strings.push_back(text);
+  for (const auto& [i, text] : v21.tasks)
+    task_index.ints.push_back(i), task_text.strings.push_back(text);
   WriteParquet(root / "meta/tasks.parquet",
                {Scalars("task_index", PhysicalType::kInt64, task_index),
                 Scalars("__index_level_0__", PhysicalType::kByteArray, task_text)});

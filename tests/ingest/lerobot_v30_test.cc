@@ -35,7 +35,9 @@ std::string Mapping() { return SourceDir() + "/configs/lerobot/unitree_g1_v21.ya
 
 class LeRobotV30 : public ::testing::Test {
  protected:
-  void SetUp() override { dir_ = fs::temp_directory_path() / ("wm_lerobot_v30_" + std::to_string(getpid())); }
+  void SetUp() override {
+    dir_ = fs::temp_directory_path() / ("wm_lerobot_v30_" + std::to_string(getpid()));
+  }
   void TearDown() override { fs::remove_all(dir_); }
   std::string Build(const V30FixtureOptions& options) {
     WriteV30Fixture(SampleDir(), dir_.string(), options);
@@ -89,7 +91,8 @@ TEST_F(LeRobotV30, EveryFrameAndActionEqualsTheV21Original) {
       const auto& frames = e.images.at("image").frames;
       const auto& want_frames = want.images.at("image").frames;
       ASSERT_EQ(frames.size(), want_frames.size());
-      for (size_t t = 0; t < frames.size(); ++t) ASSERT_EQ(frames[t], want_frames[t]) << "step " << t;
+      for (size_t t = 0; t < frames.size(); ++t)
+        ASSERT_EQ(frames[t], want_frames[t]) << "step " << t;
     }
   }
 }
@@ -115,9 +118,9 @@ TEST_F(LeRobotV30, ToTimestampPastTheVideoEndIsAnError) {
   LeRobotSource v30(Build(o), "", Mapping(), SourceDir() + "/configs");
   const std::vector<EpisodeRef> refs = v30.ListEpisodes(nullptr);
   EXPECT_THAT([&] { v30.Load(refs[2]); },
-              ThrowsMessage<Error>(AllOf(
-                  HasSubstr("videos/observation.images.cam_high/chunk-000/file-000.mp4"),
-                  HasSubstr("episode 4"), HasSubstr("runs to to_timestamp"))));
+              ThrowsMessage<Error>(
+                  AllOf(HasSubstr("videos/observation.images.cam_high/chunk-000/file-000.mp4"),
+                        HasSubstr("episode 4"), HasSubstr("runs to to_timestamp"))));
 }
 
 TEST_F(LeRobotV30, EpisodeMissingFromItsDataFileIsAnError) {

@@ -2,6 +2,8 @@
 // real samples in ../shared/samples (bridge_dataset and fractal RLDS, unitree_g1 LeRobot v2.1)
 // and on a LeRobot v3.0 fixture converted from the latter; where the repo has a hand-written
 // mapping, the guess equals it. A synthetic info.json checks the uncertain cases.
+#include "ingest/suggest_mapping.h"
+
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
@@ -13,7 +15,6 @@
 #include "ingest/lerobot/lerobot_mapping.h"
 #include "ingest/rlds/dataset_mapping.h"
 #include "ingest/rlds/tfds_dataset.h"
-#include "ingest/suggest_mapping.h"
 #include "tests/core/test_util.h"
 #include "tests/ingest/lerobot_v30_fixture.h"
 
@@ -30,7 +31,8 @@ fs::path Configs() { return fs::path(test::SourceDir()) / "configs"; }
 
 // Saves the suggestion where a user would and returns the file.
 std::string Save(const std::string& yaml, const std::string& name) {
-  const fs::path file = fs::temp_directory_path() / ("wm_suggest_" + std::to_string(getpid()) + "_" + name);
+  const fs::path file =
+      fs::temp_directory_path() / ("wm_suggest_" + std::to_string(getpid()) + "_" + name);
   std::ofstream(file) << yaml;
   return file.string();
 }
@@ -38,7 +40,8 @@ std::string Save(const std::string& yaml, const std::string& name) {
 int ActionWidth(const rlds::DatasetMapping& m, const rlds::TfdsDataset& d) {
   int width = 0;
   for (const auto& part : m.action) {
-    width += part.Width(part.key.empty() ? 0 : static_cast<int>(d.features.at(part.key).ElementSize()));
+    width +=
+        part.Width(part.key.empty() ? 0 : static_cast<int>(d.features.at(part.key).ElementSize()));
   }
   return width;
 }
