@@ -5,11 +5,13 @@
 namespace wm::ingest {
 namespace {
 
-parquet::Column ReadRows(const parquet::ParquetFile& file, const std::string& key, int64_t width) {
-  parquet::Column c = file.Read(key);
+parquet::Column ReadRows(const parquet::ParquetFile& file, const std::string& key, int64_t width,
+                         size_t first_group = 0, size_t end_group = SIZE_MAX) {
+  parquet::Column c = file.Read(key, first_group, end_group);
+  const int64_t first_row = file.GroupStart(first_group);
   for (int64_t r = 0; r < c.rows(); ++r) {
     Check(c.RowSize(r) == width,
-          "row " + std::to_string(r) + " holds " + std::to_string(c.RowSize(r)) +
+          "row " + std::to_string(first_row + r) + " holds " + std::to_string(c.RowSize(r)) +
               " values, expected " + std::to_string(width),
           {.file = file.name(), .key = key});
   }
@@ -19,8 +21,8 @@ parquet::Column ReadRows(const parquet::ParquetFile& file, const std::string& ke
 }  // namespace
 
 std::vector<double> NumberColumn(const parquet::ParquetFile& file, const std::string& key,
-                                 int64_t width) {
-  parquet::Column c = ReadRows(file, key, width);
+                                 int64_t width, size_t first_group, size_t end_group) {
+  parquet::Column c = ReadRows(file, key, width, first_group, end_group);
   if (!c.values.reals.empty() || c.values.size() == 0) return c.values.reals;
   Check(c.values.strings.empty(), "expected numbers, found strings",
         {.file = file.name(), .key = key});

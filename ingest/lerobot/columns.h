@@ -1,6 +1,7 @@
 #pragma once
 // Whole Parquet columns as plain vectors, as the LeRobot readers use them: per-step columns of
 // data/*.parquet and the per-episode columns of v3.0's meta/*.parquet.
+#include <cstddef>
 #include <cstdint>
 #include <string>
 #include <vector>
@@ -9,10 +10,12 @@
 
 namespace wm::ingest {
 
-// A numeric column as doubles, `width` values per row (ints converted). Throws wm::Error naming
-// the file, column and row when a row holds another number of values or the column is text.
+// A numeric column as doubles, `width` values per row (ints converted), of the row groups
+// [first_group, end_group) (default: all). Throws wm::Error naming the file, column and row when a
+// row holds another number of values or the column is text.
 std::vector<double> NumberColumn(const parquet::ParquetFile& file, const std::string& key,
-                                 int64_t width);
+                                 int64_t width, size_t first_group = 0,
+                                 size_t end_group = SIZE_MAX);
 // A text column, one string per row; a null row is an error.
 std::vector<std::string> TextColumn(const parquet::ParquetFile& file, const std::string& key);
 

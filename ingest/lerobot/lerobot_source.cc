@@ -18,14 +18,16 @@ using parquet::Column;
 namespace {
 
 // The rows [begin, end) of a data file that hold one episode: all of a v2.x file, a contiguous
-// block of a v3.0 one.
+// block of a v3.0 one, which lies in the row groups [first_group, end_group).
 struct EpisodeRows {
   const parquet::ParquetFile& file;
   int64_t begin = 0, end = 0;
-  // The rows' values of a numeric column, `width` per row.
+  size_t first_group = 0, end_group = 0;
+  // The rows' values of a numeric column, `width` per row; only their row groups are decoded.
   std::vector<double> Numbers(const std::string& key, int64_t width) const {
-    const std::vector<double> all = NumberColumn(file, key, width);
-    return {all.begin() + begin * width, all.begin() + end * width};
+    const std::vector<double> groups = NumberColumn(file, key, width, first_group, end_group);
+    const int64_t offset = file.GroupStart(first_group);
+    return {groups.begin() + (begin - offset) * width, groups.begin() + (end - offset) * width};
   }
 };
 
@@ -50,7 +52,12 @@ EpisodeRows FindEpisodeRows(const parquet::ParquetFile& file, const std::string&
         where);
   Check(std::find_if(last, index.end(), is_episode) == index.end(),
         "the rows of episode " + std::to_string(episode) + " are not contiguous", where);
-  EpisodeRows rows{file, first - index.begin(), last - index.begin()};
+  EpisodeRows rows{file, first - index.begin(), last - index.begin(), 0, file.num_row_groups()};
+  while (rows.first_group + 1 < rows.end_group &&
+         file.GroupStart(rows.first_group + 1) <= rows.begin)
+    ++rows.first_group;
+  while (rows.end_group > rows.first_group + 1 && file.GroupStart(rows.end_group - 1) >= rows.end)
+    --rows.end_group;
   if (whole_file && (rows.begin != 0 || rows.end != file.num_rows())) {
     const double other = rows.begin != 0 ? index.front() : index.back();
     throw Error("episode_index " + std::to_string(static_cast<int64_t>(other)) +
