@@ -150,8 +150,8 @@ Episode LeRobotSource::Load(const EpisodeRef& ref) const {
             std::to_string(listed.length),
         where);
   if (meta_.many_episodes_per_file && file.Find("index")) {
-    const double first = rows.Numbers("index", 1).front();
-    Check(t == 0 || first == static_cast<double>(listed.from_row),
+    const double first = rows.Numbers("index", 1).front();  // FindEpisodeRows found >= 1 row
+    Check(first == static_cast<double>(listed.from_row),
           "the first row has index " + std::to_string(static_cast<int64_t>(first)) + ", " +
               listed.listed_in + " says dataset_from_index " + std::to_string(listed.from_row),
           where);
