@@ -1,5 +1,8 @@
 #include "ingest/lerobot/columns.h"
 
+#include <cmath>
+#include <sstream>
+
 #include "core/error.h"
 
 namespace wm::ingest {
@@ -27,6 +30,22 @@ std::vector<double> NumberColumn(const parquet::ParquetFile& file, const std::st
   Check(c.values.strings.empty(), "expected numbers, found strings",
         {.file = file.name(), .key = key});
   return {c.values.ints.begin(), c.values.ints.end()};
+}
+
+int64_t WholeNumber(double v, const ErrorContext& where) {
+  constexpr double kExact = 9007199254740992.0;  // 2^53
+  Check(v >= -kExact && v <= kExact && v == std::floor(v),
+        "expected an integer, found " + NumberText(v), where);
+  return static_cast<int64_t>(v);
+}
+
+std::string NumberText(double v) {
+  if (std::abs(v) <= 9007199254740992.0 && v == std::floor(v)) {
+    return std::to_string(static_cast<int64_t>(v));
+  }
+  std::ostringstream s;
+  s << v;
+  return s.str();
 }
 
 std::vector<std::string> TextColumn(const parquet::ParquetFile& file, const std::string& key) {

@@ -6,6 +6,7 @@
 #include <string>
 #include <vector>
 
+#include "core/error.h"
 #include "ingest/parquet/parquet_file.h"
 
 namespace wm::ingest {
@@ -16,6 +17,13 @@ namespace wm::ingest {
 std::vector<double> NumberColumn(const parquet::ParquetFile& file, const std::string& key,
                                  int64_t width, size_t first_group = 0,
                                  size_t end_group = SIZE_MAX);
+// A value of NumberColumn as the integer it stands for; throws wm::Error (with `where`) when it is
+// fractional, NaN or beyond +-2^53, where doubles stop holding every integer (casting such a
+// double would be undefined behaviour).
+int64_t WholeNumber(double v, const ErrorContext& where = {});
+// "12" for a whole number, "1e+300" / "0.5" otherwise: a value for an error message.
+std::string NumberText(double v);
+
 // A text column, one string per row; a null row is an error.
 std::vector<std::string> TextColumn(const parquet::ParquetFile& file, const std::string& key);
 

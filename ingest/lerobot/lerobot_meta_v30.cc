@@ -25,7 +25,13 @@ void ReadTasks(LeRobotMeta& m) {
         {.file = path});
   const std::vector<double> index = NumberColumn(file, "task_index", 1);
   const std::vector<std::string> text = TextColumn(file, text_key);
-  for (size_t i = 0; i < index.size(); ++i) m.tasks[static_cast<int64_t>(index[i])] = text[i];
+  for (size_t i = 0; i < index.size(); ++i) {
+    const ErrorContext where{.file = path,
+                             .record = static_cast<int64_t>(i),
+                             .record_label = "row",
+                             .key = "task_index"};
+    m.tasks[WholeNumber(index[i], where)] = text[i];
+  }
 }
 
 }  // namespace
@@ -53,13 +59,13 @@ void ReadLeRobotEpisodesV30(const parquet::ParquetFile& file, const std::string&
   for (size_t r = 0; r < index.size(); ++r) {
     const ErrorContext where{.file = rel, .record = static_cast<int64_t>(r), .record_label = "row"};
     LeRobotEpisodeMeta e;
-    e.index = static_cast<int64_t>(index[r]);
-    e.length = static_cast<int64_t>(length[r]);
+    e.index = WholeNumber(index[r], where);
+    e.length = WholeNumber(length[r], where);
     e.listed_in = rel;
-    e.data_chunk = static_cast<int64_t>(data_chunk[r]);
-    e.data_file = static_cast<int64_t>(data_file[r]);
-    e.from_row = static_cast<int64_t>(from_row[r]);
-    e.to_row = static_cast<int64_t>(to_row[r]);
+    e.data_chunk = WholeNumber(data_chunk[r], where);
+    e.data_file = WholeNumber(data_file[r], where);
+    e.from_row = WholeNumber(from_row[r], where);
+    e.to_row = WholeNumber(to_row[r], where);
     Check(e.index >= 0 && e.length >= 0, "negative episode_index or length", where);
     Check(e.to_row - e.from_row == e.length,
           "dataset_from_index " + std::to_string(e.from_row) + " .. dataset_to_index " +
@@ -67,7 +73,7 @@ void ReadLeRobotEpisodesV30(const parquet::ParquetFile& file, const std::string&
               " rows, but length is " + std::to_string(e.length),
           where);
     for (const VideoColumns& v : videos) {
-      const LeRobotVideoSpan span{static_cast<int64_t>(v.chunk[r]), static_cast<int64_t>(v.file[r]),
+      const LeRobotVideoSpan span{WholeNumber(v.chunk[r], where), WholeNumber(v.file[r], where),
                                   v.from[r], v.to[r]};
       Check(span.from_s >= 0 && span.to_s > span.from_s,
             "videos/" + v.key + "/from_timestamp " + std::to_string(span.from_s) +

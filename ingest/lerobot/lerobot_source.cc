@@ -43,7 +43,7 @@ EpisodeRows FindEpisodeRows(const parquet::ParquetFile& file, const std::string&
   std::string held;  // the episodes the file does hold, for the message
   for (size_t i = 0; i < index.size() && held.size() < 80; ++i) {
     if (i == 0 || index[i] != index[i - 1]) {
-      held += (held.empty() ? "" : ", ") + std::to_string(static_cast<int64_t>(index[i]));
+      held += (held.empty() ? "" : ", ") + NumberText(index[i]);
     }
   }
   Check(first != index.end(),
@@ -60,9 +60,9 @@ EpisodeRows FindEpisodeRows(const parquet::ParquetFile& file, const std::string&
     --rows.end_group;
   if (whole_file && (rows.begin != 0 || rows.end != file.num_rows())) {
     const double other = rows.begin != 0 ? index.front() : index.back();
-    throw Error("episode_index " + std::to_string(static_cast<int64_t>(other)) +
-                    " in the file of episode " + std::to_string(episode),
-                where);
+    throw Error(
+        "episode_index " + NumberText(other) + " in the file of episode " + std::to_string(episode),
+        where);
   }
   return rows;
 }
@@ -152,8 +152,8 @@ Episode LeRobotSource::Load(const EpisodeRef& ref) const {
   if (meta_.many_episodes_per_file && file.Find("index")) {
     const double first = rows.Numbers("index", 1).front();  // FindEpisodeRows found >= 1 row
     Check(first == static_cast<double>(listed.from_row),
-          "the first row has index " + std::to_string(static_cast<int64_t>(first)) + ", " +
-              listed.listed_in + " says dataset_from_index " + std::to_string(listed.from_row),
+          "the first row has index " + NumberText(first) + ", " + listed.listed_in +
+              " says dataset_from_index " + std::to_string(listed.from_row),
           where);
   }
   e.num_steps = t;
@@ -165,7 +165,7 @@ Episode LeRobotSource::Load(const EpisodeRef& ref) const {
   for (int64_t i = 0; i < t; ++i) {
     Check(frame_index[i] == static_cast<double>(i),
           "row " + std::to_string(rows.begin + i) + " has frame_index " +
-              std::to_string(frame_index[i]) + " (expected 0, 1, ... in order)",
+              NumberText(frame_index[i]) + " (expected 0, 1, ... in order)",
           {.file = ref.rel_path, .key = mapping_.frame_index});
   }
   if (mapping_.state && file.Find(*mapping_.state)) {
@@ -173,9 +173,9 @@ Episode LeRobotSource::Load(const EpisodeRef& ref) const {
   }
   const std::vector<double> task = rows.Numbers(mapping_.task_index, 1);
   if (t > 0) {
-    const auto it = meta_.tasks.find(static_cast<int64_t>(task[0]));
+    const auto it = meta_.tasks.find(WholeNumber(task[0], where));
     Check(it != meta_.tasks.end(),
-          "task_index " + std::to_string(task[0]) + " is not in meta/'s task list", where);
+          "task_index " + NumberText(task[0]) + " is not in meta/'s task list", where);
     e.language_instruction = it->second;
   }
   if (mapping_.reward) {
