@@ -43,7 +43,7 @@ SANITIZE_BUILD ?= build-asan
 # libhdf5-internal failures that wm-ingest contains are listed, not failed).
 FUZZ_BUILD ?= build-fuzz
 FUZZ_SECONDS ?= 600
-FUZZ_TARGETS ?= tfrecord example shard tokens hdf5 yaml_config
+FUZZ_TARGETS ?= tfrecord example shard tokens hdf5 parquet lerobot_meta yaml_config
 HARDENING_CONFIG := -DCMAKE_BUILD_TYPE=RelWithDebInfo -DWM_DATA_ONLY=ON -DWM_BUILD_BENCH=OFF
 # make test-model-only: the GPU machines' configuration (WM_MODEL_ONLY: no OpenCV/PCL/Ceres/HDF5/
 # protobuf, docs/gpu.md) built on the CPU in MODEL_BUILD, and the tests of the code it swaps in.

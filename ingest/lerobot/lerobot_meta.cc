@@ -2,6 +2,7 @@
 
 #include <filesystem>
 #include <fstream>
+#include <limits>
 
 #include "core/error.h"
 #include "core/json_int.h"
@@ -69,14 +70,39 @@ std::string FormatPathTemplate(const std::string& pattern,
   return out;
 }
 
-std::string LeRobotMeta::DataPath(int64_t episode) const {
+// v2.x templates name {episode_chunk} and {episode_index}, v3.0 ones {chunk_index} and
+// {file_index}.
+std::string LeRobotMeta::DataPath(const LeRobotEpisodeMeta& e) const {
   return FormatPathTemplate(data_path, {},
-                            {{"episode_chunk", episode / chunks_size}, {"episode_index", episode}});
+                            {{"episode_chunk", e.index / chunks_size},
+                             {"episode_index", e.index},
+                             {"chunk_index", e.data_chunk},
+                             {"file_index", e.data_file}});
 }
 
-std::string LeRobotMeta::VideoPath(int64_t episode, const std::string& video_key) const {
-  return FormatPathTemplate(video_path, {{"video_key", video_key}},
-                            {{"episode_chunk", episode / chunks_size}, {"episode_index", episode}});
+std::string LeRobotMeta::VideoPath(const LeRobotEpisodeMeta& e, const std::string& key) const {
+  const LeRobotVideoSpan span = VideoSpan(e, key);
+  return FormatPathTemplate(video_path, {{"video_key", key}},
+                            {{"episode_chunk", e.index / chunks_size},
+                             {"episode_index", e.index},
+                             {"chunk_index", span.chunk},
+                             {"file_index", span.file}});
+}
+
+LeRobotVideoSpan LeRobotMeta::VideoSpan(const LeRobotEpisodeMeta& e, const std::string& key) const {
+  if (!many_episodes_per_file) return {0, 0, 0, std::numeric_limits<double>::infinity()};
+  const auto it = e.videos.find(key);
+  Check(it != e.videos.end(),
+        "episode " + std::to_string(e.index) + " has no videos/" + key + "/... columns",
+        {.file = e.listed_in});
+  return it->second;
+}
+
+const LeRobotEpisodeMeta& LeRobotMeta::Episode(int64_t index) const {
+  for (const auto& e : episodes) {
+    if (e.index == index) return e;
+  }
+  throw Error("episode " + std::to_string(index) + " is not listed in meta/", {.file = root});
 }
 
 int64_t LeRobotMeta::FeatureWidth(const std::string& key) const {
@@ -101,10 +127,9 @@ LeRobotMeta ReadLeRobotMeta(const std::string& root) {
   std::string key;
   try {
     key = "codebase_version", m.codebase_version = info.at(key).get<std::string>();
-    Check(m.codebase_version.rfind("v2.", 0) == 0,
-          "LeRobot " + m.codebase_version +
-              " is not supported yet (v2.0 and v2.1 are; v3.0 "
-              "keeps many episodes per file, see docs/lerobot-mapping.md)");
+    m.many_episodes_per_file = m.codebase_version.rfind("v3.", 0) == 0;
+    Check(m.codebase_version.rfind("v2.", 0) == 0 || m.many_episodes_per_file,
+          "LeRobot " + m.codebase_version + " is not supported (v2.0, v2.1 and v3.0 are)");
     key = "fps", m.fps = info.at(key).get<double>();
     Check(m.fps > 0, "must be positive");
     key = "chunks_size", m.chunks_size = info.value(key, int64_t{1000});
@@ -123,6 +148,10 @@ LeRobotMeta ReadLeRobotMeta(const std::string& root) {
   } catch (const Error& e) {
     throw e.WithKey(key).WithFile(where.file);
   }
+  if (m.many_episodes_per_file) {
+    ReadLeRobotMetaV30(m);
+    return m;
+  }
   const fs::path meta = fs::path(root) / "meta";
   ReadJsonLines(meta / "tasks.jsonl", [&](const json& j) {
     m.tasks[JsonInt<int64_t>(j.at("task_index"))] = j.at("task").get<std::string>();
@@ -131,8 +160,8 @@ LeRobotMeta ReadLeRobotMeta(const std::string& root) {
     LeRobotEpisodeMeta e;
     e.index = JsonInt<int64_t>(j.at("episode_index"));
     e.length = JsonInt<int64_t>(j.at("length"));
+    e.listed_in = "meta/episodes.jsonl";
     Check(e.index >= 0 && e.length >= 0, "negative episode_index or length");
-    if (j.contains("tasks")) e.tasks = j["tasks"].get<std::vector<std::string>>();
     m.episodes.push_back(std::move(e));
   });
   return m;

@@ -1,6 +1,7 @@
 #pragma once
-// LeRobotDataset v2.x (parquet per episode + one MP4 per episode and camera) as an
-// EpisodeSource. Layout and mapping: docs/lerobot-mapping.md.
+// LeRobotDataset v2.x (parquet per episode + one MP4 per episode and camera) and v3.0 (many
+// episodes per parquet and per MP4) as an EpisodeSource. Layouts and mapping:
+// docs/lerobot-mapping.md.
 #include <string>
 #include <vector>
 
@@ -17,7 +18,7 @@ class LeRobotSource : public EpisodeSource {
                 const std::string& configs_dir);
   std::string format() const override { return "lerobot"; }
   std::string dataset_name() const override { return name_; }
-  // The episodes of meta/episodes.jsonl whose parquet and video files exist. Listed episodes
+  // The episodes meta/ lists whose parquet and video files exist. Listed episodes
   // without them are logged and returned by Absent(); they are not an error.
   std::vector<EpisodeRef> ListEpisodes(std::vector<shard::SkippedEpisode>* damaged) override;
   std::vector<shard::SkippedEpisode> Absent() const override { return absent_; }
@@ -25,7 +26,7 @@ class LeRobotSource : public EpisodeSource {
   nlohmann::json Describe() const override;
 
  private:
-  void ReadFrames(const EpisodeRef& ref, const std::vector<double>& timestamps,
+  void ReadFrames(const LeRobotEpisodeMeta& listed, const std::vector<double>& timestamps,
                   Episode& episode) const;
 
   std::string name_;

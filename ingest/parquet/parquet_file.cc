@@ -1,5 +1,6 @@
 #include "ingest/parquet/parquet_file.h"
 
+#include <algorithm>
 #include <cstring>
 
 #include "core/error.h"
@@ -129,6 +130,16 @@ const LeafColumn* ParquetFile::Find(const std::string& name) const {
 }
 
 Column ParquetFile::Read(const std::string& name) const {
+  return Read(name, 0, meta_.row_groups.size());
+}
+
+int64_t ParquetFile::GroupStart(size_t g) const {
+  int64_t row = 0;  // the sum cannot overflow: ParseFooter checked it
+  for (size_t i = 0; i < g && i < meta_.row_groups.size(); ++i) row += meta_.row_groups[i].num_rows;
+  return row;
+}
+
+Column ParquetFile::Read(const std::string& name, size_t first, size_t end) const {
   const LeafColumn* leaf = Find(name);
   if (!leaf) {
     std::string known;
@@ -140,16 +151,19 @@ Column ParquetFile::Read(const std::string& name) const {
   Column out;
   out.path = leaf->path;
   out.type = leaf->type;
-  for (size_t g = 0; g < meta_.row_groups.size(); ++g) {
+  end = std::min(end, meta_.row_groups.size());
+  first = std::min(first, end);
+  for (size_t g = first; g < end; ++g) {
     try {
       ReadChunk(*leaf, g, out);
     } catch (const Error& e) {
       throw e.WithRecord(static_cast<int64_t>(g), "row group").WithKey(leaf->path).WithFile(name_);
     }
   }
-  Check(out.rows() == meta_.num_rows,
-        "column holds " + std::to_string(out.rows()) + " rows, the file " +
-            std::to_string(meta_.num_rows),
+  const int64_t want = GroupStart(end) - GroupStart(first);
+  Check(out.rows() == want,
+        "column holds " + std::to_string(out.rows()) + " rows, its row groups " +
+            std::to_string(want),
         {.file = name_, .key = leaf->path});
   return out;
 }

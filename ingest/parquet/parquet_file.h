@@ -60,6 +60,11 @@ class ParquetFile {
 
   // Reads and decodes a column across all row groups. Throws if the column does not exist.
   Column Read(const std::string& name) const;
+  // The same over the row groups [first, end) only (a LeRobot v3.0 episode is a few row groups
+  // of a large file); the Column's row 0 is row GroupStart(first) of the file.
+  Column Read(const std::string& name, size_t first, size_t end) const;
+  // The file row at which row group `g` starts (num_rows() for g = num_row_groups()).
+  int64_t GroupStart(size_t g) const;
 
  private:
   ParquetFile(std::string name, std::unique_ptr<MappedFile> mapped, std::string owned);

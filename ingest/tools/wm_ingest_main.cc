@@ -10,6 +10,7 @@
 #include "core/log.h"
 #include "core/provenance.h"
 #include "ingest/ingest_options.h"
+#include "ingest/suggest_mapping.h"
 
 namespace {
 
@@ -19,6 +20,7 @@ Example:
   wm-ingest --format rlds --input D --output OUT/part-3 --shard-index 3 --num-shards 8  # Slurm array
   wm-shard merge --output OUT/all OUT/part-*
   wm-ingest --format lerobot --input ../shared/samples/lerobot/unitree_g1_v21 --output data/g1
+  wm-ingest --format lerobot --input DIR --suggest-mapping > configs/lerobot/DIR_NAME.yaml
 
 A killed run resumes when started again with the same options; the output appears complete or
 not at all (index.json is written last). Formats: docs/shard-format.md, docs/folder-format.md,
@@ -45,7 +47,12 @@ int main(int argc, char** argv) {
                  "RLDS dataset dir (<name>/<version>), HDF5 file/dir, episode folder root, or "
                  "LeRobot dataset dir (holding meta/info.json)")
       ->required();
-  app.add_option("--output", o.output, "Dataset directory to write")->required();
+  app.add_option("--output", o.output,
+                 "Dataset directory to write (required unless --suggest-mapping)");
+  bool suggest = false;
+  app.add_flag("--suggest-mapping", suggest,
+               "RLDS / LeRobot: print a guessed mapping YAML (from features.json / info.json) "
+               "and exit; comments mark the uncertain guesses");
   app.add_option("--dataset", o.dataset,
                  "Dataset name recorded in index.json (default: the source's)");
   app.add_option("--split", o.split, "Split to read (RLDS) and record")->capture_default_str();
@@ -84,7 +91,15 @@ int main(int argc, char** argv) {
       ->capture_default_str();
   if (const int rc = wm::ParseCommandLine(app, argc, argv); rc >= 0) return rc;
   wm::InitLogging(log_level);
+  if (!suggest && o.output.empty()) {
+    std::cerr << "wm-ingest: --output is required\n";
+    return 2;
+  }
   try {
+    if (suggest) {
+      std::cout << wm::ingest::SuggestMapping(o.format, o.input);
+      return 0;
+    }
     if (!resize.empty() && !ParseSize(resize, o.resize_width, o.resize_height)) {
       throw wm::Error("--resize must look like 128x128, got '" + resize + "'");
     }

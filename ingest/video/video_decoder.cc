@@ -45,7 +45,8 @@ class RgbConverter {
 }  // namespace
 
 VideoStreamInfo DecodeVideo(const std::string& path,
-                            const std::function<void(const RgbFrame&)>& on_frame) {
+                            const std::function<void(const RgbFrame&)>& on_frame,
+                            const DecodeRange& range) {
   static std::once_flag quiet;  // decoders' banners and notes would interleave with the log
   std::call_once(quiet, [] { av_log_set_level(AV_LOG_ERROR); });
   const ErrorContext where{.file = path};
@@ -72,6 +73,12 @@ VideoStreamInfo DecodeVideo(const std::string& path,
   VideoStreamInfo info{avcodec_get_name(st->codecpar->codec_id), codec->name, st->codecpar->width,
                        st->codecpar->height, 0};
   const double time_base = av_q2d(st->time_base);
+  if (range.from_s > 0) {
+    // A failed seek leaves the file at its start: slower, same frames.
+    av_seek_frame(format.get(), stream, static_cast<int64_t>(range.from_s / time_base),
+                  AVSEEK_FLAG_BACKWARD);
+  }
+  bool past_range = false;
   av::Packet packet(av_packet_alloc());
   av::Frame frame(av_frame_alloc());
   RgbConverter converter;
@@ -80,14 +87,16 @@ VideoStreamInfo DecodeVideo(const std::string& path,
       const int64_t pts = frame->best_effort_timestamp;
       Check(pts != AV_NOPTS_VALUE, "frame " + std::to_string(info.frames) + " has no timestamp",
             where);
-      converter.Emit(*frame, static_cast<double>(pts) * time_base, on_frame);
+      info.last_timestamp_s = static_cast<double>(pts) * time_base;
+      if (!past_range) converter.Emit(*frame, info.last_timestamp_s, on_frame);
+      past_range = past_range || info.last_timestamp_s > range.to_s;
       ++info.frames;
       av_frame_unref(frame.get());
     }
     Check(rc == AVERROR(EAGAIN) || rc == AVERROR_EOF,
           "frame " + std::to_string(info.frames) + " does not decode: " + ErrorText(rc), where);
   };
-  while ((rc = av_read_frame(format.get(), packet.get())) >= 0) {
+  while (!past_range && (rc = av_read_frame(format.get(), packet.get())) >= 0) {
     if (packet->stream_index == stream) {
       const int sent = avcodec_send_packet(decoder.get(), packet.get());
       Check(sent >= 0,
@@ -99,7 +108,7 @@ VideoStreamInfo DecodeVideo(const std::string& path,
     av_packet_unref(packet.get());
   }
   Check(
-      rc == AVERROR_EOF,
+      past_range || rc == AVERROR_EOF,
       "reading the video failed after frame " + std::to_string(info.frames) + ": " + ErrorText(rc),
       where);
   avcodec_send_packet(decoder.get(), nullptr);  // flush: frames the decoder still holds

@@ -124,6 +124,10 @@ std::string EnvOr(const char* name, const char* fallback) {
 // The defaults are compiled in (tests/core/CMakeLists.txt); ctest sets the variables.
 std::string SourceDir() { return EnvOr("WM_SOURCE_DIR", WM_DEFAULT_SOURCE_DIR); }
 std::string BinDir() { return EnvOr("WM_BIN_DIR", WM_DEFAULT_BIN_DIR); }
+std::string SamplesDir() {
+  const char* shared = std::getenv("WM_SHARED_DIR");
+  return (shared ? std::string(shared) : SourceDir() + "/../shared") + "/samples";
+}
 
 std::string ErrorText(const std::function<void()>& f) {
   try {

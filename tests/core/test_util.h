@@ -50,6 +50,8 @@ std::vector<std::vector<uint32_t>> MakeTokenDataset(const std::string& dir, int 
 // paths compiled into the test).
 std::string SourceDir();
 std::string BinDir();
+// The shared real-data samples: $WM_SHARED_DIR/samples, else <source>/../shared/samples.
+std::string SamplesDir();
 
 // The message of the wm::Error that f() throws, or "(no error)".
 std::string ErrorText(const std::function<void()>& f);

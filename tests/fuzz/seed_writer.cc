@@ -16,6 +16,7 @@
 #include "ingest/rlds/example.h"
 #include "ingest/rlds/tfrecord.h"
 #include "tests/core/test_util.h"
+#include "tests/ingest/lerobot_v30_fixture.h"
 #include "tests/ingest/parquet_writer.h"
 
 namespace {
@@ -125,6 +126,22 @@ void WriteHdf5(const fs::path& out) {
   H5Fclose(file);
 }
 
+// The episode list of the v3.0 fixture built from the Unitree G1 sample (3 episodes, one video
+// key); skipped, keeping the committed seed, where ../shared has no sample.
+void WriteLeRobotMeta(const fs::path& out) {
+  const std::string sample = test::SamplesDir() + "/lerobot/unitree_g1_v21";
+  if (!fs::exists(sample + "/meta/info.json")) {
+    std::fprintf(stderr, "fuzz_seed_writer: no %s, lerobot_meta/ left as it is\n", sample.c_str());
+    return;
+  }
+  const fs::path tmp = out / "lerobot_meta" / "tmp_v30";
+  ingest::testing::WriteV30Fixture(sample, tmp.string());
+  fs::copy_file(tmp / "meta/episodes/chunk-000/file-000.parquet",
+                out / "lerobot_meta" / "unitree_g1_v30_episodes.parquet",
+                fs::copy_options::overwrite_existing);
+  fs::remove_all(tmp);
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -134,13 +151,15 @@ int main(int argc, char** argv) {
   }
   try {
     const fs::path out = argv[1];
-    for (const char* target : {"tfrecord", "example", "shard", "tokens", "hdf5", "parquet"}) {
+    for (const char* target :
+         {"tfrecord", "example", "shard", "tokens", "hdf5", "parquet", "lerobot_meta"}) {
       fs::create_directories(out / target);
     }
     WriteRlds(out);
     WriteShard(out);
     WriteTokens(out);
     WriteHdf5(out);
+    WriteLeRobotMeta(out);
     WriteFileAtomically((out / "parquet/list_two_row_groups.parquet").string(),
                         parquet::testing::ListColumnFile());
     WriteFileAtomically((out / "parquet/dictionary_page_v2.parquet").string(),

@@ -19,19 +19,14 @@
 #include "ingest/lerobot/lerobot_mapping.h"
 #include "ingest/lerobot/lerobot_source.h"
 #include "ingest/parquet/parquet_file.h"
+#include "tests/core/test_util.h"
 
 namespace wm::ingest {
 namespace {
 namespace fs = std::filesystem;
 using ::testing::HasSubstr;
 
-std::string SampleDir() {
-  // gtest_discover_tests passes only the first entry of WM_TEST_ENV (WM_SOURCE_DIR).
-  const char* shared = std::getenv("WM_SHARED_DIR");
-  const char* source = std::getenv("WM_SOURCE_DIR");
-  const fs::path dir = shared ? fs::path(shared) : fs::path(source ? source : ".") / "../shared";
-  return (dir / "samples/lerobot/unitree_g1_v21").string();
-}
+std::string SampleDir() { return test::SamplesDir() + "/lerobot/unitree_g1_v21"; }
 
 #define REQUIRE_SAMPLE() \
   if (!fs::exists(SampleDir() + "/meta/info.json")) GTEST_SKIP() << "no sample at " << SampleDir()

@@ -69,6 +69,19 @@ TEST(ParquetFile, ListsWithEmptyAndNullRowsAcrossPagesAndRowGroups) {
   EXPECT_THAT(c.values.reals, ElementsAre(1, 2, 3, 4, 5, 6));
 }
 
+// A LeRobot v3.0 episode is read from its own row groups only.
+TEST(ParquetFile, ReadsARangeOfRowGroups) {
+  ParquetFile f = Open(ListColumnFile());
+  EXPECT_EQ(f.GroupStart(0), 0);
+  EXPECT_EQ(f.GroupStart(1), 4);
+  EXPECT_EQ(f.GroupStart(2), 5);
+  Column second = f.Read("action", 1, 2);
+  EXPECT_THAT(second.row_starts, ElementsAre(0, 2));
+  EXPECT_THAT(second.values.reals, ElementsAre(5, 6));
+  EXPECT_EQ(f.Read("action", 0, 1).rows(), 4);
+  EXPECT_EQ(f.Read("action", 2, 2).rows(), 0);
+}
+
 TEST(ParquetFile, NullListElementIsAnErrorNamingThePlace) {
   ParquetFile f = Open(ListColumnFile(/*null_element=*/true));
   try {
