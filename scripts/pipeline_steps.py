@@ -7,14 +7,26 @@ import hashlib
 import os
 import subprocess
 import sys
+import threading
 import time
 
 import yaml
 
 
+_ECHO_LOCK = threading.Lock()
+
+
+def echo_command(cmd):
+    """Prints "+ cmd" as one whole line: experiments run tools from several threads, and print()
+    writes the text and its newline separately, so two threads' lines could run into one."""
+    with _ECHO_LOCK:
+        sys.stdout.write("+ " + " ".join(cmd) + "\n")
+        sys.stdout.flush()
+
+
 def run(cmd, log, who):
     """Runs one wmkit tool, its output appended to `log`; a failure stops the script `who`."""
-    print("+ " + " ".join(cmd), flush=True)
+    echo_command(cmd)
     with open(log, "a", encoding="utf-8") as f:
         if subprocess.run(cmd, stdout=f, stderr=subprocess.STDOUT).returncode != 0:
             sys.exit(f"{who}: command failed (log: {log}): {' '.join(cmd)}")
@@ -161,7 +173,7 @@ class Pipeline:
 
 def run_output(cmd, log, who):
     """Runs one wmkit tool and returns its standard output; its standard error goes to `log`."""
-    print("+ " + " ".join(cmd), flush=True)
+    echo_command(cmd)
     with open(log, "a", encoding="utf-8") as f:
         p = subprocess.run(cmd, stdout=subprocess.PIPE, stderr=f, text=True)
     if p.returncode != 0:
