@@ -92,10 +92,35 @@ def write_truth(path):
     return path
 
 
-class WmEvalPolicy(unittest.TestCase):
+class ClosedLoopCase:
+    """What the token and the motion closed-loop tests share: their temporary tree, wm-eval's
+    arguments for the checkpoint directory CHECKPOINT, and the rerun's identical bytes. A mixin,
+    so that importing it does not collect its tests twice."""
+    CHECKPOINT = None
+
     @classmethod
     def path(cls, *parts):
         return os.path.join(cls.tmp.name, *parts)
+
+    @classmethod
+    def args(cls, out, policies, *extra):
+        path = cls.path
+        return ["--checkpoint", path(cls.CHECKPOINT), "--tokenizer", path("tok"), "--data",
+                path("shards", "val"), "--tokens", path("tokens", "val"), "--out", out,
+                "--threads", 1, "--episodes", EPISODES, "--policy-horizon", HORIZON,
+                "--strips", EPISODES, "--true-values", cls.truth, *policies, *extra]
+
+    def test_rerun_gives_identical_bytes(self):
+        files = ["wm_episodes.csv", "wm_values.csv", "wpe.csv"] + [
+            os.path.join("strips", f"episode_{k}.png") for k in range(EPISODES)]
+        rerun = self.path("rerun", self.CHECKPOINT)
+        for f in files:
+            self.assertTrue(filecmp.cmp(os.path.join(self.report, f), os.path.join(rerun, f),
+                                        shallow=False), f)
+
+
+class WmEvalPolicy(ClosedLoopCase, unittest.TestCase):
+    CHECKPOINT = "dyn"
 
     @classmethod
     def setUpClass(cls):
@@ -122,22 +147,6 @@ class WmEvalPolicy(unittest.TestCase):
         for out in ("run", "rerun"):
             ok("wm-eval", *cls.args(path(out), recorders(path(out + "_seen"))))
         cls.report = path("run", "dyn")
-
-    @classmethod
-    def args(cls, out, policies, *extra):
-        path = cls.path
-        return ["--checkpoint", path("dyn"), "--tokenizer", path("tok"), "--data",
-                path("shards", "val"), "--tokens", path("tokens", "val"), "--out", out,
-                "--threads", 1, "--episodes", EPISODES, "--policy-horizon", HORIZON,
-                "--strips", EPISODES, "--true-values", cls.truth, *policies, *extra]
-
-    def test_rerun_gives_identical_bytes(self):
-        files = ["wm_episodes.csv", "wm_values.csv", "wpe.csv"] + [
-            os.path.join("strips", f"episode_{k}.png") for k in range(EPISODES)]
-        rerun = self.path("rerun", "dyn")
-        for f in files:
-            self.assertTrue(filecmp.cmp(os.path.join(self.report, f), os.path.join(rerun, f),
-                                        shallow=False), f)
 
     def test_policy_sees_real_start_then_decoded_imagined_frames(self):
         shards = wmshard.Dataset(self.path("shards", "val"))

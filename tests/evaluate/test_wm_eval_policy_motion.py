@@ -15,7 +15,6 @@ trained for a few steps here):
   rows against schemas/success-scores-row.schema.json;
 - a motion checkpoint without --success-model, or with a --success-model that is not a success
   classifier, exits 1 with one line that says so, and leaves no finished-looking report."""
-import filecmp
 import hashlib
 import json
 import os
@@ -33,8 +32,9 @@ SRC = os.environ.get("WM_SOURCE_DIR", os.path.join(os.path.dirname(__file__), ".
 BIN = os.environ.get("WM_BIN_DIR", os.path.join(SRC, "build", "bin"))
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 # The token model's closed-loop test: its tools, readers, strip geometry and recording policies.
-from test_wm_eval_policy import (EPISODES, FINISHED, HORIZON, ok, read_json,  # noqa: E402
-                                 read_rows, recorders, strip_cell, wmshard, write_truth)
+from test_wm_eval_policy import (EPISODES, FINISHED, HORIZON, ClosedLoopCase, ok,  # noqa: E402
+                                 read_json, read_rows, recorders, strip_cell, wmshard,
+                                 write_truth)
 
 
 def run(name, *args):
@@ -47,10 +47,8 @@ def sha256(path):
         return hashlib.sha256(f.read()).hexdigest()
 
 
-class WmEvalPolicyMotion(unittest.TestCase):
-    @classmethod
-    def path(cls, *parts):
-        return os.path.join(cls.tmp.name, *parts)
+class WmEvalPolicyMotion(ClosedLoopCase, unittest.TestCase):
+    CHECKPOINT = "motion"
 
     @classmethod
     def setUpClass(cls):
@@ -80,23 +78,6 @@ class WmEvalPolicyMotion(unittest.TestCase):
             ok("wm-eval", *cls.args(path(out), recorders(path(out + "_seen")),
                                     "--success-model", path("success")))
         cls.report = path("run", "motion")
-
-    @classmethod
-    def args(cls, out, policies, *extra):
-        path = cls.path
-        return ["--checkpoint", path("motion"), "--tokenizer", path("tok"), "--data",
-                path("shards", "val"), "--tokens", path("tokens", "val"), "--out", out,
-                "--threads", 1, "--episodes", EPISODES, "--policy-horizon", HORIZON,
-                "--strips", EPISODES, "--true-values", cls.truth, *policies, *extra]
-
-
-    def test_rerun_gives_identical_bytes(self):
-        files = ["wm_episodes.csv", "wm_values.csv", "wpe.csv"] + [
-            os.path.join("strips", f"episode_{k}.png") for k in range(EPISODES)]
-        for f in files:
-            self.assertTrue(filecmp.cmp(os.path.join(self.report, f),
-                                        os.path.join(self.path("rerun", "motion"), f),
-                                        shallow=False), f)
 
     def test_policy_sees_real_start_then_imagined_frames(self):
         shards = wmshard.Dataset(self.path("shards", "val"))
