@@ -5,6 +5,8 @@
 #include <cstring>
 #include <string_view>
 
+#include "core/error.h"
+
 namespace wm {
 namespace {
 
@@ -45,7 +47,35 @@ void PutBytes(std::string& out, int field, std::string_view bytes) {
 constexpr int kEventFieldWallTime = 1, kEventFieldStep = 2, kEventFieldFileVersion = 3,
               kEventFieldSummary = 5;
 constexpr int kSummaryFieldValue = 1;
-constexpr int kValueFieldTag = 1, kValueFieldSimpleValue = 2;
+constexpr int kValueFieldTag = 1, kValueFieldSimpleValue = 2, kValueFieldImage = 4;
+constexpr int kImageFieldHeight = 1, kImageFieldWidth = 2, kImageFieldColorspace = 3,
+              kImageFieldEncoded = 4;
+
+void PutVarintField(std::string& out, int field, uint64_t value) {
+  PutKey(out, field, kVarint);
+  PutVarint(out, value);  // int32/int64 negatives: two's complement, as protobuf does
+}
+
+// Event{wall_time, step, summary}: what a scalars or an image event holds.
+std::string SummaryEvent(double wall_time, int64_t step, const std::string& summary) {
+  std::string event;
+  PutFixed(event, kEventFieldWallTime, wall_time);
+  PutVarintField(event, kEventFieldStep, static_cast<uint64_t>(step));
+  PutBytes(event, kEventFieldSummary, summary);
+  return event;
+}
+
+// Reads a varint at `pos` of `bytes`, advancing `pos`; throws on a truncated one.
+uint64_t GetVarint(std::string_view bytes, size_t& pos) {
+  uint64_t value = 0;
+  for (int shift = 0; shift < 64; shift += 7) {
+    Check(pos < bytes.size(), "truncated protobuf varint");
+    const auto b = static_cast<uint8_t>(bytes[pos++]);
+    value |= static_cast<uint64_t>(b & 0x7f) << shift;
+    if (b < 0x80) return value;
+  }
+  throw Error("protobuf varint longer than 10 bytes");
+}
 
 }  // namespace
 
@@ -65,12 +95,49 @@ std::string EncodeScalarsEvent(double wall_time, int64_t step,
     PutFixed(value, kValueFieldSimpleValue, v.value);
     PutBytes(summary, kSummaryFieldValue, value);
   }
-  std::string event;
-  PutFixed(event, kEventFieldWallTime, wall_time);
-  PutKey(event, kEventFieldStep, kVarint);
-  PutVarint(event, static_cast<uint64_t>(step));  // int64: two's complement, as protobuf does
-  PutBytes(event, kEventFieldSummary, summary);
-  return event;
+  return SummaryEvent(wall_time, step, summary);
+}
+
+std::string EncodeImageEvent(double wall_time, int64_t step, const ImageSummary& image) {
+  std::string fields;
+  PutVarintField(fields, kImageFieldHeight, static_cast<uint64_t>(image.height));
+  PutVarintField(fields, kImageFieldWidth, static_cast<uint64_t>(image.width));
+  PutVarintField(fields, kImageFieldColorspace, static_cast<uint64_t>(image.channels));
+  PutBytes(fields, kImageFieldEncoded, image.png);
+  std::string value;
+  PutBytes(value, kValueFieldTag, image.tag);
+  PutBytes(value, kValueFieldImage, fields);
+  std::string summary;
+  PutBytes(summary, kSummaryFieldValue, value);
+  return SummaryEvent(wall_time, step, summary);
+}
+
+int64_t DecodeEventStep(std::string_view event) {
+  int64_t step = 0;
+  size_t pos = 0;
+  while (pos < event.size()) {
+    const uint64_t key = GetVarint(event, pos);
+    switch (key & 7) {
+      case kVarint: {
+        const uint64_t v = GetVarint(event, pos);
+        if (key >> 3 == kEventFieldStep) step = static_cast<int64_t>(v);
+        break;
+      }
+      case kFixed64:
+        pos += 8;
+        break;
+      case kFixed32:
+        pos += 4;
+        break;
+      case kLengthDelimited:
+        pos += GetVarint(event, pos);
+        break;
+      default:
+        throw Error("unsupported protobuf wire type " + std::to_string(key & 7));
+    }
+  }
+  Check(pos == event.size(), "protobuf field runs past the end of the event");
+  return step;
 }
 
 double EventWallTime() {

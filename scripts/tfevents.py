@@ -4,6 +4,7 @@ protobuf wire format (no TensorFlow, TensorBoard or protobuf package), for check
 trainers write without TensorBoard (docs/tensorboard.md).
 
   tfevents.py RUN_DIR/events.out.tfevents.metrics     one line per scalar: step tag value
+  tfevents.py RUN_DIR/events.out.tfevents.val_images  one line per image: step tag WxH png N bytes
 
 Bad data raises ValueError naming the file and the record; exit 1.
 """
@@ -76,18 +77,25 @@ def decode_fields(msg):
 
 
 def decode_event(record):
-    """{"wall_time", "step", "file_version" or None, "scalars": {tag: float}} of one Event
-    (event.proto: wall_time 1, step 2, file_version 3, summary 5; summary.proto: value 1
-    {tag 1, simple_value 2})."""
+    """{"wall_time", "step", "file_version" or None, "scalars": {tag: float}, "images": {tag:
+    {"height", "width", "colorspace", "png"}}} of one Event (event.proto: wall_time 1, step 2,
+    file_version 3, summary 5; summary.proto: value 1 {tag 1, simple_value 2, image 4 {height 1,
+    width 2, colorspace 3, encoded_image_string 4}})."""
     f = decode_fields(record)
     step = f.get(2, [0])[0]
     event = {"wall_time": struct.unpack("<d", f[1][0])[0],
              "step": step - (1 << 64) if step >= 1 << 63 else step,
-             "file_version": f[3][0].decode() if 3 in f else None, "scalars": {}}
+             "file_version": f[3][0].decode() if 3 in f else None, "scalars": {}, "images": {}}
     for summary in f.get(5, []):
         for value in decode_fields(summary).get(1, []):
             v = decode_fields(value)
-            event["scalars"][v[1][0].decode()] = struct.unpack("<f", v[2][0])[0]
+            tag = v[1][0].decode()
+            if 4 in v:
+                image = decode_fields(v[4][0])
+                event["images"][tag] = {"height": image[1][0], "width": image[2][0],
+                                        "colorspace": image[3][0], "png": image[4][0]}
+            else:
+                event["scalars"][tag] = struct.unpack("<f", v[2][0])[0]
     return event
 
 
@@ -100,6 +108,9 @@ def main(argv):
         for event in read_events(argv[1]):
             for tag, value in event["scalars"].items():
                 print(event["step"], tag, value)
+            for tag, image in event["images"].items():
+                print(event["step"], tag, f"{image['width']}x{image['height']} png",
+                      len(image["png"]), "bytes")
     except (ValueError, IndexError, KeyError, OSError) as e:
         print(f"tfevents.py: {e}", file=sys.stderr)
         return 1

@@ -7,8 +7,8 @@
 #include <sstream>
 
 #include "core/error.h"
-#include "core/mix_bits.h"
 #include "core/log.h"
+#include "core/mix_bits.h"
 #include "core/provenance.h"
 #include "core/tensor_archive.h"
 #include "tokenize/frame_sampler.h"
@@ -37,6 +37,8 @@ constexpr const char* kValMetrics = "val.csv";
 constexpr const char* kMetricsHeader =
     "step,loss,recon_l1,codebook_loss,commitment,perplexity,usage,reseeded,lr,frames_per_s";
 constexpr const char* kValHeader = "step,psnr,ssim,recon_l1,flicker,token_change_rate";
+// Validation frames shown in TensorBoard at each validation step, originals over reconstructions.
+constexpr int kSheetFrames = 8;
 // Validation episodes whose consecutive frames are scored for token flicker: the demo's 16.
 constexpr size_t kFlickerEpisodes = 16;
 
@@ -151,7 +153,9 @@ TrainState MakeTrainState(const TrainOptions& o, const torch::Device& device,
 class Validation {
  public:
   Validation(const TrainOptions& o, const RunDir& run, int64_t resume_step)
-      : size_(o.config.model.image_size), log_(run.File(kValMetrics), kValHeader, resume_step) {
+      : size_(o.config.model.image_size),
+        log_(run.File(kValMetrics), kValHeader, resume_step),
+        images_(run.dir(), "val_images", resume_step) {
     auto sampler = MakeSampler(o, o.val_dirs, MixBits(o.config.train.seed ^ 0x76616cull), false);
     const auto refs = sampler->BatchRefs(0, o.config.train.val_frames);
     frames_.resize(refs.size() * 3 * size_ * size_);
@@ -176,6 +180,8 @@ class Validation {
         model->forward(images, anchors).reconstruction.to(torch::kCPU).contiguous();
     ReconstructionScore score =
         ScoreReconstruction(frames_.data(), recon.data_ptr<float>(), n, size_);
+    images_.Append(step, ReconstructionSheet("val/reconstructions", frames_.data(),
+                                             recon.data_ptr<float>(), n, size_, kSheetFrames));
     const FlickerCounts flicker = Flicker(model, device);
     score.flicker = flicker.flicker();
     score.token_change_rate = flicker.change_rate();
@@ -211,6 +217,7 @@ class Validation {
 
   int size_;
   trainkit::StepLog log_;
+  trainkit::ImageLog images_;  // events.out.tfevents.val_images: originals over reconstructions
   std::vector<float> frames_;
   std::vector<float> anchors_;  // with model.anchor_decoder: each frame's (FixedGapAnchors)
   std::vector<std::vector<float>> episodes_;  // [T, 3, size, size] each, for Flicker

@@ -4,6 +4,7 @@
 #include <cmath>
 #include <cstdlib>
 
+#include "core/image_codec.h"
 #include "metrics/image.h"
 #include "metrics/pixel_metrics.h"
 #include "tokenize/tokenizer.h"
@@ -85,6 +86,25 @@ ReconstructionScore ScoreReconstruction(const float* original, const float* reco
   score.ssim /= static_cast<double>(n);
   score.l1 = l1 / (static_cast<double>(n) * floats);
   return score;
+}
+
+ImageSummary ReconstructionSheet(const std::string& tag, const float* original, const float* recon,
+                                 int64_t n, int size, int columns) {
+  const int count = static_cast<int>(std::min<int64_t>(n, columns));
+  const size_t row_bytes = static_cast<size_t>(count) * size * 3;  // one pixel row of the sheet
+  std::vector<uint8_t> sheet(2 * size * row_bytes);
+  const size_t frame_floats = 3ull * size * size;
+  for (int band = 0; band < 2; ++band) {
+    const float* frames = band == 0 ? original : recon;
+    for (int k = 0; k < count; ++k) {
+      const std::vector<uint8_t> rgb = PlanarToRgb8(frames + k * frame_floats, size);
+      for (int y = 0; y < size; ++y) {
+        std::copy_n(rgb.data() + static_cast<size_t>(y) * size * 3, size * 3,
+                    sheet.data() + (band * size + y) * row_bytes + k * size * 3);
+      }
+    }
+  }
+  return {tag, 2 * size, count * size, 3, EncodePng(sheet.data(), 2 * size, count * size, 3)};
 }
 
 }  // namespace wm::tokenize

@@ -2,6 +2,9 @@
 // Reconstruction quality of the tokenizer, scored with the wmkit metrics library on the uint8
 // frames a user would see (so val PSNR/SSIM match `wm-metrics` on exported PNGs).
 #include <cstdint>
+#include <string>
+
+#include "core/tensorboard_events.h"
 
 namespace wm::tokenize {
 
@@ -48,5 +51,10 @@ FlickerCounts CountFlicker(const int64_t* codes, const uint8_t* rgb, int64_t fra
 // original, recon: [n, 3, size, size] planar floats in [-1, 1].
 ReconstructionScore ScoreReconstruction(const float* original, const float* recon, int64_t n,
                                         int size);
+
+// The first min(n, columns) frames above their reconstructions, one PNG tagged `tag` for
+// TensorBoard: RGB, 2 * size rows by columns * size. Planar floats in [-1, 1] as above.
+ImageSummary ReconstructionSheet(const std::string& tag, const float* original, const float* recon,
+                                 int64_t n, int size, int columns);
 
 }  // namespace wm::tokenize

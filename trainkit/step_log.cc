@@ -7,7 +7,6 @@
 
 #include "core/atomic_file.h"
 #include "core/error.h"
-#include "core/tensorboard_events.h"
 #include "core/tfrecord_frame.h"
 
 namespace wm::trainkit {
@@ -80,6 +79,23 @@ std::string StepLog::EventFor(const std::string& row) const {
   }
   const int64_t step = cells.empty() ? 0 : std::strtoll(cells[0].c_str(), nullptr, 10);
   return FrameTfRecord(EncodeScalarsEvent(EventWallTime(), step, values));
+}
+
+ImageLog::ImageLog(const std::string& dir, const std::string& name, int64_t resume_step)
+    : path_((std::filesystem::path(dir) / ("events.out.tfevents." + name)).string()) {
+  std::string events = FrameTfRecord(EncodeFileVersionEvent(EventWallTime()));
+  if (std::filesystem::exists(path_)) {
+    const std::string old = ReadFile(path_);
+    const std::vector<std::string_view> records = UnframeTfRecords(old);
+    for (size_t i = 1; i < records.size(); ++i) {  // record 0: the old file_version event
+      if (DecodeEventStep(records[i]) <= resume_step) events += FrameTfRecord(records[i]);
+    }
+  }
+  WriteFileAtomically(path_, events);
+}
+
+void ImageLog::Append(int64_t step, const ImageSummary& image) {
+  AppendToFile(path_, FrameTfRecord(EncodeImageEvent(EventWallTime(), step, image)));
 }
 
 double ThroughputWindow::TakeRate() {

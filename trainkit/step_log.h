@@ -7,6 +7,8 @@
 #include <string>
 #include <vector>
 
+#include "core/tensorboard_events.h"
+
 namespace wm::trainkit {
 
 // Rewrites `path` (atomically) with `header` and only the rows whose step is <= `step`, so a run
@@ -35,6 +37,20 @@ class StepLog {
   std::string path_;
   std::string events_path_;
   std::vector<std::string> tags_;  // per column after the step
+};
+
+// Images for TensorBoard (a tokenizer's reconstructions at each validation step) in their own
+// event file, "DIR/events.out.tfevents.<name>": they have no CSV to be rebuilt from, so on
+// resume the constructor keeps the file's events up to `resume_step` (and drops a record cut by
+// a kill) instead of rewriting it from a log.
+class ImageLog {
+ public:
+  ImageLog(const std::string& dir, const std::string& name, int64_t resume_step);
+  void Append(int64_t step, const ImageSummary& image);  // flushed at once, like StepLog
+  const std::string& path() const { return path_; }
+
+ private:
+  std::string path_;
 };
 
 // Work units (frames, tokens) per wall-clock second since the last row: the throughput column.

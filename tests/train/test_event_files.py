@@ -1,9 +1,11 @@
 #!/usr/bin/python3
-"""wm-train's TensorBoard event file, read with scripts/tfevents.py (TFRecord framing with masked
+"""wm-train's and wm-tokenize's TensorBoard event files, read with scripts/tfevents.py (TFRecord framing with masked
 CRC32C and a hand-written protobuf decoder, no TensorBoard): one file_version event, then one event
 per metrics.csv row with the same step and, per non-empty cell, the tag "metrics/<column>" and the
 cell's value as float32 (validation columns only at validation steps). A run stopped and resumed
-rewrites the same file and ends with the events of an uninterrupted run."""
+rewrites the same file and ends with the events of an uninterrupted run. The tokenizer's
+validation images (originals over reconstructions, one PNG per validation step) decode to the
+frames val.csv scored: their PSNR is val.csv's; a resumed run ends with the same images."""
 import csv
 import os
 import subprocess
@@ -12,6 +14,7 @@ import tempfile
 import time
 import unittest
 
+import cv2
 import numpy as np
 
 HERE = os.path.dirname(os.path.abspath(__file__))
@@ -20,6 +23,9 @@ sys.path.insert(0, HERE)
 sys.path.insert(0, os.path.join(SRC, "scripts"))
 import test_wm_train_cli  # noqa: E402  (its tiny config)
 import tfevents  # noqa: E402
+
+sys.path.insert(0, os.path.join(SRC, "tests"))
+import tiny_pipeline  # noqa: E402
 
 BIN = os.environ.get("WM_BIN_DIR", "build/bin")
 EVENTS = "events.out.tfevents.metrics"
@@ -92,6 +98,53 @@ class EventFiles(unittest.TestCase):
         self.assertEqual(without_timing(logged_scalars(resumed)),
                          without_timing(logged_scalars(full)))
         self.assertEqual(logged_scalars(resumed), expected_scalars(resumed))
+
+
+class TokenizerImages(unittest.TestCase):
+    """wm-tokenize train --val-data: events.out.tfevents.val_images."""
+    SIZE, FRAMES = 64, 8  # val_frames = the sheet's 8 columns: the sheet holds every scored frame
+
+    @classmethod
+    def setUpClass(cls):
+        cls.tmp = tempfile.TemporaryDirectory()
+        cls.pipe = tiny_pipeline.TinyPipeline(
+            cls.tmp.name, train_episodes=2, val_episodes=2, tokenizer_steps=4, dynamics_steps=1,
+            max_steps=6, validate=True,
+            tokenizer_train={"val_every": 2, "val_frames": cls.FRAMES, "checkpoint_every": 2})
+
+    @classmethod
+    def tearDownClass(cls):
+        cls.tmp.cleanup()
+
+    def images(self, run_dir):
+        events = tfevents.read_events(os.path.join(run_dir, "events.out.tfevents.val_images"))
+        self.assertEqual(events[0]["file_version"], tfevents.FILE_VERSION)
+        return [(e["step"], e["images"]) for e in events[1:]]
+
+    def test_one_sheet_per_validation_step_scored_as_val_csv(self):
+        run = self.pipe.tokenizer()
+        with open(os.path.join(run, "val.csv"), newline="") as f:
+            rows = list(csv.DictReader(f))
+        images = self.images(run)
+        self.assertEqual([s for s, _ in images], [int(r["step"]) for r in rows])
+        for (step, tags), row in zip(images, rows):
+            self.assertEqual(list(tags), ["val/reconstructions"])
+            image = tags["val/reconstructions"]
+            self.assertEqual((image["height"], image["width"], image["colorspace"]),
+                             (2 * self.SIZE, self.FRAMES * self.SIZE, 3))
+            sheet = cv2.imdecode(np.frombuffer(image["png"], np.uint8), cv2.IMREAD_COLOR)
+            self.assertEqual(sheet.shape, (2 * self.SIZE, self.FRAMES * self.SIZE, 3))
+            top, bottom = sheet[:self.SIZE].astype(float), sheet[self.SIZE:].astype(float)
+            psnr = [10 * np.log10(255.0 ** 2 / np.mean((t - b) ** 2))
+                    for t, b in zip(np.split(top, self.FRAMES, 1), np.split(bottom, self.FRAMES, 1))]
+            self.assertAlmostEqual(np.mean(psnr), float(row["psnr"]), places=3, msg=f"step {step}")
+
+    def test_resumed_run_ends_with_the_same_images(self):
+        full = self.pipe.tokenizer()
+        resumed = self.pipe.path("tok_resumed")
+        tiny_pipeline.run_ok(self.pipe.tokenizer_argv(resumed, "--stop-after", 2))
+        tiny_pipeline.run_ok(self.pipe.tokenizer_argv(resumed, "--resume"))
+        self.assertEqual(self.images(resumed), self.images(full))
 
 
 if __name__ == "__main__":

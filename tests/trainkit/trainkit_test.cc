@@ -6,6 +6,8 @@
 
 #include "core/atomic_file.h"
 #include "core/error.h"
+#include "core/tensorboard_events.h"
+#include "core/tfrecord_frame.h"
 #include "tests/core/test_util.h"
 #include "trainkit/adamw.h"
 #include "trainkit/mixture.h"
@@ -96,6 +98,34 @@ TEST(StepLog, MirrorsRowsIntoAnEventFileBesideIt) {
   EXPECT_EQ(fs::file_size(events), after_two_rows) << "rows after step 2 dropped";
   resumed.Append("3,22,0.7");
   EXPECT_GT(fs::file_size(events), after_two_rows);
+}
+
+// The steps of an event file's events after its file_version event.
+std::vector<int64_t> EventSteps(const std::string& path) {
+  const std::string bytes = ReadFile(path);
+  const std::vector<std::string_view> records = UnframeTfRecords(bytes);
+  std::vector<int64_t> steps;
+  for (size_t i = 1; i < records.size(); ++i) steps.push_back(DecodeEventStep(records[i]));
+  return steps;
+}
+
+TEST(ImageLog, KeepsTheImagesUpToTheResumeStepAndDropsACutRecord) {
+  test::TempDir dir;
+  const ImageSummary image{"val/reconstructions", 1, 1, 3, "not a real png"};
+  {
+    ImageLog log(dir.path().string(), "val_images", 0);
+    EXPECT_EQ(log.path(), dir / "events.out.tfevents.val_images");
+    for (int64_t step : {100, 200, 300}) log.Append(step, image);
+  }
+  EXPECT_EQ(EventSteps(dir / "events.out.tfevents.val_images"),
+            (std::vector<int64_t>{100, 200, 300}));
+  ImageLog resumed(dir.path().string(), "val_images",
+                   200);  // the checkpoint at 200: 300's image is redone
+  EXPECT_EQ(EventSteps(resumed.path()), (std::vector<int64_t>{100, 200}));
+  resumed.Append(300, image);
+  fs::resize_file(resumed.path(), fs::file_size(resumed.path()) - 3);  // killed mid-append
+  EXPECT_EQ(EventSteps(ImageLog(dir.path().string(), "val_images", 1000).path()),
+            (std::vector<int64_t>{100, 200}));
 }
 
 TEST(RunDir, WritesTheArchiveBeforeItsManifestAndRefusesToOverwriteIt) {
