@@ -8,7 +8,6 @@
 #include <exception>
 #include <iostream>
 #include <map>
-#include <optional>
 
 #include "core/atomic_file.h"
 #include "core/cli_parse.h"
@@ -18,63 +17,38 @@
 #include "success/score.h"
 #include "success/success_model.h"
 #include "success/trainer.h"
+#include "trainkit/tools/train_command.h"
 
 namespace {
 
 struct TrainArgs {
-  std::string config;
+  wm::trainkit::TrainOverrides overrides;
   wm::success::TrainOptions options;
-  int64_t steps = 0, stop_after = 0;
-  int threads = 0;
-  std::optional<uint64_t> seed;
 };
 
 void AddTrain(CLI::App& app, TrainArgs& a) {
-  CLI::App* train =
-      app.add_subcommand("train", "Train a success classifier on a shard dataset's frames");
-  train->footer(
-      "Example:\n  wm-success train --config configs/success/tiny.yaml \\\n"
-      "    --data data/demo/shards/train --val-data data/demo/shards/val --out runs/success\n"
-      "Labels: a frame is a success frame when the reward logged with it exceeds\n"
-      "data.reward_threshold (tabletop: the frame showing the block in the goal). Re-running\n"
-      "with --resume continues from RUN_DIR/checkpoint.wmt; the final checkpoint is\n"
-      "byte-identical to an uninterrupted CPU run. Use: wm-eval --policy ... --success-model "
-      "RUN_DIR.");
-  train->add_option("--config", a.config, "Success classifier YAML (configs/success/*.yaml)")
-      ->required()
-      ->check(CLI::ExistingFile);
-  train->add_option("--data", a.options.data_dir, "Shard dataset directory (frames + rewards)")
-      ->required()
-      ->check(CLI::ExistingDirectory);
-  train->add_option("--out", a.options.out_dir, "Run directory (RUN_DIR)")->required();
-  train
-      ->add_option("--val-data", a.options.val_dir,
-                   "Held-out shard dataset: loss, AUROC and accuracies to RUN_DIR/val.csv")
-      ->check(CLI::ExistingDirectory);
-  train->add_option("--steps", a.steps, "Override train.steps");
-  train->add_option("--device", a.options.device, "cpu, cuda or cuda:N")->capture_default_str();
-  train->add_option("--seed", a.seed, "Override train.seed");
-  train->add_option("--threads", a.threads, "Override train.threads (LibTorch intra-op)");
-  train->add_flag("--resume", a.options.resume, "Continue from RUN_DIR/checkpoint.wmt");
-  train->add_option("--stop-after", a.stop_after,
-                    "Stop after N steps of this invocation (time-sliced jobs)");
+  wm::trainkit::AddTrainCommand(
+      app,
+      {.description = "Train a success classifier on a shard dataset's frames",
+       .footer =
+           "Example:\n  wm-success train --config configs/success/tiny.yaml \\\n"
+           "    --data data/demo/shards/train --val-data data/demo/shards/val --out runs/success\n"
+           "Labels: a frame is a success frame when the reward logged with it exceeds\n"
+           "data.reward_threshold (tabletop: the frame showing the block in the goal). Re-running\n"
+           "with --resume continues from RUN_DIR/checkpoint.wmt; the final checkpoint is\n"
+           "byte-identical to an uninterrupted CPU run. Use: wm-eval --policy ... --success-model "
+           "RUN_DIR.",
+       .config_help = "Success classifier YAML (configs/success/*.yaml)",
+       .data_help = "Shard dataset directory (frames + rewards)",
+       .val_help = "Held-out shard dataset: loss, AUROC and accuracies to RUN_DIR/val.csv"},
+      a.options, a.overrides);
 }
 
 int RunTrain(TrainArgs& a) {
-  auto& o = a.options;
-  o.config = wm::success::LoadSuccessConfig(a.config);
-  if (a.steps > 0) o.config.train.steps = a.steps;
-  if (a.seed) o.config.train.seed = *a.seed;
-  if (a.threads > 0) o.config.train.threads = a.threads;
-  o.max_steps_this_run = a.stop_after;
-  const auto summary = wm::success::TrainSuccess(o);
-  if (summary.start_step == summary.end_step) {  // a resumed run that had already finished
-    spdlog::info("already at step {}: nothing to train; {} kept", summary.end_step,
-                 summary.checkpoint_path);
-    return 0;
-  }
-  spdlog::info("steps {}..{}: cross-entropy {:.4f} (first {:.4f}); wrote {}", summary.start_step,
-               summary.end_step, summary.last_loss, summary.first_loss, summary.checkpoint_path);
+  a.options.config = wm::success::LoadSuccessConfig(a.overrides.config);
+  wm::trainkit::ApplyTrainOverrides(a.overrides, a.options);
+  const auto summary = wm::success::TrainSuccess(a.options);
+  if (!wm::trainkit::LogTrainSummary(summary, "cross-entropy")) return 0;
   if (const auto& v = summary.val) {
     spdlog::info(
         "validation ({} frames, {} success): AUROC {:.3f}, accuracy {:.3f} (majority rule "
