@@ -8,7 +8,6 @@
 #include "core/error.h"
 #include "metrics/frechet.h"
 #include "metrics/image_io.h"
-#include "metrics/lpips/lpips.h"
 #include "metrics/masked_metrics.h"
 #include "metrics/pixel_metrics.h"
 
@@ -61,7 +60,8 @@ class Comparison {
     mo_.ms_ssim = Wants(o, "ms_ssim");
     mo_.threads = o.threads;
     if (Wants(o, "lpips")) {
-      lpips_.emplace(o.lpips_weights, LpipsOptions{.device = o.device, .threads = o.threads});
+      Check(static_cast<bool>(o.lpips_loader), "lpips needs LibTorch, and this program wires in none");
+      lpips_ = o.lpips_loader(o.lpips_weights, {.device = o.device, .threads = o.threads});
     }
     if (Wants(o, "lpips_style") || Wants(o, "fvd_style")) {
       Check(static_cast<bool>(o.feature_net_loader),
@@ -95,7 +95,7 @@ class Comparison {
         b.push_back(ToRgb8(pred.images[i]));
       }
       for (size_t i = 0; i < a.size(); ++i) pa.push_back(a[i].data()), pb.push_back(b[i].data());
-      Append("lpips", lpips_->Distance(pa, pb, ref.images[0].height, ref.images[0].width));
+      Append("lpips", lpips_(pa, pb, ref.images[0].height, ref.images[0].width));
     }
     if (features_) {
       const std::vector<float> a = FeatureNetInput(*features_, ref);
@@ -212,7 +212,7 @@ class Comparison {
 
   const CompareOptions& o_;
   MetricOptions mo_;
-  std::optional<Lpips> lpips_;
+  LpipsDistance lpips_;
   std::unique_ptr<FeatureNet> features_;  // lpips_style / fvd_style
   std::optional<FrameStream> masks_;
   Frames one_mask_;
@@ -247,6 +247,10 @@ void CompareOptions::Check() const {
   }
   wm::Check(!Wants(*this, "lpips") || !lpips_weights.empty(),
             "lpips needs --lpips-weights FILE (made once by scripts/export_lpips_weights.py)");
+}
+
+bool NeedsLearnedNetwork(const CompareOptions& o) {
+  return Wants(o, "lpips") || Wants(o, "lpips_style") || Wants(o, "fvd_style");
 }
 
 json CompareFrameSets(const CompareOptions& o) {
