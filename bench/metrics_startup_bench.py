@@ -78,12 +78,11 @@ def write_folders(tmp, pairs):
 
 
 def main():
-    root = os.path.join(os.path.dirname(os.path.abspath(__file__)), "..")
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--bin", default=os.path.join(root, "build", "bin"))
-    parser.add_argument("--pairs", type=int, default=120)
-    parser.add_argument("--runs", type=int, default=20)
-    parser.add_argument("--repeats", type=int, default=3)
+    parser.add_argument("--bin", default=os.path.join(os.path.dirname(os.path.abspath(__file__)),
+                                                      "..", "build", "bin"))
+    for option, default in (("--pairs", 120), ("--runs", 20), ("--repeats", 3)):
+        parser.add_argument(option, type=int, default=default)
     args = parser.parse_args()
     light, full = (os.path.join(args.bin, name) for name in ("wm-metrics", "wm-metrics-full"))
     pairs = make_pairs(args.pairs, 256, seed=0)

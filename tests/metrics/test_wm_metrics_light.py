@@ -4,6 +4,7 @@ links no LibTorch, OpenCV codecs or PCL, and every command gives the same stdout
 code through it as through wm-metrics-full, the whole program as wm-metrics was before the split:
 PNG and JPEG it decodes itself; lpips, PNGs it cannot decode as OpenCV does, videos, damaged files
 and `seg` it hands over. No timing here: bench/metrics_startup_bench.py measures the start."""
+import functools
 import os
 import shutil
 import subprocess
@@ -40,7 +41,9 @@ def started_programs(args):
 class LightProgram(unittest.TestCase):
     @classmethod
     def setUpClass(cls):
-        cls.tmp = tempfile.TemporaryDirectory()
+        tmp = tempfile.TemporaryDirectory()
+        cls.addClassCleanup(tmp.cleanup)
+        cls.path = functools.partial(os.path.join, tmp.name)  # path("ref.png") in the fixtures
         rng = np.random.default_rng(0)
         # 184 x 176: MS-SSIM's five scales need 176 pixels a side
         ref = cv2.GaussianBlur(rng.integers(0, 256, (184, 176, 3), dtype=np.uint8), (5, 5), 0)
@@ -72,14 +75,6 @@ class LightProgram(unittest.TestCase):
         subprocess.run(["/usr/bin/python3", os.path.join(SRC, "scripts", "export_lpips_weights.py"),
                         "--random-seed", "0", "--out", cls.weights], check=True,
                        capture_output=True)
-
-    @classmethod
-    def tearDownClass(cls):
-        cls.tmp.cleanup()
-
-    @classmethod
-    def path(cls, *parts):
-        return os.path.join(cls.tmp.name, *parts)
 
     def assert_same_as_full(self, args, exit_code=0):
         light, full = run(LIGHT, args), run(FULL, args)
