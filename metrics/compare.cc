@@ -60,7 +60,8 @@ class Comparison {
     mo_.ms_ssim = Wants(o, "ms_ssim");
     mo_.threads = o.threads;
     if (Wants(o, "lpips")) {
-      Check(static_cast<bool>(o.lpips_loader), "lpips needs LibTorch, and this program wires in none");
+      Check(static_cast<bool>(o.lpips_loader),
+            "lpips needs LibTorch, and this program wires in none");
       lpips_ = o.lpips_loader(o.lpips_weights, {.device = o.device, .threads = o.threads});
     }
     if (Wants(o, "lpips_style") || Wants(o, "fvd_style")) {

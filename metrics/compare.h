@@ -13,9 +13,9 @@
 namespace wm::metrics {
 
 // lpips: one distance per pair of 8-bit RGB frames (height x width x 3), as Lpips::Distance.
-using LpipsDistance = std::function<std::vector<double>(
-    const std::vector<const uint8_t*>& a, const std::vector<const uint8_t*>& b, int height,
-    int width)>;
+using LpipsDistance =
+    std::function<std::vector<double>(const std::vector<const uint8_t*>& a,
+                                      const std::vector<const uint8_t*>& b, int height, int width)>;
 // Opens LPIPS with the weights file. Like the feature network, the caller wires it in, so that
 // the comparison itself does not link LibTorch (wm-metrics-full wires in metrics/lpips/).
 using LpipsLoader =

@@ -15,9 +15,10 @@ namespace wm::metrics::internal {
 namespace {
 
 // JPEG, and PNG of grey, RGB or RGBA at 8 or 16 bits with no tRNS chunk: the cases
-// tests/metrics/image_io_test.cc (DecodesExactlyAsOpenCv) and tests/metrics/test_wm_metrics_light.py
-// pin to OpenCV's pixels. OpenCV reads grey+alpha (and grey with tRNS) as four channels, which
-// become RGB, where core/image_codec.h keeps one; palette and 1-4 bit PNGs are left to OpenCV too.
+// tests/metrics/image_io_test.cc (DecodesExactlyAsOpenCv) and
+// tests/metrics/test_wm_metrics_light.py pin to OpenCV's pixels. OpenCV reads grey+alpha (and grey
+// with tRNS) as four channels, which become RGB, where core/image_codec.h keeps one; palette and
+// 1-4 bit PNGs are left to OpenCV too.
 bool DecodesAsOpenCv(std::string_view bytes) {
   const std::string format = SniffImageFormat(bytes);
   if (format == "jpeg") return true;

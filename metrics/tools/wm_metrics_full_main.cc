@@ -22,9 +22,8 @@ wm::metrics::LpipsDistance OpenLpips(const std::string& weights_file,
 }  // namespace
 
 int main(int argc, char** argv) {
-  return wm::metrics::RunWmMetrics(
-      argc, argv,
-      {.lpips_loader = OpenLpips,
-       .feature_net_loader = wm::metrics::OpenTokenizerFeatureNet,
-       .add_seg_command = wm::metrics::AddSegCommand});
+  return wm::metrics::RunWmMetrics(argc, argv,
+                                   {.lpips_loader = OpenLpips,
+                                    .feature_net_loader = wm::metrics::OpenTokenizerFeatureNet,
+                                    .add_seg_command = wm::metrics::AddSegCommand});
 }

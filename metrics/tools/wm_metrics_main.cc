@@ -11,15 +11,12 @@
 namespace {
 
 // `seg` as --help lists it; the command itself runs in wm-metrics-full.
-void AddSegStandIn(CLI::App& app) {
-  app.add_subcommand("seg", wm::metrics::kSegCommandSummary);
-}
+void AddSegStandIn(CLI::App& app) { app.add_subcommand("seg", wm::metrics::kSegCommandSummary); }
 
 }  // namespace
 
 int main(int argc, char** argv) {
-  return wm::metrics::RunWmMetrics(
-      argc, argv,
-      {.add_seg_command = AddSegStandIn,
-       .hand_over = [argv] { wm::metrics::HandOverToFullProgram(argv); }});
+  wm::metrics::MetricsProgram light{.add_seg_command = AddSegStandIn};
+  light.hand_over = [argv] { wm::metrics::HandOverToFullProgram(argv); };
+  return wm::metrics::RunWmMetrics(argc, argv, light);
 }
