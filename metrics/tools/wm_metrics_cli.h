@@ -17,8 +17,8 @@ namespace wm::metrics {
 struct MetricsProgram {
   LpipsLoader lpips_loader;             // lpips; empty in the light program
   FeatureNetLoader feature_net_loader;  // lpips_style / fvd_style; empty in the light program
-  void (*add_seg_command)(CLI::App&) =
-      nullptr;  // `seg`: the command, or the light program's stand-in
+  // `seg`: the command, or the light program's stand-in that only --help lists
+  void (*add_seg_command)(CLI::App&) = nullptr;
   // The light program: replaces this process with wm-metrics-full, same arguments; throws
   // wm::Error when it cannot. Called for `seg`, learned metrics and NeedsFullDecoder. Empty in
   // wm-metrics-full.
