@@ -2,6 +2,8 @@
 
 #include <algorithm>
 #include <cmath>
+#include <exception>
+#include <future>
 #include <map>
 #include <optional>
 
@@ -43,6 +45,29 @@ std::vector<float> FeatureNetInput(const FeatureNet& net, const Frames& frames) 
     net.Input(rgb.data(), image.height, image.width, out.data() + i * floats);
   }
   return out;
+}
+
+// The next chunk of both inputs. Unless --threads is 1, the reference is decoded on a second
+// thread meanwhile: decoding (PNG inflate) takes about half of a folder comparison's CPU time.
+// The reference's error still comes first, as when the two are read in turn.
+std::pair<size_t, size_t> ReadBoth(FrameStream& ref, FrameStream& pred, size_t max_frames,
+                                   int threads, Frames* a, Frames* b) {
+  if (threads == 1) {
+    const size_t na = ref.Read(max_frames, a);
+    return {na, pred.Read(max_frames, b)};
+  }
+  std::future<size_t> ref_read =
+      std::async(std::launch::async, [&] { return ref.Read(max_frames, a); });
+  std::exception_ptr pred_error;
+  size_t nb = 0;
+  try {
+    nb = pred.Read(max_frames, b);
+  } catch (...) {
+    pred_error = std::current_exception();
+  }
+  const size_t na = ref_read.get();
+  if (pred_error) std::rethrow_exception(pred_error);
+  return {na, nb};
 }
 
 double Mean(const std::vector<double>& v) {
@@ -261,7 +286,7 @@ json CompareFrameSets(const CompareOptions& o) {
   size_t total = 0;
   for (;;) {
     Frames a, b;
-    const size_t na = ref.Read(o.chunk_frames, &a), nb = pred.Read(o.chunk_frames, &b);
+    const auto [na, nb] = ReadBoth(ref, pred, o.chunk_frames, o.threads, &a, &b);
     Check(na == nb, "frame counts differ: " + o.ref + " has " +
                         (na < nb ? std::to_string(total + na) : "more") + " frames, " + o.pred +
                         " has " + (nb < na ? std::to_string(total + nb) : "more"));
