@@ -86,7 +86,9 @@ fuzz:
 	@cmake --build $(FUZZ_BUILD) -j $(JOBS) --target wm_fuzzers wm-ingest
 	@bash tests/fuzz/run.sh $(FUZZ_BUILD)/bin $(FUZZ_BUILD)/fuzz $(FUZZ_SECONDS) $(FUZZ_TARGETS)
 
-demo: build
+# Only the demo's executables (CMake target wm_demo_tools), not the tests: a first run builds less.
+demo: configure
+	@cmake --build $(BUILD) -j $(JOBS) --target wm_demo_tools
 	@bash scripts/demo.sh $(BIN) $(DEMO_DIR)
 
 wpe: build

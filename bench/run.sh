@@ -2,7 +2,8 @@
 # `make bench`: each benchmark prints wmkit's speed beside a reference measured in the same run.
 #   1. ingest throughput vs the OpenCV decode bound (generated 128x128 tabletop set), and HDF5
 #      demo loading in a child process vs in-process (a generated LIBERO-sized file)
-#   2. SSIM + PSNR vs scikit-image on 256x256 RGB pairs
+#   2. SSIM + PSNR vs scikit-image on 256x256 RGB pairs: in memory, and wm-metrics end to end
+#      (process start, PNG reading) vs a scikit-image script
 #   3. LPIPS vs the PyTorch reference on the same (random) weights
 #   4. tokenizer training and encoding vs its PyTorch twin (needs tokenizer_ref_tool: tests on)
 set -euo pipefail
@@ -30,6 +31,8 @@ fi
 "$BIN/hdf5_isolation_bench" --input "$WORK/libero_like.hdf5" --repeats 3
 echo "== metrics: SSIM + PSNR"
 /usr/bin/python3 bench/metrics_bench.py --bin "$BIN"
+echo "== metrics: wm-metrics start and 120 PNG pairs end to end"
+/usr/bin/python3 bench/metrics_startup_bench.py --bin "$BIN"
 echo "== metrics: LPIPS"
 /usr/bin/python3 bench/lpips_bench.py --bin "$BIN"
 echo "== dynamics: training tokens/s vs the PyTorch twin"

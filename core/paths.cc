@@ -8,15 +8,17 @@ namespace fs = std::filesystem;
 
 std::string DefaultConfigsDir() {
   if (const char* env = std::getenv("WMKIT_CONFIGS"); env != nullptr && *env != '\0') return env;
-  std::error_code ec;
-  fs::path exe = fs::read_symlink("/proc/self/exe", ec);
-  if (!ec) {
-    for (fs::path dir = exe.parent_path(); !dir.empty() && dir != dir.root_path();
-         dir = dir.parent_path()) {
-      if (fs::is_directory(dir / "configs" / "datasets")) return (dir / "configs").string();
-    }
+  for (fs::path dir = ExecutableDir(); !dir.empty() && dir != dir.root_path();
+       dir = dir.parent_path()) {
+    if (fs::is_directory(dir / "configs" / "datasets")) return (dir / "configs").string();
   }
   return "configs";
+}
+
+std::string ExecutableDir() {
+  std::error_code ec;
+  const fs::path exe = fs::read_symlink("/proc/self/exe", ec);
+  return ec ? std::string() : exe.parent_path().string();
 }
 
 std::string CheckpointFileIn(const std::string& run_dir_or_file) {

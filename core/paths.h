@@ -7,6 +7,10 @@ namespace wm {
 
 std::string DefaultConfigsDir();
 
+// The folder of the running executable (from /proc/self/exe); "" where that cannot be read.
+// Tools find their siblings here (wm-report: wm-metrics; wm-metrics: wm-metrics-full).
+std::string ExecutableDir();
+
 // Every run directory keeps its model in this file (tokenizer and dynamics runs alike).
 inline constexpr const char* kCheckpointFile = "checkpoint.wmt";
 

@@ -1,13 +1,22 @@
 #pragma once
 // The pixel decoders behind image_io.cc. Full builds use OpenCV's (every format it reads, and
 // videos: image_decoder_opencv.cc); WM_MODEL_ONLY builds, which have no OpenCV, use
-// core/image_codec.h (PNG and JPEG, no video: image_decoder_png.cc). Internal to wm_metrics.
+// core/image_codec.h (PNG and JPEG, no video: image_decoder_png.cc); the light wm-metrics uses
+// core/image_codec.h where its pixels are exactly OpenCV's and throws NeedsFullDecoder elsewhere
+// (image_decoder_light.cc). Internal to wm_metrics and wm_metrics_light.
 #include <memory>
 #include <string>
 
 #include "metrics/image.h"
 
+namespace wm {
+struct DecodedImage;
+}
+
 namespace wm::metrics::internal {
+
+// core/image_codec.h's pixels as an Image: 8-bit -> data_range 255, 16-bit -> 65535.
+Image FromDecodedImage(const DecodedImage& decoded);
 
 // Encoded image bytes / an image file as an Image (grey stays grey, colour becomes RGB, alpha is
 // dropped). Throws wm::Error naming `source` / `path`.

@@ -11,17 +11,10 @@ namespace {
 
 const char kNoOpenCv[] = "this wmkit build has no OpenCV (WM_MODEL_ONLY)";
 
-Image ToImage(const DecodedImage& d) {
-  if (d.bit_depth == 8) return Image::FromUint8(d.data.data(), d.height, d.width, d.channels);
-  std::vector<double> values(d.data.size() / 2);
-  for (size_t i = 0; i < values.size(); ++i) values[i] = d.samples16()[i];
-  return Image::FromDouble(values.data(), d.height, d.width, d.channels, 65535.0);
-}
-
 }  // namespace
 
 Image DecodeImageBytes(const std::string& bytes, const std::string& source) {
-  return ToImage(DecodePngOrJpeg(bytes, source));
+  return FromDecodedImage(DecodePngOrJpeg(bytes, source));
 }
 
 Image ReadImageFile(const std::string& path) {

@@ -6,6 +6,7 @@
 #include <optional>
 
 #include "core/error.h"
+#include "core/image_codec.h"
 #include "metrics/image_decoder.h"
 
 namespace wm::metrics {
@@ -36,6 +37,17 @@ void CheckSameShapeAs(const Image& first, const std::string& first_source, const
 }
 
 }  // namespace
+
+namespace internal {
+
+Image FromDecodedImage(const DecodedImage& d) {
+  if (d.bit_depth == 8) return Image::FromUint8(d.data.data(), d.height, d.width, d.channels);
+  std::vector<double> values(d.data.size() / 2);
+  for (size_t i = 0; i < values.size(); ++i) values[i] = d.samples16()[i];
+  return Image::FromDouble(values.data(), d.height, d.width, d.channels, 65535.0);
+}
+
+}  // namespace internal
 
 Image LoadImage(const std::string& path) {
   Check(fs::is_regular_file(path), "image file not found", {.file = path});

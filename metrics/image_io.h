@@ -3,12 +3,24 @@
 // decoders; in WM_MODEL_ONLY builds PNG and JPEG only, through libpng/libjpeg, and no video:
 // metrics/image_decoder.h). Colour images come out as RGB.
 #include <memory>
+#include <stdexcept>
 #include <string>
 #include <vector>
 
 #include "metrics/image.h"
 
 namespace wm::metrics {
+
+// Thrown by the light decoder (wm_metrics_light, behind the light wm-metrics) for input it cannot
+// decode exactly as OpenCV would: a video, a format other than PNG or JPEG, a PNG whose channels
+// OpenCV counts differently, or a file that fails to read or decode. The light wm-metrics then
+// hands the whole command to wm-metrics-full (docs/metrics.md, "Two programs"). Not a wm::Error,
+// so that no stage's error handling rewords or reports it.
+class NeedsFullDecoder : public std::runtime_error {
+ public:
+  explicit NeedsFullDecoder(const std::string& source)
+      : std::runtime_error(source + ": needs OpenCV's decoder (wm-metrics-full)") {}
+};
 
 // One image file (PNG, JPEG, BMP, TIFF, ... as OpenCV reads them): grey stays 1 channel, colour
 // becomes RGB, an alpha channel is dropped. 8-bit -> data_range 255, 16-bit -> 65535, float ->

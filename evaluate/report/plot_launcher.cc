@@ -9,6 +9,7 @@
 #include <iostream>
 
 #include "core/error.h"
+#include "core/paths.h"
 
 #ifndef WM_REPORT_SOURCE_DIR
 #define WM_REPORT_SOURCE_DIR ""
@@ -19,12 +20,6 @@ namespace fs = std::filesystem;
 namespace {
 
 constexpr const char* kScript = "scripts/plot_report.py";
-
-fs::path ExecutableDir() {
-  std::error_code ec;
-  fs::path exe = fs::read_symlink("/proc/self/exe", ec);
-  return ec ? fs::path() : exe.parent_path();
-}
 
 std::string Join(const std::vector<std::string>& items) {
   std::string text;
@@ -38,7 +33,7 @@ std::string FindPlotScript() {
   if (const char* env = std::getenv("WMKIT_SCRIPTS"); env != nullptr && *env != '\0') {
     return (fs::path(env) / "plot_report.py").string();
   }
-  for (fs::path dir = ExecutableDir(); !dir.empty() && dir != dir.root_path();
+  for (fs::path dir = wm::ExecutableDir(); !dir.empty() && dir != dir.root_path();
        dir = dir.parent_path()) {
     if (fs::is_regular_file(dir / kScript)) return (dir / kScript).string();
   }
@@ -50,7 +45,7 @@ std::string FindPlotScript() {
 }
 
 std::string SiblingTool(const std::string& tool) {
-  const fs::path dir = ExecutableDir();
+  const fs::path dir = wm::ExecutableDir();
   if (dir.empty() || !fs::is_regular_file(dir / tool)) return "";
   return (dir / tool).string();
 }

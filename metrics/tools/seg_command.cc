@@ -155,8 +155,7 @@ void Run(const SegCommandOptions& o) {
 
 void AddSegCommand(CLI::App& app) {
   auto o = std::make_shared<SegCommandOptions>();
-  CLI::App* cmd = app.add_subcommand(
-      "seg", "Segmented-region MSE (arm / object / background) with label, motion or depth masks");
+  CLI::App* cmd = app.add_subcommand("seg", kSegCommandSummary);
   cmd->footer(kFooter);
   cmd->add_option("--ref", o->ref, "Reference (ground truth): folder of frames or video")
       ->required();

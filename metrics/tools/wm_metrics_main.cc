@@ -1,97 +1,22 @@
 // wm-metrics: frame metrics between reference and predicted images, folders or videos (no
 // subcommand), and one subcommand per further metrics family, each in tools/<name>_command.cc.
+// This is the light program: it links no LibTorch, OpenCV codecs or PCL, and hands what needs
+// them to wm-metrics-full (tools/wm_metrics_cli.h).
 #include <CLI/CLI.hpp>
-#include <iostream>
 
-#include "core/cli_parse.h"
-#include "core/error.h"
-#include "core/log.h"
-#include "core/provenance.h"
-#include "metrics/compare.h"
-#include "metrics/tools/scaling_command.h"
+#include "metrics/tools/full_program.h"
 #include "metrics/tools/seg_command.h"
-#include "metrics/tools/tokenizer_feature_net.h"
-#include "metrics/tools/value_command.h"
+#include "metrics/tools/wm_metrics_cli.h"
 
 namespace {
-constexpr const char* kFooter = R"(
-Examples:
-  wm-metrics --ref real.png --pred imagined.png
-  wm-metrics --ref real_frames/ --pred rollout_frames/ --metrics psnr,ssim,ms_ssim --per-frame
-  wm-metrics --ref real.mp4 --pred rollout.mp4 --metrics psnr,lpips --lpips-weights lpips_alex.wmt --format csv
-  wm-metrics --ref real.mp4 --pred rollout.mp4 --metrics lpips_style,fvd_style --feature-net runs/tok-tiny
-  wm-metrics value --returns returns.csv          # value gap, policy ranking (value --help)
-  wm-metrics scaling --points losses.csv          # scaling-law fit (scaling --help)
 
-Folders are paired by sorted file name; videos frame by frame. JSON output is one object with a
-key per metric ({"psnr": 31.2, "ssim": 0.912, ...}); PSNR of identical frames is "inf".
-Definitions: docs/metrics.md, docs/metrics-lpips.md, docs/metrics-value.md.
-Exit codes: 0 success, 1 unreadable input, mismatched sizes or counts (message names the file), 2 usage.)";
+// `seg` as --help lists it; the command itself runs in wm-metrics-full.
+void AddSegStandIn(CLI::App& app) { app.add_subcommand("seg", wm::metrics::kSegCommandSummary); }
 
-// The subcommands; each registers its options and runs from its CLI11 callback.
-constexpr void (*kSubcommands[])(CLI::App&) = {
-    wm::metrics::AddValueCommand, wm::metrics::AddScalingCommand, wm::metrics::AddSegCommand};
-
-// Frame comparison (no subcommand) needs --ref and --pred; they cannot be CLI11-required, which
-// would demand them of every subcommand too, so the same error is raised here.
-void RequireOptions(const CLI::App& app, std::initializer_list<const char*> names) {
-  for (const char* name : names) {
-    if (app.count(name) == 0) throw CLI::RequiredError(name);
-  }
-}
 }  // namespace
 
 int main(int argc, char** argv) {
-  wm::metrics::CompareOptions o;
-  o.feature_net_loader = wm::metrics::OpenTokenizerFeatureNet;
-  std::string format = "json";
-  CLI::App app{
-      "wm-metrics: PSNR, SSIM, MS-SSIM, MSE and LPIPS between frames; value and scaling metrics "
-      "as subcommands"};
-  app.footer(kFooter);
-  app.set_version_flag("--version", wm::VersionString("wm-metrics"));
-  CLI::Option* ref = app.add_option("--ref", o.ref, "Reference: image, folder of frames or video");
-  CLI::Option* pred =
-      app.add_option("--pred", o.pred, "Prediction: image, folder of frames or video");
-  app.add_option("--metrics", o.metrics,
-                 "Comma-separated: mse,psnr,ssim,ms_ssim,lpips,lpips_style,fvd_style")
-      ->delimiter(',')
-      ->capture_default_str();
-  app.add_option("--lpips-weights", o.lpips_weights, "LPIPS weights (wmkit tensor archive)");
-  app.add_option("--mask", o.mask,
-                 "mse/psnr/ssim inside a mask (non-zero pixels): one image, or a folder or video "
-                 "with one mask per frame");
-  app.add_option("--feature-net", o.feature_net,
-                 "lpips_style / fvd_style features: a wm-tokenize run or checkpoint");
-  app.add_option("--clip-length", o.clip_length, "fvd_style: frames per clip")
-      ->capture_default_str();
-  app.add_option("--device", o.device, "LPIPS / feature-net device: cpu, cuda, cuda:N")
-      ->capture_default_str();
-  app.add_option("--threads", o.threads, "Worker threads (0: all cores)")->capture_default_str();
-  app.add_option("--chunk-frames", o.chunk_frames,
-                 "Frame pairs held in memory at a time (long folders and videos stream)")
-      ->capture_default_str();
-  app.add_flag("--per-frame", o.per_frame, "Also print every frame's values");
-  app.add_option("--format", format, "json or csv")
-      ->check(CLI::IsMember({"json", "csv"}))
-      ->capture_default_str();
-  for (auto add : kSubcommands) add(app);
-  for (CLI::App* sub : app.get_subcommands([](CLI::App*) { return true; })) {
-    sub->excludes(ref)->excludes(pred);
-  }
-  wm::InitLogging("warn");
-  try {
-    app.parse(argc, argv);  // a subcommand runs in here
-    if (!app.get_subcommands().empty()) return 0;
-    RequireOptions(app, {"--ref", "--pred"});
-    nlohmann::json result = wm::metrics::CompareFrameSets(o);
-    std::cout << (format == "json" ? result.dump(2) + "\n"
-                                   : wm::metrics::FormatCsv(result, o.metrics));
-  } catch (const CLI::ParseError& e) {
-    return app.exit(e) == 0 ? 0 : wm::kUsageExitCode;
-  } catch (const std::exception& e) {
-    std::cerr << "wm-metrics: error: " << e.what() << "\n";
-    return 1;
-  }
-  return 0;
+  wm::metrics::MetricsProgram light{.add_seg_command = AddSegStandIn};
+  light.hand_over = [argv] { wm::metrics::HandOverToFullProgram(argv); };
+  return wm::metrics::RunWmMetrics(argc, argv, light);
 }
