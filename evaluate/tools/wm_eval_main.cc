@@ -69,6 +69,11 @@ void AddPolicyOptions(CLI::App& app, PolicyArgs& a, wm::evaluate::PolicyEvalOpti
       ->capture_default_str();
   app.add_option("--policy-rollouts", p.loop.rollouts, "Closed-loop rollouts per start")
       ->capture_default_str();
+  app.add_option("--policy-batch", p.loop.batch,
+                 "Closed-loop starts imagined together as one batch (token models; frames equal "
+                 "to one at a time up to float rounding)")
+      ->check(CLI::PositiveNumber)
+      ->capture_default_str();
   app.add_option("--clamp-actions", a.clamp, "tabletop (the simulator's limits) or none")
       ->check(CLI::IsMember({"tabletop", "none"}))
       ->capture_default_str();
