@@ -183,6 +183,7 @@ ImaginedSteps DynamicsModel::ImagineStep(const FrameContext& context, uint64_t s
   State& s = *state_;  // unique_ptr: const API, non-const state
   Check(context.frames <= max_context_frames(),
         "ImagineStep takes at most " + std::to_string(max_context_frames()) + " context frames");
+  const OneDnnLinearScope onednn;
   torch::Tensor tokens, actions, z;
   s.Tensors(context, context.frames, tokens, actions, z);
   CachedWindow window(s.model, tokens, actions, z);

@@ -32,7 +32,30 @@ bool UseFusedAttention() {
   return fused;
 }
 
+thread_local int onednn_scopes = 0;  // OneDnnLinearScope objects alive on this thread
+
+torch::Tensor ApplyLayer(torch::nn::LinearImpl& linear, const torch::Tensor& x) {
+  return ApplyLinear(x, linear.weight, linear.bias);
+}
+
 }  // namespace
+
+torch::Tensor ApplyLinear(const torch::Tensor& x, const torch::Tensor& weight,
+                          const torch::Tensor& bias) {
+  if (onednn_scopes == 0 || !x.device().is_cpu() || x.scalar_type() != torch::kFloat ||
+      !at::hasMKLDNN()) {
+    return torch::nn::functional::linear(x, weight, bias);
+  }
+  auto shape = x.sizes().vec();
+  shape.back() = weight.size(0);
+  const torch::Tensor rows = x.reshape({-1, x.size(-1)}).contiguous().to_mkldnn();  // [M, in]
+  const c10::optional<torch::Tensor> b =
+      bias.defined() ? c10::optional<torch::Tensor>(bias) : c10::nullopt;
+  return at::mkldnn_linear(rows, weight.contiguous(), b).to_dense().view(shape);
+}
+
+OneDnnLinearScope::OneDnnLinearScope() { ++onednn_scopes; }
+OneDnnLinearScope::~OneDnnLinearScope() { --onednn_scopes; }
 
 AttentionImpl::AttentionImpl(int64_t dim, int64_t heads) : heads(heads) {
   qkv = register_module("qkv", torch::nn::Linear(dim, 3 * dim));
@@ -41,7 +64,8 @@ AttentionImpl::AttentionImpl(int64_t dim, int64_t heads) : heads(heads) {
 
 AttentionInputs AttentionImpl::Project(const torch::Tensor& x) {
   const int64_t M = x.size(0), L = x.size(1), D = x.size(2), hd = D / heads;
-  auto parts = qkv->forward(x).view({M, L, 3, heads, hd}).permute({2, 0, 3, 1, 4});  // [3,M,H,L,hd]
+  auto parts =
+      ApplyLayer(*qkv, x).view({M, L, 3, heads, hd}).permute({2, 0, 3, 1, 4});  // [3,M,H,L,hd]
   return {parts[0], parts[1], parts[2]};
 }
 
@@ -62,7 +86,7 @@ torch::Tensor AttentionImpl::Attend(const AttentionInputs& in, bool causal) {
     scores = scores.masked_fill(future, -std::numeric_limits<float>::infinity());
   }
   torch::Tensor out = torch::matmul(torch::softmax(scores, -1), v);  // [M, H, L, hd]
-  return proj->forward(out.transpose(1, 2).reshape({M, L, D}));      // [M, L, D]
+  return ApplyLayer(*proj, out.transpose(1, 2).reshape({M, L, D}));  // [M, L, D]
 }
 
 torch::Tensor AttentionImpl::forward(const torch::Tensor& x, bool causal) {
@@ -90,7 +114,7 @@ torch::Tensor StBlockImpl::Forward(const torch::Tensor& x_in, TemporalCache* cac
   if (cache) cache->keys.push_back(in.k), cache->values.push_back(in.v);
   x = x + temporal->Attend(in, options.causal_time);
   x = x.view({B, N, T, D}).transpose(1, 2);  // [B, T, N, D]
-  return x + fc2->forward(torch::gelu(fc1->forward(norm3->forward(x))));
+  return x + ApplyLayer(*fc2, torch::gelu(ApplyLayer(*fc1, norm3->forward(x))));
 }
 
 torch::Tensor StBlockImpl::ForwardAppended(const torch::Tensor& x_in, const torch::Tensor& past_k,
@@ -104,7 +128,7 @@ torch::Tensor StBlockImpl::ForwardAppended(const torch::Tensor& x_in, const torc
   in.k = torch::cat({past_k, in.k}, 2), in.v = torch::cat({past_v, in.v}, 2);  // [B*N,H,T+1,hd]
   x = x + temporal->Attend(in, /*causal=*/false);
   x = x.view({B, 1, N, D});
-  return x + fc2->forward(torch::gelu(fc1->forward(norm3->forward(x))));
+  return x + ApplyLayer(*fc2, torch::gelu(ApplyLayer(*fc1, norm3->forward(x))));
 }
 
 StTransformerImpl::StTransformerImpl(const StBlockOptions& options, int64_t layers) {

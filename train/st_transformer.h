@@ -10,6 +10,23 @@
 
 namespace wm::train {
 
+// While one lives on a thread, the ST blocks' linear layers there run on oneDNN (LibTorch's
+// MKLDNN) instead of LibTorch's BLAS: about 2x the GEMM speed where that BLAS is a generic one
+// (Debian's LibTorch uses ATLAS), other float rounding. For inference paths that are compared
+// with a tolerance (train/imagine_step.h); training and the reference forward keep the BLAS, which
+// the PyTorch twin matches bit for bit. Without MKLDNN it changes nothing.
+class OneDnnLinearScope {
+ public:
+  OneDnnLinearScope();
+  ~OneDnnLinearScope();
+  OneDnnLinearScope(const OneDnnLinearScope&) = delete;
+  OneDnnLinearScope& operator=(const OneDnnLinearScope&) = delete;
+};
+
+// F::linear(x, weight, bias), through oneDNN while a OneDnnLinearScope lives on this thread.
+torch::Tensor ApplyLinear(const torch::Tensor& x, const torch::Tensor& weight,
+                          const torch::Tensor& bias);
+
 // Pre-norm: LayerNorm (with bias) or RMSNorm (x / rms(x) * weight, eps 1e-6).
 struct NormImpl : torch::nn::Module {
   NormImpl(int64_t dim, bool rms);

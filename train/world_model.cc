@@ -78,8 +78,9 @@ torch::Tensor DynamicsNetImpl::Embed(const torch::Tensor& tokens, const torch::T
 
 torch::Tensor DynamicsNetImpl::TokenLogits(const torch::Tensor& h, const torch::Tensor& prev) {
   const int64_t K = config.num_codes;
-  torch::Tensor logits = token_head ? token_head->forward(h)  // [B, T, N, K]
-                                    : F::linear(h, token_embed->weight.slice(0, 0, K), token_bias);
+  torch::Tensor logits = token_head
+                             ? token_head->forward(h)  // [B, T, N, K]
+                             : ApplyLinear(h, token_embed->weight.slice(0, 0, K), token_bias);
   if (!copy_gate) return logits;
   torch::Tensor gate = copy_gate->forward(h);  // [B, T, N, 1]
   gate = gate * (prev < K).unsqueeze(-1).to(gate.scalar_type());
