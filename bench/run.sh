@@ -6,6 +6,8 @@
 #      (process start, PNG reading) vs a scikit-image script
 #   3. LPIPS vs the PyTorch reference on the same (random) weights
 #   4. tokenizer training and encoding vs its PyTorch twin (needs tokenizer_ref_tool: tests on)
+#   5. closed-loop imagination: the batched, cached path of wm-eval --policy vs one episode at a
+#      time (needs the demo's models: make demo; DEMO_DIR, IMAGINE_THREADS)
 set -euo pipefail
 BIN=${1:-build/bin}
 WORK=${BENCH_DIR:-/tmp/wmkit-bench}
@@ -39,3 +41,11 @@ echo "== dynamics: training tokens/s vs the PyTorch twin"
 /usr/bin/python3 bench/dynamics_bench.py --bin "$BIN"
 echo "== tokenizer: wm-tokenize vs the PyTorch twin"
 /usr/bin/python3 bench/tokenizer_bench.py --bin "$BIN"
+echo "== imagination: closed-loop frames/s, batched + cached vs one episode at a time"
+DEMO=${DEMO_DIR:-data/demo}/run
+if [ -f "$DEMO/dynamics/checkpoint.wmt" ]; then
+  "$BIN/imagination_bench" --checkpoint "$DEMO/dynamics" --tokenizer "$DEMO/tokenizer" \
+    --tokens "$DEMO/tokens/val" --episodes 16 --horizon 40 --threads "${IMAGINE_THREADS:-2}"
+else
+  echo "skipped: no $DEMO/dynamics (run make demo first)"
+fi

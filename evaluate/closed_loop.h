@@ -4,8 +4,9 @@
 // the model sees it, and its action drives the next imagined frame; each step's success score
 // (a token model's reward head, or a success classifier on the frames of a motion model) and
 // terminal probability decide how the episode ends. The loop is one (RunClosedLoop); what
-// imagines is an ImaginedWorld per episode. One episode at a time; every step is one model call
-// per start, so batching starts (issue 21 item 7) can later stack the calls of several rollouts.
+// imagines is an ImaginedWorlds over several episodes stepped in lockstep (issue 21 item 7): the
+// token model imagines them as one batch (a row per episode), the policy still answers one
+// observation per episode and step (docs/policy-protocol.md: episodes interleave).
 #include <cstdint>
 #include <functional>
 #include <memory>
@@ -34,7 +35,10 @@ struct ClosedLoopOptions {
   // Policy steps (actions) per episode at most, as wm-sim-policy --max-steps: the reward head's
   // predictions for steps 0..horizon-1 cover the observations the simulator scores.
   int64_t horizon = 40;
-  int rollouts = 1;            // rollouts per start, with distinct policy and sampling seeds
+  int rollouts = 1;  // rollouts per start, with distinct policy and sampling seeds
+  // Starts imagined together, as rows of one batch (token models; a motion model steps them in
+  // turn). A row's frames depend on its batch only through float rounding (docs/reports.md).
+  int batch = 16;
   bool clamp_tabletop = true;  // clamp actions to the tabletop world's limits, as the simulator
   // A step whose success score (predicted reward, or P(success) of a success classifier)
   // exceeds this is a success and ends the episode (the tabletop dataset logs reward 1 on
@@ -86,6 +90,31 @@ class ImaginedWorld {
 using WorldFactory =
     std::function<std::unique_ptr<ImaginedWorld>(const ClosedLoopStart& start, int rollout)>;
 
+// Several closed-loop episodes imagined in lockstep, a row each, holding their imagination so far.
+class ImaginedWorlds {
+ public:
+  virtual ~ImaginedWorlds() = default;
+  // Imagined frame t + 1 of each row in `rows` (those still running, ascending), given
+  // *actions[k] for rows[k]: its actions rows 0..t ([(t + 1) * D], as the model gets them).
+  virtual std::vector<ImaginedStep> Next(const std::vector<size_t>& rows,
+                                         const std::vector<const std::vector<float>*>& actions,
+                                         int64_t t) = 0;
+};
+// Fresh worlds for rollout `rollout` of each of `starts` (row k: starts[k]).
+using WorldsFactory = std::function<std::unique_ptr<ImaginedWorlds>(
+    const std::vector<const ClosedLoopStart*>& starts, int rollout)>;
+
+// One world per row, stepped one after another: what any ImaginedWorld imagines, in lockstep.
+WorldsFactory WorldsInTurn(WorldFactory worlds);
+
+// Rolls out `policy` from each of `starts` (rollout `rollout` of each) in `worlds`, all in
+// lockstep: every start's episode is reset, then each step asks the policy for every running
+// episode in turn and imagines their frames together. An episode ends as in RunClosedLoop; its
+// rollout is what RunClosedLoop gives with the same world (row k is starts[k]'s).
+std::vector<ClosedLoopRollout> RunClosedLoops(ImaginedWorlds& worlds, policy::PolicyProcess& policy,
+                                              const std::vector<const ClosedLoopStart*>& starts,
+                                              int rollout, const ClosedLoopOptions& options);
+
 // Rolls out `policy` in `world` from `start` (rollout `rollout` of it). The policy is reset with
 // RolloutPolicySeed(start.episode_seed, rollout) and asked at steps 0..; step 0 shows the real
 // first frame, step t > 0 imagined frame t. A policy failure throws the policy's wm::Error
@@ -96,9 +125,17 @@ ClosedLoopRollout RunClosedLoop(ImaginedWorld& world, policy::PolicyProcess& pol
 
 // The token dynamics model: frames decoded with the real first frame as anchor, the reward and
 // terminal heads score each step. Sampling seeds are ImaginationSeed(seed, episode, rollout,
-// step): byte-reproducible on CPU.
+// step): byte-reproducible on CPU. One episode at a time, each step recomputing the whole
+// context window twice (the frame, then its reward): the reference TokenWorldBatches is checked
+// against (tests/evaluate/token_closed_loop_test.cc, bench/imagination_bench.cc).
 WorldFactory TokenWorlds(const train::DynamicsModel& model, const tokenize::Tokenizer& tok,
                          const ClosedLoopOptions& options);
+// The same worlds imagined as one batch: a model call (DynamicsModel::ImagineStep: the window
+// encoded once, its temporal keys/values reused for the reward) and one tokenizer decode per
+// step for all rows. Equal to TokenWorlds up to float rounding: the same seeds, so the same
+// frames unless a sampled token or a threshold sits within rounding of a tie (docs/reports.md).
+WorldsFactory TokenWorldBatches(const train::DynamicsModel& model, const tokenize::Tokenizer& tok,
+                                const ClosedLoopOptions& options);
 
 // The motion model (deterministic: every rollout of a start imagines the same under the same
 // actions), each imagined frame scored by the success classifier's P(success); no terminal

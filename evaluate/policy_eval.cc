@@ -2,6 +2,7 @@
 
 #include <spdlog/spdlog.h>
 
+#include <algorithm>
 #include <filesystem>
 #include <optional>
 
@@ -71,7 +72,7 @@ std::vector<ClosedLoopStart> LoadStarts(const EvalOptions& o, const tokens::Toke
 
 // A checkpoint's world in closed loop: how to imagine, and what its manifests say of it.
 struct ClosedLoopModel {
-  WorldFactory worlds;
+  WorldsFactory worlds;
   int64_t action_dim = 0;
   CheckpointInfo info;
   std::shared_ptr<const void> keep;  // the models `worlds` refers to
@@ -93,14 +94,24 @@ PolicyRun RunPolicy(const EvalOptions& o, const policy::PolicySpec& spec,
   PolicyRun run{spec, {}};
   std::optional<Progress> progress;
   if (o.show_progress) progress.emplace("imagine " + spec.name, starts.size(), "starts");
-  for (size_t i = 0; i < starts.size(); ++i) {
-    for (int r = 0; r < p.loop.rollouts; ++r) {
-      ClosedLoopRollout rollout =
-          RunClosedLoop(*model.worlds(starts[i], r), process, starts[i], r, p.loop);
-      if (r > 0 || static_cast<int>(i) >= o.strips) rollout.frames = {};
-      run.rollouts.push_back(std::move(rollout));
+  run.rollouts.resize(starts.size() * p.loop.rollouts);
+  const auto batch = static_cast<size_t>(std::max(1, p.loop.batch));
+  for (size_t first = 0; first < starts.size(); first += batch) {
+    std::vector<const ClosedLoopStart*> group;  // starts[first, first + batch): one batch
+    for (size_t i = first; i < std::min(first + batch, starts.size()); ++i) {
+      group.push_back(&starts[i]);
     }
-    if (progress) progress->Add(1);
+    // The rollouts of a start share its episode id, so they go in separate batches.
+    for (int r = 0; r < p.loop.rollouts; ++r) {
+      std::vector<ClosedLoopRollout> rollouts =
+          RunClosedLoops(*model.worlds(group, r), process, group, r, p.loop);
+      for (size_t k = 0; k < rollouts.size(); ++k) {
+        const size_t i = first + k;
+        if (r > 0 || static_cast<int>(i) >= o.strips) rollouts[k].frames = {};
+        run.rollouts[i * p.loop.rollouts + r] = std::move(rollouts[k]);
+      }
+    }
+    if (progress) progress->Add(group.size());
   }
   if (progress) progress->Finish();
   process.Close();
@@ -198,7 +209,7 @@ ClosedLoopModel LoadTokenModel(const EvalOptions& o, const std::string& checkpoi
                                const tokenize::Tokenizer& tok, const tokens::TokenDataset& data) {
   std::shared_ptr<const train::DynamicsModel> model = LoadModelFor(o, checkpoint, data);
   CheckModelFitsTokens(*model, data);
-  return {.worlds = TokenWorlds(*model, tok, o.policy_eval.loop),
+  return {.worlds = TokenWorldBatches(*model, tok, o.policy_eval.loop),
           .action_dim = model->action_dim(),
           .info = DescribeDynamicsCheckpoint(*model),
           .keep = model};
@@ -222,7 +233,7 @@ ClosedLoopModel LoadMotionModel(const EvalOptions& o, const std::string& checkpo
   auto keep = std::make_shared<std::pair<std::shared_ptr<const motion::MotionModel>,
                                          std::shared_ptr<const success::SuccessModel>>>(
       motion.model, success);
-  return {.worlds = MotionWorlds(*motion.model, *success),
+  return {.worlds = WorldsInTurn(MotionWorlds(*motion.model, *success)),
           .action_dim = motion.model->action_dim(),
           .info = std::move(motion.info),
           .keep = keep};

@@ -51,18 +51,23 @@ int64_t ContextFrames(const train::DynamicsModel& model, int64_t requested) {
                        : model.max_context_frames();
 }
 
-ImaginedFrame ImagineNextFrame(const train::DynamicsModel& model,
-                               const std::vector<int64_t>& frames,
-                               const std::vector<ContextSlot>& slots,
-                               const std::vector<float>& policy_z, uint64_t row_seed,
-                               const RolloutOptions& o) {
-  const int64_t n = model.tokens_per_frame();
-  train::FrameContext c{.batch = 1, .frames = static_cast<int64_t>(slots.size())};
+void AppendContextRow(const std::vector<int64_t>& frames, const std::vector<ContextSlot>& slots,
+                      int64_t n, train::FrameContext& c) {
+  c.frames = static_cast<int64_t>(slots.size());
   for (const ContextSlot& slot : slots) {
     c.tokens.insert(c.tokens.end(), frames.begin() + slot.frame * n,
                     frames.begin() + (slot.frame + 1) * n);
     c.actions.insert(c.actions.end(), slot.action.begin(), slot.action.end());
   }
+}
+
+ImaginedFrame ImagineNextFrame(const train::DynamicsModel& model,
+                               const std::vector<int64_t>& frames,
+                               const std::vector<ContextSlot>& slots,
+                               const std::vector<float>& policy_z, uint64_t row_seed,
+                               const RolloutOptions& o) {
+  train::FrameContext c{.batch = 1};
+  AppendContextRow(frames, slots, model.tokens_per_frame(), c);
   c.policy_z = policy_z;
   c.row_seeds = {row_seed};
   ImaginedFrame out;

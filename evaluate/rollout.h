@@ -13,7 +13,8 @@ class TokenDataset;
 }
 namespace wm::train {
 class DynamicsModel;
-}
+struct FrameContext;
+}  // namespace wm::train
 
 namespace wm::evaluate {
 
@@ -79,6 +80,11 @@ struct ImaginedFrame {
   float reward = 0;             // r_t of step t -> t+1, t = the last slot's frame
   float terminal_prob = 0;      // P(is_terminal_t)
 };
+
+// Appends a row to `c` (c.batch rows are expected in the end): the frames and actions of the
+// context `slots` of a rollout's frames so far (`frames`: [(t + 1) * n] tokens); sets c.frames.
+void AppendContextRow(const std::vector<int64_t>& frames, const std::vector<ContextSlot>& slots,
+                      int64_t n, train::FrameContext& c);
 
 // Imagines the frame after the context `slots` (PlainContext / RetraceContext) of the rollout's
 // frames so far (`frames`: [(t + 1) * N] tokens) with one model call for the frame and one for

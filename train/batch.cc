@@ -39,7 +39,7 @@ SegmentBatch MakeSegmentBatch(const DynamicsConfig& c, const SegmentData& d, con
   if (!d.action_mask.empty()) b.action_mask = host(d.action_mask, {B, 1, D}, torch::kFloat);
   b.rewards = host(d.rewards, {B, T}, torch::kFloat);
   b.terminals = host(d.terminals, {B, T}, torch::kFloat);
-  torch::Tensor global_mask;  // [Bg, T, N]
+  torch::Tensor global_mask;                // [Bg, T, N]
   if (c.model.objective == "next_frame") {  // every token of frames 1..T-1 is a target
     global_mask = torch::ones_like(noise.u_order, torch::kBool);
     global_mask.select(1, 0).fill_(false);
@@ -47,8 +47,8 @@ SegmentBatch MakeSegmentBatch(const DynamicsConfig& c, const SegmentData& d, con
     global_mask =
         TrainingMask(noise.u_ratio, noise.u_order, noise.u_frame, c.model.mask_frame_prob);
   }
-  b.mask = global_mask.slice(0, first, first + B).to(device);         // [B, T, N]
-  b.z_noise = noise.z_noise.slice(0, first, first + B).to(device);    // [B, C, K]
+  b.mask = global_mask.slice(0, first, first + B).to(device);       // [B, T, N]
+  b.z_noise = noise.z_noise.slice(0, first, first + B).to(device);  // [B, C, K]
   b.token_normalizer =
       std::max<double>(1.0, global_mask.sum().item<double>()) / static_cast<double>(world_size);
   return b;
@@ -61,7 +61,7 @@ namespace {
 torch::Tensor ChooseCodes(const torch::Tensor& logp, double temperature,
                           std::vector<at::Generator>& gens) {
   const int64_t B = logp.size(0), N = logp.size(1);
-  if (temperature <= 0) return logp.argmax(-1);  // [B, N]
+  if (temperature <= 0) return logp.argmax(-1);                  // [B, N]
   torch::Tensor probs = torch::softmax(logp / temperature, -1);  // [B, N, K]
   torch::Tensor choice = torch::empty({B, N}, torch::kInt64);
   for (int64_t b = 0; b < B; ++b) {
@@ -72,29 +72,17 @@ torch::Tensor ChooseCodes(const torch::Tensor& logp, double temperature,
 
 }  // namespace
 
-torch::Tensor DecodeNextFrame(WorldModel& model, const torch::Tensor& tokens,
-                              const torch::Tensor& actions, const torch::Tensor& z, int steps,
-                              double temperature, const std::vector<uint64_t>& row_seeds) {
-  torch::NoGradGuard no_grad;
-  const int64_t B = tokens.size(0), N = tokens.size(2);
-  const int64_t K = model->config.model.num_codes;
-  Check(static_cast<int64_t>(row_seeds.size()) == B,
-        "DecodeNextFrame: " + std::to_string(row_seeds.size()) + " row seeds for " +
-            std::to_string(B) + " rows");
+torch::Tensor SampleFrame(const FrameLogProbs& log_probs, int64_t N, int64_t K, bool one_pass,
+                          int steps, double temperature, const std::vector<uint64_t>& row_seeds) {
+  const auto B = static_cast<int64_t>(row_seeds.size());
   std::vector<at::Generator> gens;
   for (uint64_t seed : row_seeds) gens.push_back(at::detail::createCPUGenerator(seed));
-  auto log_probs = [&](const torch::Tensor& partial) {  // [B, N, K] on the CPU
-    torch::Tensor logits = model->NextFrameLogits(tokens, actions, z, partial);
-    return torch::log_softmax(logits.to(torch::kCPU, torch::kFloat), -1);
-  };
   // Next-frame models predict every token at once from the clean context: one pass.
-  if (model->config.model.objective == "next_frame") {
-    return ChooseCodes(log_probs({}), temperature, gens).contiguous();
-  }
+  if (one_pass) return ChooseCodes(log_probs({}), temperature, gens).contiguous();
   torch::Tensor frame = torch::full({B, N}, K, torch::kInt64);  // CPU; K = still masked
   torch::Tensor masked = torch::ones({B, N}, torch::kBool);     // CPU bookkeeping
   for (int s = 0; s < steps; ++s) {
-    torch::Tensor logp = log_probs(frame.to(tokens.device()));
+    torch::Tensor logp = log_probs(frame);
     torch::Tensor choice = ChooseCodes(logp, temperature, gens);
     torch::Tensor confidence = logp.gather(-1, choice.unsqueeze(-1)).squeeze(-1);  // [B, N]
     confidence.masked_fill_(masked.logical_not(), std::numeric_limits<float>::infinity());
@@ -109,6 +97,23 @@ torch::Tensor DecodeNextFrame(WorldModel& model, const torch::Tensor& tokens,
     masked.logical_and_(newly.logical_not());
   }
   return frame;  // [B, N]
+}
+
+torch::Tensor DecodeNextFrame(WorldModel& model, const torch::Tensor& tokens,
+                              const torch::Tensor& actions, const torch::Tensor& z, int steps,
+                              double temperature, const std::vector<uint64_t>& row_seeds) {
+  torch::NoGradGuard no_grad;
+  const int64_t B = tokens.size(0), N = tokens.size(2);
+  Check(static_cast<int64_t>(row_seeds.size()) == B,
+        "DecodeNextFrame: " + std::to_string(row_seeds.size()) + " row seeds for " +
+            std::to_string(B) + " rows");
+  auto log_probs = [&](const torch::Tensor& partial) {  // [B, N, K] on the CPU
+    torch::Tensor logits = model->NextFrameLogits(
+        tokens, actions, z, partial.defined() ? partial.to(tokens.device()) : partial);
+    return torch::log_softmax(logits.to(torch::kCPU, torch::kFloat), -1);
+  };
+  return SampleFrame(log_probs, N, model->config.model.num_codes,
+                     model->config.model.objective == "next_frame", steps, temperature, row_seeds);
 }
 
 }  // namespace wm::train

@@ -6,6 +6,8 @@
 #include <torch/torch.h>
 
 #include <cstdint>
+#include <functional>
+#include <vector>
 
 #include "train/segment_sampler.h"
 #include "train/world_model.h"
@@ -35,6 +37,13 @@ SegmentBatch MakeSegmentBatch(const DynamicsConfig& config, const SegmentData& d
 // ignores `steps`). Row b samples with its own CPU generator seeded `row_seeds[b]`, so a row's
 // frame does not depend on the other rows of the batch (sharded evaluation reproduces a whole run).
 // Returns [B, N] int64.
+// The sampling loop of DecodeNextFrame over `log_probs(partial)`: CPU log-probabilities
+// [B, N, K] of the new frame's tokens given `partial` [B, N] (CPU, mask token K where still
+// unknown; undefined for `one_pass`). B = row_seeds.size(). Returns [B, N] int64 on the CPU.
+using FrameLogProbs = std::function<torch::Tensor(const torch::Tensor& partial)>;
+torch::Tensor SampleFrame(const FrameLogProbs& log_probs, int64_t N, int64_t K, bool one_pass,
+                          int steps, double temperature, const std::vector<uint64_t>& row_seeds);
+
 torch::Tensor DecodeNextFrame(WorldModel& model, const torch::Tensor& tokens,
                               const torch::Tensor& actions, const torch::Tensor& z, int steps,
                               double temperature, const std::vector<uint64_t>& row_seeds);

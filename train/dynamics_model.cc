@@ -2,11 +2,11 @@
 
 #include <torch/torch.h>
 
-
 #include "core/error.h"
 #include "core/log.h"
 #include "train/batch.h"
 #include "train/checkpoint.h"
+#include "train/imagine_step.h"
 #include "train/segment_sampler.h"
 #include "train/world_model.h"
 
@@ -83,9 +83,10 @@ std::unique_ptr<DynamicsModel> DynamicsModel::Load(const std::string& path,
   ValidateConfig(s.config, file);
   s.step = meta.step;
   if (meta.reward_target != kRewardTargetFrame) {
-    LogWarn(file + ": trained before the reward head predicted each frame's own step, so its "
-                   "rewards and terminal flags are one step late and never saw a final reward; "
-                   "retrain it for value metrics (its frames are unaffected)");
+    LogWarn(file +
+            ": trained before the reward head predicted each frame's own step, so its "
+            "rewards and terminal flags are one step late and never saw a final reward; "
+            "retrain it for value metrics (its frames are unaffected)");
   }
   s.device = torch::Device(device);
   Check(!s.device.is_cuda() || torch::cuda::is_available(),
@@ -125,6 +126,45 @@ double DynamicsModel::DecodeTemperature(double requested) const {
   return requested >= 0 ? requested : state_->config.model.decode_temperature;
 }
 
+namespace {
+
+// context.row_seeds, or MixSeed(seed, row) for each row when it has none.
+std::vector<uint64_t> RowSeeds(const FrameContext& context, uint64_t seed) {
+  std::vector<uint64_t> row_seeds = context.row_seeds;
+  if (row_seeds.empty()) {
+    for (int64_t b = 0; b < context.batch; ++b) row_seeds.push_back(MixSeed(seed, b));
+  }
+  Check(static_cast<int64_t>(row_seeds.size()) == context.batch,
+        "row_seeds must have one seed per row (" + std::to_string(context.batch) + ")");
+  return row_seeds;
+}
+
+template <typename T>
+std::vector<T> HostVector(const torch::Tensor& x) {
+  const torch::Tensor c = x.to(torch::kCPU).contiguous();
+  return std::vector<T>(c.data_ptr<T>(), c.data_ptr<T>() + c.numel());
+}
+
+// `context` with `frame` ([batch, N]) appended to every row, each row's new action zero.
+FrameContext Extended(const FrameContext& context, const std::vector<int64_t>& frame,
+                      int64_t action_dim) {
+  FrameContext c = context;
+  c.frames += 1;
+  c.tokens.clear(), c.actions.clear();
+  const auto n = static_cast<int64_t>(frame.size()) / context.batch, T = context.frames;
+  for (int64_t b = 0; b < context.batch; ++b) {
+    auto tokens = context.tokens.begin() + b * T * n;
+    auto actions = context.actions.begin() + b * T * action_dim;
+    c.tokens.insert(c.tokens.end(), tokens, tokens + T * n);
+    c.tokens.insert(c.tokens.end(), frame.begin() + b * n, frame.begin() + (b + 1) * n);
+    c.actions.insert(c.actions.end(), actions, actions + T * action_dim);
+    c.actions.insert(c.actions.end(), action_dim, 0.f);
+  }
+  return c;
+}
+
+}  // namespace
+
 std::vector<int64_t> DynamicsModel::PredictNextFrame(const FrameContext& context, uint64_t seed,
                                                      int steps, double temperature) const {
   torch::NoGradGuard no_grad;
@@ -132,16 +172,32 @@ std::vector<int64_t> DynamicsModel::PredictNextFrame(const FrameContext& context
   torch::Tensor tokens, actions, z;
   s.Tensors(context, max_context_frames(), tokens, actions, z);
   const int n_steps = steps > 0 ? steps : s.config.model.decode_steps;
-  const double temp = DecodeTemperature(temperature);
-  std::vector<uint64_t> row_seeds = context.row_seeds;
-  if (row_seeds.empty()) {
-    for (int64_t b = 0; b < context.batch; ++b) row_seeds.push_back(MixSeed(seed, b));
-  }
-  Check(static_cast<int64_t>(row_seeds.size()) == context.batch,
-        "row_seeds must have one seed per row (" + std::to_string(context.batch) + ")");
-  torch::Tensor next =
-      DecodeNextFrame(s.model, tokens, actions, z, n_steps, temp, row_seeds);  // [B, N]
-  return std::vector<int64_t>(next.data_ptr<int64_t>(), next.data_ptr<int64_t>() + next.numel());
+  torch::Tensor next = DecodeNextFrame(s.model, tokens, actions, z, n_steps,
+                                       DecodeTemperature(temperature), RowSeeds(context, seed));
+  return HostVector<int64_t>(next);  // [B, N]
+}
+
+ImaginedSteps DynamicsModel::ImagineStep(const FrameContext& context, uint64_t seed, int steps,
+                                         double temperature) const {
+  torch::NoGradGuard no_grad;
+  State& s = *state_;  // unique_ptr: const API, non-const state
+  Check(context.frames <= max_context_frames(),
+        "ImagineStep takes at most " + std::to_string(max_context_frames()) + " context frames");
+  const OneDnnLinearScope onednn;
+  torch::Tensor tokens, actions, z;
+  s.Tensors(context, context.frames, tokens, actions, z);
+  CachedWindow window(s.model, tokens, actions, z);
+  ImaginedSteps out;
+  out.tokens = HostVector<int64_t>(
+      window.DecodeNext(steps > 0 ? steps : s.config.model.decode_steps,
+                        DecodeTemperature(temperature), RowSeeds(context, seed)));
+  // The reward of the step to the new frame, seen from the window extended by it (the policy
+  // prior's z included), as PredictRewards sees it.
+  s.Tensors(Extended(context, out.tokens, action_dim()), context.frames + 1, tokens, actions, z);
+  const DynamicsOutput r = window.StepReward(tokens, actions, z);
+  out.reward = HostVector<float>(r.reward.to(torch::kFloat));
+  out.terminal_prob = HostVector<float>(torch::sigmoid(r.terminal_logit).to(torch::kFloat));
+  return out;
 }
 
 RewardPrediction DynamicsModel::PredictRewards(const FrameContext& context) const {
@@ -152,10 +208,8 @@ RewardPrediction DynamicsModel::PredictRewards(const FrameContext& context) cons
   torch::Tensor tokens, actions, z;
   s.Tensors(context, context.frames, tokens, actions, z);
   DynamicsOutput out = s.model->Dynamics(tokens, actions, z);
-  torch::Tensor r = out.reward.to(torch::kCPU, torch::kFloat).contiguous();  // position j: step j
-  torch::Tensor p = torch::sigmoid(out.terminal_logit).to(torch::kCPU, torch::kFloat).contiguous();
-  return {std::vector<float>(r.data_ptr<float>(), r.data_ptr<float>() + r.numel()),
-          std::vector<float>(p.data_ptr<float>(), p.data_ptr<float>() + p.numel())};
+  return {HostVector<float>(out.reward.to(torch::kFloat)),  // position j: step j
+          HostVector<float>(torch::sigmoid(out.terminal_logit).to(torch::kFloat))};
 }
 
 std::vector<float> DynamicsModel::PolicyEmbedding(const FrameContext& context) const {
@@ -166,8 +220,7 @@ std::vector<float> DynamicsModel::PolicyEmbedding(const FrameContext& context) c
   c.policy_z.clear();
   torch::Tensor tokens, actions, z;
   s.Tensors(c, s.config.model.context_frames, tokens, actions, z);
-  torch::Tensor last = z.select(1, z.size(1) - 1).to(torch::kCPU).contiguous();  // [B, Z]
-  return std::vector<float>(last.data_ptr<float>(), last.data_ptr<float>() + last.numel());
+  return HostVector<float>(z.select(1, z.size(1) - 1));  // [B, Z]
 }
 
 }  // namespace wm::train

@@ -31,6 +31,13 @@ struct RewardPrediction {
   std::vector<float> terminal_prob;  // [batch, frames]: P(is_terminal_t)
 };
 
+// One imagined step per row (DynamicsModel::ImagineStep).
+struct ImaginedSteps {
+  std::vector<int64_t> tokens;       // [batch, N]: the next frame
+  std::vector<float> reward;         // [batch]: r_t of the step to it
+  std::vector<float> terminal_prob;  // [batch]: P(is_terminal_t)
+};
+
 class DynamicsModel {
  public:
   // `path`: a RUN_DIR or its checkpoint.wmt. `device`: "cpu", "cuda" or "cuda:N".
@@ -51,7 +58,7 @@ class DynamicsModel {
   // model's config().model.action_dim, or less for a narrower dataset of a mixture (zero-padded
   // and masked inside, as in training). Another width is an error naming both.
   int64_t action_dim() const;
-  int64_t step() const;  // training step of the checkpoint
+  int64_t step() const;                        // training step of the checkpoint
   const std::string& checkpoint_file() const;  // the checkpoint.wmt that was loaded
   // Longest context PredictNextFrame takes (context_frames - 1); longer contexts keep their
   // last frames (a sliding window).
@@ -65,6 +72,12 @@ class DynamicsModel {
   // frame depends only on its own context and seed, not on the other rows.
   std::vector<int64_t> PredictNextFrame(const FrameContext& context, uint64_t seed = 0,
                                         int steps = 0, double temperature = -1) const;
+  // PredictNextFrame, then PredictRewards' last frame for the context extended by the new frame
+  // (and an unused zero action), with the window encoded once and reused by every MaskGIT round
+  // and the reward (train/imagine_step.h): what the two calls give, up to float rounding.
+  // context.frames <= max_context_frames().
+  ImaginedSteps ImagineStep(const FrameContext& context, uint64_t seed = 0, int steps = 0,
+                            double temperature = -1) const;
   // Reward and terminal probability of each of the context's frames (step t of frame t).
   RewardPrediction PredictRewards(const FrameContext& context) const;
   // The prior's z_h class probabilities after the last frame [batch, categories * classes];

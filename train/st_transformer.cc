@@ -4,6 +4,8 @@
 #include <cstdlib>
 #include <cstring>
 
+#include "core/error.h"
+
 namespace wm::train {
 
 NormImpl::NormImpl(int64_t dim, bool rms) : rms(rms) {
@@ -30,32 +32,65 @@ bool UseFusedAttention() {
   return fused;
 }
 
+thread_local int onednn_scopes = 0;  // OneDnnLinearScope objects alive on this thread
+
+torch::Tensor ApplyLayer(torch::nn::LinearImpl& linear, const torch::Tensor& x) {
+  return ApplyLinear(x, linear.weight, linear.bias);
+}
+
 }  // namespace
+
+torch::Tensor ApplyLinear(const torch::Tensor& x, const torch::Tensor& weight,
+                          const torch::Tensor& bias) {
+  if (onednn_scopes == 0 || !x.device().is_cpu() || x.scalar_type() != torch::kFloat ||
+      !at::hasMKLDNN()) {
+    return torch::nn::functional::linear(x, weight, bias);
+  }
+  auto shape = x.sizes().vec();
+  shape.back() = weight.size(0);
+  const torch::Tensor rows = x.reshape({-1, x.size(-1)}).contiguous().to_mkldnn();  // [M, in]
+  const c10::optional<torch::Tensor> b =
+      bias.defined() ? c10::optional<torch::Tensor>(bias) : c10::nullopt;
+  return at::mkldnn_linear(rows, weight.contiguous(), b).to_dense().view(shape);
+}
+
+OneDnnLinearScope::OneDnnLinearScope() { ++onednn_scopes; }
+OneDnnLinearScope::~OneDnnLinearScope() { --onednn_scopes; }
 
 AttentionImpl::AttentionImpl(int64_t dim, int64_t heads) : heads(heads) {
   qkv = register_module("qkv", torch::nn::Linear(dim, 3 * dim));
   proj = register_module("proj", torch::nn::Linear(dim, dim));
 }
 
-torch::Tensor AttentionImpl::forward(const torch::Tensor& x, bool causal) {
+AttentionInputs AttentionImpl::Project(const torch::Tensor& x) {
   const int64_t M = x.size(0), L = x.size(1), D = x.size(2), hd = D / heads;
-  auto parts = qkv->forward(x).view({M, L, 3, heads, hd}).permute({2, 0, 3, 1, 4});  // [3,M,H,L,hd]
-  torch::Tensor q = parts[0], k = parts[1], v = parts[2];  // [M, H, L, hd]
+  auto parts =
+      ApplyLayer(*qkv, x).view({M, L, 3, heads, hd}).permute({2, 0, 3, 1, 4});  // [3,M,H,L,hd]
+  return {parts[0], parts[1], parts[2]};
+}
+
+torch::Tensor AttentionImpl::Attend(const AttentionInputs& in, bool causal) {
+  const torch::Tensor &q = in.q, &k = in.k, &v = in.v;
+  const int64_t M = q.size(0), L = q.size(2), hd = q.size(3), D = heads * hd;
 #if TORCH_VERSION_MAJOR >= 2
-  if (x.is_cuda() && UseFusedAttention()) {
+  if (q.is_cuda() && UseFusedAttention()) {
     torch::Tensor out = at::scaled_dot_product_attention(q, k, v, {}, 0.0, causal);  // [M,H,L,hd]
     return proj->forward(out.transpose(1, 2).reshape({M, L, D}));
   }
 #endif
   torch::Tensor scores =
-      torch::matmul(q, k.transpose(-2, -1)) / std::sqrt(double(hd));  // [M,H,L,L]
+      torch::matmul(q, k.transpose(-2, -1)) / std::sqrt(double(hd));  // [M,H,L,Lk]
   if (causal) {
     torch::Tensor future =
-        torch::ones({L, L}, torch::TensorOptions().dtype(torch::kBool).device(x.device())).triu(1);
+        torch::ones({L, L}, torch::TensorOptions().dtype(torch::kBool).device(q.device())).triu(1);
     scores = scores.masked_fill(future, -std::numeric_limits<float>::infinity());
   }
   torch::Tensor out = torch::matmul(torch::softmax(scores, -1), v);  // [M, H, L, hd]
-  return proj->forward(out.transpose(1, 2).reshape({M, L, D}));      // [M, L, D]
+  return ApplyLayer(*proj, out.transpose(1, 2).reshape({M, L, D}));  // [M, L, D]
+}
+
+torch::Tensor AttentionImpl::forward(const torch::Tensor& x, bool causal) {
+  return Attend(Project(x), causal);
 }
 
 StBlockImpl::StBlockImpl(const StBlockOptions& o) : options(o) {
@@ -68,16 +103,32 @@ StBlockImpl::StBlockImpl(const StBlockOptions& o) : options(o) {
   fc2 = register_module("fc2", torch::nn::Linear(o.mlp_ratio * o.dim, o.dim));
 }
 
-torch::Tensor StBlockImpl::forward(const torch::Tensor& x_in) {
+torch::Tensor StBlockImpl::Forward(const torch::Tensor& x_in, TemporalCache* cache) {
   const int64_t B = x_in.size(0), T = x_in.size(1), N = x_in.size(2), D = x_in.size(3);
   // Spatial: every frame on its own, all tokens see each other.
   torch::Tensor x = x_in.reshape({B * T, N, D});  // [B*T, N, D]
   x = x + spatial->forward(norm1->forward(x), /*causal=*/false);
   // Temporal: every grid position on its own, causal over frames.
   x = x.view({B, T, N, D}).transpose(1, 2).reshape({B * N, T, D});  // [B*N, T, D]
-  x = x + temporal->forward(norm2->forward(x), options.causal_time);
+  const AttentionInputs in = temporal->Project(norm2->forward(x));
+  if (cache) cache->keys.push_back(in.k), cache->values.push_back(in.v);
+  x = x + temporal->Attend(in, options.causal_time);
   x = x.view({B, N, T, D}).transpose(1, 2);  // [B, T, N, D]
-  return x + fc2->forward(torch::gelu(fc1->forward(norm3->forward(x))));
+  return x + ApplyLayer(*fc2, torch::gelu(ApplyLayer(*fc1, norm3->forward(x))));
+}
+
+torch::Tensor StBlockImpl::ForwardAppended(const torch::Tensor& x_in, const torch::Tensor& past_k,
+                                           const torch::Tensor& past_v) {
+  const int64_t B = x_in.size(0), N = x_in.size(2), D = x_in.size(3);
+  torch::Tensor x = x_in.reshape({B, N, D});  // [B, N, D]: the new frame's tokens
+  x = x + spatial->forward(norm1->forward(x), /*causal=*/false);
+  x = x.reshape({B * N, 1, D});  // [B*N, 1, D]: each grid position's new frame
+  AttentionInputs in = temporal->Project(norm2->forward(x));
+  // The new frame is the window's last: it sees every cached frame and itself, no mask needed.
+  in.k = torch::cat({past_k, in.k}, 2), in.v = torch::cat({past_v, in.v}, 2);  // [B*N,H,T+1,hd]
+  x = x + temporal->Attend(in, /*causal=*/false);
+  x = x.view({B, 1, N, D});
+  return x + ApplyLayer(*fc2, torch::gelu(ApplyLayer(*fc1, norm3->forward(x))));
 }
 
 StTransformerImpl::StTransformerImpl(const StBlockOptions& options, int64_t layers) {
@@ -88,6 +139,20 @@ StTransformerImpl::StTransformerImpl(const StBlockOptions& options, int64_t laye
 
 torch::Tensor StTransformerImpl::forward(torch::Tensor x) {
   for (const auto& block : *blocks) x = block->as<StBlock>()->forward(x);
+  return norm->forward(x);
+}
+
+torch::Tensor StTransformerImpl::ForwardCaching(torch::Tensor x, TemporalCache& cache) {
+  cache = {};
+  for (const auto& block : *blocks) x = block->as<StBlock>()->Forward(x, &cache);
+  return norm->forward(x);
+}
+
+torch::Tensor StTransformerImpl::ForwardAppended(torch::Tensor x, const TemporalCache& cache) {
+  Check(cache.keys.size() == blocks->size(), "temporal cache of another transformer");
+  for (size_t i = 0; i < blocks->size(); ++i) {
+    x = blocks[i]->as<StBlock>()->ForwardAppended(x, cache.keys[i], cache.values[i]);
+  }
   return norm->forward(x);
 }
 

@@ -6,8 +6,26 @@
 #include <torch/torch.h>
 
 #include <string>
+#include <vector>
 
 namespace wm::train {
+
+// While one lives on a thread, the ST blocks' linear layers there run on oneDNN (LibTorch's
+// MKLDNN) instead of LibTorch's BLAS: about 2x the GEMM speed where that BLAS is a generic one
+// (Debian's LibTorch uses ATLAS), other float rounding. For inference paths that are compared
+// with a tolerance (train/imagine_step.h); training and the reference forward keep the BLAS, which
+// the PyTorch twin matches bit for bit. Without MKLDNN it changes nothing.
+class OneDnnLinearScope {
+ public:
+  OneDnnLinearScope();
+  ~OneDnnLinearScope();
+  OneDnnLinearScope(const OneDnnLinearScope&) = delete;
+  OneDnnLinearScope& operator=(const OneDnnLinearScope&) = delete;
+};
+
+// F::linear(x, weight, bias), through oneDNN while a OneDnnLinearScope lives on this thread.
+torch::Tensor ApplyLinear(const torch::Tensor& x, const torch::Tensor& weight,
+                          const torch::Tensor& bias);
 
 // Pre-norm: LayerNorm (with bias) or RMSNorm (x / rms(x) * weight, eps 1e-6).
 struct NormImpl : torch::nn::Module {
@@ -18,15 +36,32 @@ struct NormImpl : torch::nn::Module {
 };
 TORCH_MODULE(Norm);
 
+// Queries, keys and values of one attention, [M, H, L, hd] each.
+struct AttentionInputs {
+  torch::Tensor q, k, v;
+};
+
 // Multi-head self-attention over the second-to-last axis of x: [M, L, D] -> [M, L, D].
 // `causal` masks attention to later positions (strictly upper triangle).
 struct AttentionImpl : torch::nn::Module {
   AttentionImpl(int64_t dim, int64_t heads);
   torch::Tensor forward(const torch::Tensor& x, bool causal);
+  AttentionInputs Project(const torch::Tensor& x);  // [M, L, D] -> 3x [M, H, L, hd]
+  // Queries [M, H, Lq, hd] over keys/values [M, H, Lk, hd] -> [M, Lq, D]; `causal` needs Lq == Lk.
+  torch::Tensor Attend(const AttentionInputs& in, bool causal);
   int64_t heads;
   torch::nn::Linear qkv{nullptr}, proj{nullptr};
 };
 TORCH_MODULE(Attention);
+
+// Each block's temporal keys and values over the frames of one context window, [B*N, H, T, hd]
+// per block. The temporal attention is causal, so a frame appended to the window attends to these
+// instead of recomputing the window (StTransformerImpl::ForwardAppended). The positions are
+// absolute within the window (the caller adds them to the input), so the cache is only valid for
+// that window: once the window slides, every frame's keys change.
+struct TemporalCache {
+  std::vector<torch::Tensor> keys, values;
+};
 
 struct StBlockOptions {
   int64_t dim = 128, heads = 4, mlp_ratio = 4;
@@ -37,7 +72,12 @@ struct StBlockOptions {
 // x + spatial(norm(x)); x + temporal(norm(x)); x + mlp(norm(x)). x: [B, T, N, D].
 struct StBlockImpl : torch::nn::Module {
   explicit StBlockImpl(const StBlockOptions& options);
-  torch::Tensor forward(const torch::Tensor& x);
+  torch::Tensor forward(const torch::Tensor& x) { return Forward(x, nullptr); }
+  // forward() that also appends this block's temporal keys and values to `cache` (when not null).
+  torch::Tensor Forward(const torch::Tensor& x, TemporalCache* cache);
+  // One frame x [B, 1, N, D] after the window whose temporal keys/values are `past_k`/`past_v`.
+  torch::Tensor ForwardAppended(const torch::Tensor& x, const torch::Tensor& past_k,
+                                const torch::Tensor& past_v);
   StBlockOptions options;
   Norm norm1{nullptr}, norm2{nullptr}, norm3{nullptr};
   Attention spatial{nullptr}, temporal{nullptr};
@@ -49,6 +89,11 @@ TORCH_MODULE(StBlock);
 struct StTransformerImpl : torch::nn::Module {
   StTransformerImpl(const StBlockOptions& options, int64_t layers);
   torch::Tensor forward(torch::Tensor x);  // [B, T, N, D] -> [B, T, N, D]
+  // forward() that fills `cache` (emptied first) with the window's temporal keys and values.
+  torch::Tensor ForwardCaching(torch::Tensor x, TemporalCache& cache);
+  // The output for one frame x [B, 1, N, D] appended to the window `cache` holds: what forward()
+  // of the window extended by it gives at the new frame, up to float rounding.
+  torch::Tensor ForwardAppended(torch::Tensor x, const TemporalCache& cache);
   torch::nn::ModuleList blocks{nullptr};
   Norm norm{nullptr};
 };

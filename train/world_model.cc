@@ -55,9 +55,9 @@ DynamicsNetImpl::DynamicsNetImpl(const ModelConfig& m, int64_t z_dim) : config(m
   }
 }
 
-DynamicsOutput DynamicsNetImpl::forward(const torch::Tensor& tokens, const torch::Tensor& actions,
-                                        const torch::Tensor& z) {
-  const int64_t B = tokens.size(0), T = tokens.size(1), K = config.num_codes;
+torch::Tensor DynamicsNetImpl::Embed(const torch::Tensor& tokens, const torch::Tensor& actions,
+                                     const torch::Tensor& z) {
+  const int64_t B = tokens.size(0), T = tokens.size(1);
   // "masked": position j carries a_{j-1} and z_{j-1} (eq. 5: x_{h+1} | x_{1:h}, a_{1:h}, z_h) and
   // a learned start vector at j = 0. "next_frame": position j carries a_j and z_j and predicts
   // frame j+1 itself (action_start is then unused).
@@ -72,28 +72,42 @@ DynamicsOutput DynamicsNetImpl::forward(const torch::Tensor& tokens, const torch
     torch::Tensor zc = z_in->forward(z.slice(1, 0, n_cond));
     cond = cond + (shifted ? zc : F::pad(zc, F::PadFuncOptions({0, 0, 1, 0})));  // [B, T, D]
   }
-  torch::Tensor x = token_embed->forward(tokens) + spatial_pos +  // [B, T, N, D]
-                    (temporal_pos.slice(0, 0, T) + cond).unsqueeze(2);
-  torch::Tensor h = transformer->forward(x);  // [B, T, N, D]
-  DynamicsOutput out;
-  out.logits = token_head ? token_head->forward(h)  // [B, T, N, K]
-                          : F::linear(h, token_embed->weight.slice(0, 0, K), token_bias);
-  if (copy_gate) {
-    // The code each position's predicted frame had one frame earlier: the input frame itself
-    // when predicting the next one, else the input one position back (none at j = 0; a masked
-    // one gets no bonus).
-    torch::Tensor prev =
-        shifted ? tokens
-                : torch::cat({torch::full_like(tokens.slice(1, 0, 1), K), tokens.slice(1, 0, T - 1)},
-                             1);  // [B, T, N]
-    torch::Tensor gate = copy_gate->forward(h);  // [B, T, N, 1]
-    gate = gate * (prev < K).unsqueeze(-1).to(gate.scalar_type());
-    out.logits = out.logits.scatter_add(-1, prev.clamp_max(K - 1).unsqueeze(-1),
-                                        gate.to(out.logits.scalar_type()));
-  }
+  return token_embed->forward(tokens) + spatial_pos +  // [B, T, N, D]
+         (temporal_pos.slice(0, 0, T) + cond).unsqueeze(2);
+}
+
+torch::Tensor DynamicsNetImpl::TokenLogits(const torch::Tensor& h, const torch::Tensor& prev) {
+  const int64_t K = config.num_codes;
+  torch::Tensor logits = token_head
+                             ? token_head->forward(h)  // [B, T, N, K]
+                             : ApplyLinear(h, token_embed->weight.slice(0, 0, K), token_bias);
+  if (!copy_gate) return logits;
+  torch::Tensor gate = copy_gate->forward(h);  // [B, T, N, 1]
+  gate = gate * (prev < K).unsqueeze(-1).to(gate.scalar_type());
+  return logits.scatter_add(-1, prev.clamp_max(K - 1).unsqueeze(-1), gate.to(logits.scalar_type()));
+}
+
+void DynamicsNetImpl::RewardHead(const torch::Tensor& h, DynamicsOutput& out) {
   auto rt = reward_head->forward(h.mean(2)).unbind(-1);  // 2x [B, T]
   out.reward = rt[0];
   out.terminal_logit = rt[1];
+}
+
+DynamicsOutput DynamicsNetImpl::forward(const torch::Tensor& tokens, const torch::Tensor& actions,
+                                        const torch::Tensor& z) {
+  const int64_t T = tokens.size(1), K = config.num_codes;
+  torch::Tensor h = transformer->forward(Embed(tokens, actions, z));  // [B, T, N, D]
+  // The code each position's predicted frame had one frame earlier: the input frame itself when
+  // predicting the next one, else the input one position back (none at j = 0; a masked one gets
+  // no bonus).
+  torch::Tensor prev =
+      next_frame()
+          ? tokens
+          : torch::cat({torch::full_like(tokens.slice(1, 0, 1), K), tokens.slice(1, 0, T - 1)},
+                       1);  // [B, T, N]
+  DynamicsOutput out;
+  out.logits = TokenLogits(h, prev);
+  RewardHead(h, out);
   return out;
 }
 
@@ -122,7 +136,8 @@ torch::Tensor WorldModelImpl::NextFrameLogits(const torch::Tensor& context,
                                               const torch::Tensor& actions, const torch::Tensor& z,
                                               const torch::Tensor& partial) {
   const int64_t B = context.size(0), Tc = context.size(1), N = context.size(2);
-  if (dynamics->next_frame()) return dynamics->forward(context, actions, z).logits.select(1, Tc - 1);
+  if (dynamics->next_frame())
+    return dynamics->forward(context, actions, z).logits.select(1, Tc - 1);
   auto pad_frame = [](const torch::Tensor& x) {  // [B, Tc, ...] -> [B, Tc + 1, ...]
     return torch::cat({x, torch::zeros_like(x.slice(1, 0, 1))}, 1);
   };

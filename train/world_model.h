@@ -20,13 +20,13 @@ namespace wm::train {
 
 // One training segment batch; every tensor on the model's device.
 struct SegmentBatch {
-  torch::Tensor tokens;         // [B, T, N] int64 codes (clean)
-  torch::Tensor actions;        // [B, T, D] float, normalised with the dataset's statistics
+  torch::Tensor tokens;   // [B, T, N] int64 codes (clean)
+  torch::Tensor actions;  // [B, T, D] float, normalised with the dataset's statistics
   // [B, 1, D] float: 1 = a real action value, 0 = padding of a dataset narrower than the model's
   // D (a mixture of widths); undefined when every row's dataset has the model's width.
   torch::Tensor action_mask;
-  torch::Tensor rewards;        // [B, T] float: r_t of (o_t, a_t)
-  torch::Tensor terminals;      // [B, T] float 0/1: is_terminal of step t
+  torch::Tensor rewards;    // [B, T] float: r_t of (o_t, a_t)
+  torch::Tensor terminals;  // [B, T] float 0/1: is_terminal of step t
   // [B, T, N] bool: the target tokens, frame 0 never. "masked": replaced by the mask token;
   // "next_frame": every token of frames 1..T-1, the input stays clean.
   torch::Tensor mask;
@@ -53,6 +53,17 @@ struct DynamicsNetImpl : torch::nn::Module {
   // undefined when policy conditioning is off.
   DynamicsOutput forward(const torch::Tensor& tokens, const torch::Tensor& actions,
                          const torch::Tensor& z);
+  // forward() in parts, for decoding with a temporal cache (train/imagine_step.h):
+  // the transformer's input [B, T, N, D] (token, grid and window-position embeddings and the
+  // action/z conditioning of each position),
+  torch::Tensor Embed(const torch::Tensor& tokens, const torch::Tensor& actions,
+                      const torch::Tensor& z);
+  // the token logits [B, T, N, K] of the transformer's output h [B, T, N, D], given `prev`
+  // [B, T, N], the code each position's predicted frame had one frame earlier (K: none; the copy
+  // prior's bonus goes to it),
+  torch::Tensor TokenLogits(const torch::Tensor& h, const torch::Tensor& prev);
+  // and the reward and terminal logit [B, T] of each position.
+  void RewardHead(const torch::Tensor& h, DynamicsOutput& out);
   ModelConfig config;
   int64_t z_dim;
   torch::nn::Embedding token_embed{nullptr};  // num_codes + 1 rows: the last is the mask token
@@ -60,7 +71,7 @@ struct DynamicsNetImpl : torch::nn::Module {
   torch::nn::Linear action_in{nullptr}, z_in{nullptr};
   StTransformer transformer{nullptr};
   torch::nn::Linear token_head{nullptr}, reward_head{nullptr};  // token_head null when tied
-  torch::Tensor token_bias;  // [K], the tied head's bias
+  torch::Tensor token_bias;                                     // [K], the tied head's bias
   // model.copy_prior: the bonus added to the logit of the cell's previous code, per position
   // (weight zero, bias log(num_codes) at init, so every position starts at "copy").
   torch::nn::Linear copy_gate{nullptr};

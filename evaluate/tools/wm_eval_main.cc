@@ -37,7 +37,7 @@ Closed loop (--policy / --policies; docs/reports.md, "Policy evaluation in the w
 policy (a process speaking docs/policy-protocol.md) acts on the imagined frames from the real first
 frame of each of the first --episodes held-out episodes, for --policy-horizon steps or until the
 reward head says success (reward > 0.5) or the terminal head says done; --policy-rollouts per
-start. A motion checkpoint has no reward head: pass --success-model RUN_DIR (wm-success train, a
+start; --policy-batch starts imagined together in lockstep (one model call per step). A motion checkpoint has no reward head: pass --success-model RUN_DIR (wm-success train, a
 classifier trained on real frames), and a step whose imagined frame it gives P(success) > 0.5 is
 a success (docs/success.md). Writes wm_values.csv (success rate, Wilson 95%), wm_episodes.csv,
 strips/episode_K.png and, with --true-values (wm-sim-policy's policy_values.json), wpe.csv and
@@ -68,6 +68,11 @@ void AddPolicyOptions(CLI::App& app, PolicyArgs& a, wm::evaluate::PolicyEvalOpti
                  "Policy steps per closed-loop episode at most (wm-sim-policy --max-steps)")
       ->capture_default_str();
   app.add_option("--policy-rollouts", p.loop.rollouts, "Closed-loop rollouts per start")
+      ->capture_default_str();
+  app.add_option("--policy-batch", p.loop.batch,
+                 "Closed-loop starts imagined together as one batch (token models; frames equal "
+                 "to one at a time up to float rounding)")
+      ->check(CLI::PositiveNumber)
       ->capture_default_str();
   app.add_option("--clamp-actions", a.clamp, "tabletop (the simulator's limits) or none")
       ->check(CLI::IsMember({"tabletop", "none"}))

@@ -151,8 +151,9 @@ TEST_F(DynamicsTrainTest, RefusesOverwriteOtherConfigAndMismatchedData) {
             std::string::npos);
   TrainOptions changed = Options("run", 3);
   changed.resume = true;
-  EXPECT_NE(wm::test::ErrorText([&] { TrainDynamics(changed); })
-                .find("different config (train.steps: 2 -> 3)"),
+  EXPECT_NE(wm::test::ErrorText([&] {
+              TrainDynamics(changed);
+            }).find("different config (train.steps: 2 -> 3)"),
             std::string::npos);
   TrainOptions grid = Options("grid", 2);
   grid.config.model.grid_w = 5;
@@ -266,6 +267,43 @@ TEST_F(DynamicsTrainTest, ModelApiPredictsFramesAndRewards) {
             std::string::npos);
 }
 
+// ImagineStep (the window encoded once, every row in one batch) gives what PredictNextFrame and
+// then PredictRewards over the extended window give for each row alone: the same tokens (same
+// row seeds), rewards and terminal probabilities within float rounding (docs/reports.md).
+TEST_F(DynamicsTrainTest, ImagineStepEqualsPredictThenRewardsRowByRow) {
+  for (const char* objective : {"masked", "next_frame"}) {
+    TrainOptions o = Options(objective, 10);
+    o.config.model.objective = objective;
+    o.config.model.copy_prior = true;
+    TrainDynamics(o);
+    auto model = DynamicsModel::Load(dir_ / objective);
+    const int64_t n = model->tokens_per_frame(), rows = 3, frames = 3;
+    FrameContext batch{.batch = rows, .frames = frames, .row_seeds = {5, 6, 7}};
+    for (int64_t i = 0; i < rows * frames * n; ++i) batch.tokens.push_back((i * 7 + i / 5) % 32);
+    for (int64_t i = 0; i < rows * frames * 7; ++i)
+      batch.actions.push_back(0.01f * (i % 9) - 0.04f);
+    const ImaginedSteps steps = model->ImagineStep(batch, 0, 4, 1.0);
+    ASSERT_EQ(steps.tokens.size(), static_cast<size_t>(rows * n));
+    for (int64_t b = 0; b < rows; ++b) {
+      FrameContext row{.batch = 1, .frames = frames, .row_seeds = {batch.row_seeds[b]}};
+      row.tokens.assign(batch.tokens.begin() + b * frames * n,
+                        batch.tokens.begin() + (b + 1) * frames * n);
+      row.actions.assign(batch.actions.begin() + b * frames * 7,
+                         batch.actions.begin() + (b + 1) * frames * 7);
+      const std::vector<int64_t> next = model->PredictNextFrame(row, 0, 4, 1.0);
+      EXPECT_EQ(next, std::vector<int64_t>(steps.tokens.begin() + b * n,
+                                           steps.tokens.begin() + (b + 1) * n))
+          << objective << " row " << b;
+      row.frames += 1;
+      row.tokens.insert(row.tokens.end(), next.begin(), next.end());
+      row.actions.insert(row.actions.end(), 7, 0.f);
+      const RewardPrediction r = model->PredictRewards(row);
+      EXPECT_NEAR(steps.reward[b], r.reward.back(), 1e-5) << objective << " row " << b;
+      EXPECT_NEAR(steps.terminal_prob[b], r.terminal_prob.back(), 1e-5) << objective;
+    }
+  }
+}
+
 // The final step's reward (the only non-zero one, as on tabletop, where it comes with the frame
 // showing success) must be a training target: a next-frame model then predicts it on the frame
 // whose step earns it. Before position j was paired with step j, no window ever scored it.
@@ -278,7 +316,8 @@ TEST_F(DynamicsTrainTest, RewardHeadLearnsTheFinalStepsReward) {
   const int64_t n = data.tokens_per_frame(), window = model->max_context_frames();
   std::vector<float> rewarded, unrewarded;  // predictions on each episode's last window
   for (int64_t k = 0; k < data.num_episodes(); ++k) {
-    const int64_t frames = data.episode(k).num_frames, first = std::max<int64_t>(0, frames - window);
+    const int64_t frames = data.episode(k).num_frames,
+                  first = std::max<int64_t>(0, frames - window);
     FrameContext c{.batch = 1, .frames = frames - first};
     c.tokens.resize(static_cast<size_t>(c.frames * n));
     data.CopyTokens(k, first, c.frames, c.tokens.data());
