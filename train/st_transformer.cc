@@ -24,7 +24,7 @@ namespace {
 // memory-efficient one): the same function, other rounding, and no [L, L] score tensor in
 // memory. CPUs keep the written-out form, which the PyTorch twin checks bit for bit.
 // WM_ATTENTION=explicit forces the written-out form on GPUs too (docs/gpu.md measures both).
-bool UseFusedAttention() {
+[[maybe_unused]] bool UseFusedAttention() {  // used by LibTorch >= 2 builds only
   static const bool fused = [] {
     const char* v = std::getenv("WM_ATTENTION");
     return v == nullptr || std::strcmp(v, "explicit") != 0;
