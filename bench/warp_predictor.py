@@ -11,7 +11,8 @@ over steps, and at step 8).
 
   bench/warp_predictor.py --train data/demo/shards/train --val data/demo/shards/val \
       [--steps 600] [--unroll 1] [--channels 48] [--no-jacobian] [--strip OUT.png] \
-      [--self-condition P] [--post-refine C] [--edge-loss W] [--flow-l1 W] [--seed S]
+      [--self-condition P] [--post-refine C] [--edge-loss W] [--flow-l1 W] [--seed S] \
+      [--background-memory]
 
 The last options are variants tried against the smear (docs/motion.md, "How the recipe was
 chosen"); none is in wm-motion: --self-condition P feeds the net, with probability P per batch,
@@ -21,6 +22,8 @@ from it and the decoder's features (it sees the warped result, so it could sharp
 --edge-loss W adds W times the L1 of the image-gradient difference (Mathieu et al. 2016);
 --flow-l1 W adds W times the mean flow length in pixels (most of the scene is static, and on a
 plain table the photometric loss leaves the flow of uniform regions free).
+--background-memory is a change of model class, not of recipe: the real frame 0 as a third
+source the net may copy per pixel (BackgroundMemoryNet).
 """
 import argparse
 import os
@@ -50,10 +53,18 @@ def learning_rate(step, steps):  # trainkit::LearningRateAt: linear warmup, cosi
     return MIN_LR + 0.5 * (LR - MIN_LR) * (1 + np.cos(np.pi * progress))
 
 
+def unet_features(net, inp, action):
+    """The twin's U-Net up to its head (warp_twin.WarpNet.forward's first lines): full-resolution
+    features of the input frames with the action added at the bottleneck."""
+    h1 = net.down1(inp)
+    h2 = net.down2(h1)
+    u = net.up3(net.middle(net.down3(h2) + net.action_in(action)[:, :, None, None]))
+    return net.up1(torch.cat([net.up2(torch.cat([u, h2], 1)), h1], 1))
+
+
 class PostRefinedNet(warp_twin.WarpNet):
     """The twin plus a zero-initialised conv block that corrects the composited frame, reading it
-    and the decoder's full-resolution features (the twin's forward, repeated with the features
-    kept)."""
+    and the decoder's full-resolution features."""
 
     def __init__(self, model, action_dim, channels):
         super().__init__(model, action_dim)
@@ -65,10 +76,7 @@ class PostRefinedNet(warp_twin.WarpNet):
 
     def forward(self, current, previous, action):
         inp = torch.cat([current, previous], 1)
-        h1 = self.down1(inp)
-        h2 = self.down2(h1)
-        u = self.up3(self.middle(self.down3(h2) + self.action_in(action)[:, :, None, None]))
-        u = self.up1(torch.cat([self.up2(torch.cat([u, h2], 1)), h1], 1))
+        u = unet_features(self, inp, action)
         out = self.head(torch.cat([u, inp], 1))
         b, _, h, w = out.shape
         jac = out[:, warp_twin.JACOBIAN:].view(b, 2, self.action_dim, h, w)
@@ -80,17 +88,74 @@ class PostRefinedNet(warp_twin.WarpNet):
         return composite + self.post(torch.cat([composite, u], 1)), flow, gate
 
 
+class BackgroundMemoryNet(warp_twin.WarpNet):
+    """The twin with a third source beside the warped current frame and the painted colour: the
+    episode's real first frame, a memory of the static scene. The net also reads it (9 input
+    channels) and outputs one more logit, a per-pixel choice of memory over warp:
+
+      next = (1 - g) * ((1 - m) * warp(x_t, flow) + m * x_0) + g * tanh(rgb)
+
+    Static things (table, goal disc, an untouched block) can then be copied from frame 0 at every
+    step instead of being resampled from the last prediction, so they neither blur nor drag."""
+
+    def __init__(self, model, action_dim):
+        super().__init__(model, action_dim)
+        c = model["channels"]
+        self.down1 = warp_twin.down(9, c)
+        extra = 2 * action_dim if self.jacobian else 0
+        self.head = nn.Conv2d(c + 9, warp_twin.JACOBIAN + extra + 1, 3, 1, 1)
+        nn.init.zeros_(self.head.weight)
+        nn.init.zeros_(self.head.bias)
+
+    def forward(self, current, previous, action, first):
+        inp = torch.cat([current, previous, first], 1)
+        out = self.head(torch.cat([unet_features(self, inp, action), inp], 1))
+        b, _, h, w = out.shape
+        flow = out[:, warp_twin.FLOW_BIAS:warp_twin.JACOBIAN]
+        if self.jacobian:
+            jac = out[:, warp_twin.JACOBIAN:-1].view(b, 2, self.action_dim, h, w)
+            flow = flow + (jac * action.view(b, 1, self.action_dim, 1, 1)).sum(2)
+        flow = flow * self.flow_scale
+        gate = torch.sigmoid(out[:, warp_twin.GATE:warp_twin.GATE + 1] + self.gate_bias)
+        memory = torch.sigmoid(out[:, -1:])
+        rgb = torch.tanh(out[:, warp_twin.RGB:warp_twin.RGB + 3])
+        kept = (1 - memory) * warp_twin.warp(current, flow) + memory * first
+        return (1 - gate) * kept + gate * rgb, flow, gate
+
+
+def predict_next(net, current, previous, action, first):
+    """One predicted frame; `first` (the real frame 0) reaches only a BackgroundMemoryNet."""
+    if isinstance(net, BackgroundMemoryNet):
+        return net(current, previous, action, first)
+    return net(current, previous, action)
+
+
+@torch.no_grad()
+def imagine(net, first, actions):
+    """warp_twin.imagine through predict_next(): open-loop frames after `first`."""
+    current = previous = first
+    frames = []
+    for h in range(actions.shape[1]):
+        nxt = predict_next(net, current, previous, actions[:, h], first)[0].clamp(-1, 1)
+        frames.append(nxt)
+        previous, current = current, nxt
+    return torch.stack(frames, 1)
+
+
 def batch(episodes, norm, rng, unroll):
     """[B, unroll + 3, 3, S, S] windows (frames t-2, t-1, t, t+1..t+unroll, indices clamped at
-    0), the normalised actions a_{t-1}..a_{t+unroll-1} (a_0 again at t = 0) and whether t > 0."""
-    clips, actions, later = [], [], []
+    0), the normalised actions a_{t-1}..a_{t+unroll-1} (a_0 again at t = 0), whether t > 0 and
+    the episodes' frames 0 [B, 3, S, S]."""
+    clips, actions, later, firsts = [], [], [], []
     for _ in range(BATCH):
         frames, _, acts = episodes[rng.integers(len(episodes))]
         t = int(rng.integers(len(frames) - unroll))
         clips.append(frames[[max(t - 2, 0), max(t - 1, 0)] + list(range(t, t + unroll + 1))])
         actions.append(norm(acts[[max(t - 1, 0)] + list(range(t, t + unroll))]))
         later.append(t > 0)
-    return torch.stack(clips), torch.tensor(np.stack(actions)), torch.tensor(later)
+        firsts.append(frames[0])
+    return (torch.stack(clips), torch.tensor(np.stack(actions)), torch.tensor(later),
+            torch.stack(firsts))
 
 
 def edge_l1(a, b):
@@ -110,14 +175,15 @@ def fit(net, episodes, norm, steps, args):
     for step in range(steps):
         for group in opt.param_groups:
             group["lr"] = learning_rate(step, steps)
-        clips, actions, later = batch(episodes, norm, rng, unroll)
+        clips, actions, later, first = batch(episodes, norm, rng, unroll)
         previous, current, loss = clips[:, 1], clips[:, 2], 0
         if args.self_condition > 0 and rng.random() < args.self_condition:
             with torch.no_grad():  # frame t as imagined from t-1 (kept real where t = 0)
-                imagined = net(clips[:, 1], clips[:, 0], actions[:, 0])[0].clamp(-1, 1)
+                imagined = predict_next(net, clips[:, 1], clips[:, 0], actions[:, 0], first)[0]
+            imagined = imagined.clamp(-1, 1)
             current = torch.where(later.view(-1, 1, 1, 1), imagined, current)
         for u in range(unroll):
-            predicted, flow, _ = net(current, previous, actions[:, u + 1])
+            predicted, flow, _ = predict_next(net, current, previous, actions[:, u + 1], first)
             loss = loss + (predicted - clips[:, u + 3]).abs().mean() / unroll
             if args.flow_l1 > 0:
                 loss = loss + args.flow_l1 * flow.norm(dim=1).mean() / unroll
@@ -150,7 +216,7 @@ def score(net, episodes, norm):
     for k in range(recipes.ROLLOUTS):
         frames, seg, acts = episodes[k]
         normed = torch.tensor(norm(acts[:H]))[None]
-        preds = {name: goal1.to_uint8(warp_twin.imagine(net, frames[:1], a)[0])
+        preds = {name: goal1.to_uint8(imagine(net, frames[:1], a)[0])
                  for name, a in (("model", normed), ("reversed", torch.flip(normed, [1])))}
         real = goal1.to_uint8(frames[1:H + 1])
         preds["copy_last"] = np.repeat(goal1.to_uint8(frames[:1]), H, 0)
@@ -176,6 +242,8 @@ def main():
     ap.add_argument("--edge-loss", type=float, default=0, metavar="W")
     ap.add_argument("--flow-l1", type=float, default=0, metavar="W")
     ap.add_argument("--seed", type=int, default=0)
+    ap.add_argument("--background-memory", action="store_true",
+                    help="a third source: the real frame 0, chosen per pixel (BackgroundMemoryNet)")
     args = ap.parse_args()
     torch.set_num_threads(1)
     torch.manual_seed(args.seed)
@@ -188,7 +256,9 @@ def main():
         return ((a - mean) / std).astype(np.float32)
     model = {"channels": args.channels, "flow_scale": 4.0, "gate_bias": -3.0,
              "action_jacobian": not args.no_jacobian}
-    if args.post_refine:
+    if args.background_memory:
+        net = BackgroundMemoryNet(model, actions.shape[1])
+    elif args.post_refine:
         net = PostRefinedNet(model, actions.shape[1], args.post_refine)
     else:
         net = warp_twin.WarpNet(model, actions.shape[1])
