@@ -2,13 +2,13 @@
 
 #include <torch/torch.h>
 
-#include <filesystem>
 
 #include "core/error.h"
 #include "core/paths.h"
 #include "core/tensor_archive.h"
 #include "motion/warp_net.h"
 #include "trainkit/action_norm.h"
+#include "trainkit/checkpoint_kind.h"
 #include "trainkit/module_archive.h"
 #include "trainkit/torch_runtime.h"
 
@@ -27,42 +27,34 @@ MotionModel::MotionModel() : state_(std::make_unique<State>()) {}
 MotionModel::~MotionModel() = default;
 
 bool MotionModel::IsMotionCheckpoint(const std::string& path) {
-  const std::string file = CheckpointFileIn(path);
-  if (!std::filesystem::is_regular_file(file)) return false;
-  return TensorArchiveReader(file).meta().value("model_kind", "") == "motion";
+  return trainkit::IsCheckpointOfKind(path, "motion");
 }
 
-std::unique_ptr<MotionModel> MotionModel::Load(const std::string& path,
-                                               const std::string& device, int threads) {
+std::unique_ptr<MotionModel> MotionModel::Load(const std::string& path, const std::string& device,
+                                               int threads) {
   trainkit::CheckDevice(device);
   if (threads > 0) torch::set_num_threads(threads);
   std::unique_ptr<MotionModel> model(new MotionModel());
   State& s = *model->state_;
   s.file = CheckpointFileIn(path);
-  const TensorArchiveReader reader(s.file);
-  try {
-    const nlohmann::json& meta = reader.meta();
-    Check(meta.value("model_kind", "") == "motion",
-          "not a motion model checkpoint (wm-motion train writes those)", {.key = "model_kind"});
-    s.config = ConfigFromJson(meta.at("config"));
-    ValidateConfig(s.config, s.file);
-    const nlohmann::json& norms = meta.at("action_norms");
-    Check(norms.size() == 1, "expected the statistics of one training dataset",
-          {.key = "action_norms"});
-    s.norm = trainkit::ActionNorm::FromJson(norms.begin().value());
-    const auto action_dim = meta.at("action_dim").get<int64_t>();
-    Check(s.norm.dim() == action_dim,
-          "action statistics have " + std::to_string(s.norm.dim()) + " values, the model " +
-              std::to_string(action_dim),
-          {.key = "action_norms"});
-    s.step = meta.at("step").get<int64_t>();
-    s.net = WarpNet(s.config.model, action_dim);
-    trainkit::LoadModule(reader, "model/", *s.net);
-  } catch (const Error& e) {
-    throw e.WithFile(s.file);
-  } catch (const nlohmann::json::exception& e) {
-    throw Error("bad checkpoint meta: " + std::string(e.what()), {.file = s.file});
-  }
+  trainkit::LoadCheckpointOfKind(
+      s.file, "motion", "not a motion model checkpoint (wm-motion train writes those)",
+      [&](const TensorArchiveReader& reader, const nlohmann::json& meta) {
+        s.config = ConfigFromJson(meta.at("config"));
+        ValidateConfig(s.config, s.file);
+        const nlohmann::json& norms = meta.at("action_norms");
+        Check(norms.size() == 1, "expected the statistics of one training dataset",
+              {.key = "action_norms"});
+        s.norm = trainkit::ActionNorm::FromJson(norms.begin().value());
+        const auto action_dim = meta.at("action_dim").get<int64_t>();
+        Check(s.norm.dim() == action_dim,
+              "action statistics have " + std::to_string(s.norm.dim()) + " values, the model " +
+                  std::to_string(action_dim),
+              {.key = "action_norms"});
+        s.step = meta.at("step").get<int64_t>();
+        s.net = WarpNet(s.config.model, action_dim);
+        trainkit::LoadModule(reader, "model/", *s.net);
+      });
   s.device = torch::Device(device);
   s.net->to(s.device);
   s.net->eval();

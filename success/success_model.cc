@@ -8,6 +8,7 @@
 #include "core/paths.h"
 #include "core/tensor_archive.h"
 #include "success/success_net.h"
+#include "trainkit/checkpoint_kind.h"
 #include "trainkit/module_archive.h"
 #include "trainkit/torch_runtime.h"
 
@@ -25,9 +26,7 @@ SuccessModel::SuccessModel() : state_(std::make_unique<State>()) {}
 SuccessModel::~SuccessModel() = default;
 
 bool SuccessModel::IsSuccessCheckpoint(const std::string& path) {
-  const std::string file = CheckpointFileIn(path);
-  if (!std::filesystem::is_regular_file(file)) return false;
-  return TensorArchiveReader(file).meta().value("model_kind", "") == "success";
+  return trainkit::IsCheckpointOfKind(path, "success");
 }
 
 std::unique_ptr<SuccessModel> SuccessModel::Load(const std::string& path, const std::string& device,
@@ -40,22 +39,15 @@ std::unique_ptr<SuccessModel> SuccessModel::Load(const std::string& path, const 
   Check(std::filesystem::is_regular_file(s.file),
         "no success classifier checkpoint here (wm-success train writes RUN_DIR/checkpoint.wmt)",
         {.file = s.file});
-  const TensorArchiveReader reader(s.file);
-  try {
-    const nlohmann::json& meta = reader.meta();
-    Check(meta.value("model_kind", "") == "success",
-          "not a success classifier checkpoint (wm-success train writes those)",
-          {.key = "model_kind"});
-    s.config = ConfigFromJson(meta.at("config"));
-    ValidateConfig(s.config, s.file);
-    s.step = meta.at("step").get<int64_t>();
-    s.net = SuccessNet(s.config.model);
-    trainkit::LoadModule(reader, "model/", *s.net);
-  } catch (const Error& e) {
-    throw e.WithFile(s.file);
-  } catch (const nlohmann::json::exception& e) {
-    throw Error("bad checkpoint meta: " + std::string(e.what()), {.file = s.file});
-  }
+  trainkit::LoadCheckpointOfKind(
+      s.file, "success", "not a success classifier checkpoint (wm-success train writes those)",
+      [&](const TensorArchiveReader& reader, const nlohmann::json& meta) {
+        s.config = ConfigFromJson(meta.at("config"));
+        ValidateConfig(s.config, s.file);
+        s.step = meta.at("step").get<int64_t>();
+        s.net = SuccessNet(s.config.model);
+        trainkit::LoadModule(reader, "model/", *s.net);
+      });
   s.device = torch::Device(device);
   s.net->to(s.device);
   s.net->eval();

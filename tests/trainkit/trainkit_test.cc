@@ -10,6 +10,7 @@
 #include "core/tfrecord_frame.h"
 #include "tests/core/test_util.h"
 #include "trainkit/adamw.h"
+#include "trainkit/checkpoint_kind.h"
 #include "trainkit/mixture.h"
 #include "trainkit/run_dir.h"
 #include "trainkit/schedule.h"
@@ -126,6 +127,37 @@ TEST(ImageLog, KeepsTheImagesUpToTheResumeStepAndDropsACutRecord) {
   fs::resize_file(resumed.path(), fs::file_size(resumed.path()) - 3);  // killed mid-append
   EXPECT_EQ(EventSteps(ImageLog(dir.path().string(), "val_images", 1000).path()),
             (std::vector<int64_t>{100, 200}));
+}
+
+TEST(CheckpointKind, ChecksTheKindAndNamesTheFileInEveryError) {
+  test::TempDir dir;
+  TensorArchiveWriter archive;
+  archive.SetMeta({{"model_kind", "motion"}, {"step", 7}});
+  archive.Write(dir / "checkpoint.wmt");
+  EXPECT_TRUE(IsCheckpointOfKind(dir.path().string(), "motion"));  // a RUN_DIR
+  EXPECT_FALSE(IsCheckpointOfKind(dir / "checkpoint.wmt", "success"));
+  EXPECT_FALSE(IsCheckpointOfKind(dir / "missing", "motion"));
+  int64_t step = 0;
+  LoadCheckpointOfKind(dir / "checkpoint.wmt", "motion", "not motion",
+                       [&](const TensorArchiveReader&, const nlohmann::json& meta) {
+                         step = meta.at("step").get<int64_t>();
+                       });
+  EXPECT_EQ(step, 7);
+  const auto load = [&](const std::string& kind, const char* key) {
+    return test::ErrorText([&] {
+      LoadCheckpointOfKind(dir / "checkpoint.wmt", kind, "not a " + kind + " checkpoint",
+                           [&](const TensorArchiveReader&, const nlohmann::json& meta) {
+                             (void)meta.at(key).get<int64_t>();
+                           });
+    });
+  };
+  const std::string wrong_kind = load("success", "step");
+  EXPECT_NE(wrong_kind.find("not a success checkpoint"), std::string::npos) << wrong_kind;
+  EXPECT_NE(wrong_kind.find("model_kind"), std::string::npos) << wrong_kind;
+  EXPECT_NE(wrong_kind.find("checkpoint.wmt"), std::string::npos) << wrong_kind;
+  const std::string missing_key = load("motion", "config");
+  EXPECT_NE(missing_key.find("bad checkpoint meta"), std::string::npos) << missing_key;
+  EXPECT_NE(missing_key.find("checkpoint.wmt"), std::string::npos) << missing_key;
 }
 
 TEST(RunDir, WritesTheArchiveBeforeItsManifestAndRefusesToOverwriteIt) {
