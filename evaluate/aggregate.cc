@@ -11,6 +11,15 @@
 namespace wm::evaluate {
 namespace fs = std::filesystem;
 
+double FiniteMean(const std::vector<double>& values) {
+  double s = 0;
+  int64_t n = 0;
+  for (double x : values) {
+    if (std::isfinite(x)) s += x, ++n;
+  }
+  return n ? s / static_cast<double>(n) : NAN;
+}
+
 MeanCi BootstrapMean(const std::vector<double>& values, int resamples, uint64_t seed,
                      double level) {
   std::vector<double> v;

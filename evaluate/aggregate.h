@@ -18,6 +18,9 @@ struct MeanCi {
 MeanCi BootstrapMean(const std::vector<double>& values, int resamples, uint64_t seed,
                      double level = 0.95);
 
+// Mean of the finite values (NaN when there are none): an episode's value of a per-step metric.
+double FiniteMean(const std::vector<double>& values);
+
 // "%.9g", or "" for NaN/inf.
 std::string Cell(double value);
 

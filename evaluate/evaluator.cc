@@ -24,6 +24,7 @@
 #include "evaluate/manifest.h"
 #include "evaluate/motion_scores.h"
 #include "evaluate/rollout_export.h"
+#include "evaluate/uncertainty_report.h"
 #include "metrics/frechet.h"
 #include "metrics/lpips/lpips.h"
 #include "metrics/value/correlation.h"
@@ -33,15 +34,6 @@
 namespace wm::evaluate {
 namespace fs = std::filesystem;
 namespace {
-
-double FiniteMean(const std::vector<double>& v) {
-  double s = 0;
-  int64_t n = 0;
-  for (double x : v) {
-    if (std::isfinite(x)) s += x, ++n;
-  }
-  return n ? s / n : NAN;
-}
 
 // Adds one clip's per-step scores to the table under `kind`.
 void AddScores(ScoreTable& t, const std::string& kind,
@@ -116,6 +108,7 @@ void AddImagined(EpisodeRecord& rec, const ImaginedEpisode& imagined, const Clip
     }
     if (r.model_return) rec.model_return[kind] = *r.model_return;
     if (!r.contexts.empty()) rec.contexts[kind] = r.contexts;
+    for (const auto& [signal, values] : r.uncertainty) rec.scores[kind][signal] = values;
     if (r.samples.size() >= 2) {
       rec.spread[kind] = SampleDisagreement(r.samples);
       rec.sample_mse[kind] = ScoreFrames(target, r.samples[0], tok).at("mse");
@@ -258,6 +251,10 @@ void WriteReport(const EvalOptions& o, const std::string& name, const std::strin
           metrics::Pearson(uncertainty[mode].first, uncertainty[mode].second), NAN, NAN,
           static_cast<int64_t>(uncertainty[mode].first.size())};
     }
+  }
+  if (!o.retrace_ks.empty()) {  // before the summary, which gets the signals' scores
+    WriteFileAtomically((fs::path(dir) / "uncertainty.csv").string(),
+                        AddUncertaintyScores(t, name, records));
   }
   WriteStripOverview((fs::path(dir) / "strips").string(), t.episodes, o.strips,
                      tok.image_size());

@@ -32,6 +32,11 @@ struct EvalOptions {
   // plain rollout again with the episode's actions perturbed; kOff skips it. Only when the plain
   // rollout is evaluated.
   Perturbation controllability = Perturbation::kReversed;
+  // Uncertainty without ensembles (WHALE section 3.4; evaluate/retrace_uncertainty.h): kept-frame
+  // counts k of the retracing variants imagined at every step of the plain rollout; empty = off.
+  // When set, the plain rollout also gets metrics retrace_disagreement and token_entropy, and
+  // the report uncertainty.csv and the signals' correlations and AUROCs (docs/reports.md).
+  std::vector<int64_t> retrace_ks;
   MaskOptions masks;          // segmented-region MSE (mse_arm, mse_object, mse_background) when set
   std::string lpips_weights;  // official LPIPS (metric "lpips") besides lpips_style when set
   int64_t max_episodes = 0;   // 0 = every episode

@@ -5,9 +5,11 @@
 #include <algorithm>
 #include <memory>
 
+#include "core/error.h"
 #include "core/tokens/token_dataset.h"
 #include "evaluate/clip_decode.h"
 #include "evaluate/controllability.h"
+#include "evaluate/retrace_uncertainty.h"
 #include "motion/motion_model.h"
 #include "train/dynamics_model.h"
 
@@ -42,6 +44,14 @@ ImaginedRollout DecodeRollout(const tokenize::Tokenizer& tok, const EpisodeRollo
   return out;
 }
 
+// --retrace-ks' signals of one episode's plain rollout (evaluate/retrace_uncertainty.h).
+std::map<std::string, std::vector<double>> UncertaintySignals(const tokenize::Tokenizer& tok,
+                                                              const RetraceVariants& v,
+                                                              const EpisodeToImagine& e) {
+  return {{"retrace_disagreement", VariantDisagreement(tok, v, e.given)},
+          {"token_entropy", v.token_entropy}};
+}
+
 // A token dynamics model rolls out every episode up front (each mode, and plain with perturbed
 // actions for controllability), then decodes one episode at a time.
 CheckpointUnderEval LoadDynamicsCheckpoint(const EvalOptions& o, size_t c, const std::string& name,
@@ -55,6 +65,14 @@ CheckpointUnderEval LoadDynamicsCheckpoint(const EvalOptions& o, size_t c, const
         "--temperature > 0 to sample",
         name, o.rollout.samples, o.rollout.samples);
   }
+  if (!o.retrace_ks.empty()) {
+    Check(std::find(o.modes.begin(), o.modes.end(), RolloutMode::kPlain) != o.modes.end(),
+          "--retrace-ks imagines variants of the plain rollout's steps: add it (--rollout plain, "
+          "both or auto)",
+          {.key = "--retrace-ks"});
+    CheckRetraceKs(o.retrace_ks, ContextFrames(*model, o.rollout.context));
+    CheckRolloutModeFits(RolloutMode::kRetrace, data);
+  }
   auto start = [o, model, &tok, &data](const std::vector<int64_t>& episodes) -> Imagination {
     std::map<RolloutMode, std::vector<EpisodeRollout>> rollouts;
     for (RolloutMode m : o.modes) rollouts[m] = Rollout(*model, data, episodes, m, o.rollout);
@@ -62,13 +80,21 @@ CheckpointUnderEval LoadDynamicsCheckpoint(const EvalOptions& o, size_t c, const
     if (ScoresControllability(o)) {
       perturbed = PerturbedRollout(*model, data, episodes, o.rollout, o.controllability);
     }
+    std::vector<RetraceVariants> variants;
+    if (!o.retrace_ks.empty()) {
+      variants = ImagineRetraceVariants(*model, data, rollouts.at(RolloutMode::kPlain),
+                                        o.retrace_ks, o.rollout);
+    }
     return [rollouts = std::move(rollouts), perturbed = std::move(perturbed),
-            &tok](const EpisodeToImagine& e) {
+            variants = std::move(variants), &tok](const EpisodeToImagine& e) {
       ImaginedEpisode out;
       for (const auto& [mode, r] : rollouts) {
         const bool perturb = mode == RolloutMode::kPlain && !perturbed.empty();
         out[RolloutName(mode)] =
             DecodeRollout(tok, r[e.position], perturb ? &perturbed[e.position] : nullptr, e);
+      }
+      if (!variants.empty()) {
+        out.at("plain").uncertainty = UncertaintySignals(tok, variants[e.position], e);
       }
       return out;
     };

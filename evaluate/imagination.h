@@ -31,6 +31,8 @@ struct ImaginedRollout {
   std::optional<Clip> perturbed;       // controllability: sample 0 with perturbed actions
   std::optional<double> model_return;  // the reward head's return over the h steps, if it has one
   std::vector<std::vector<double>> contexts;  // contexts.csv rows of sample 0 (token models)
+  // --retrace-ks (plain rollout of a token model): retrace_disagreement and token_entropy, per step
+  std::map<std::string, std::vector<double>> uncertainty;
 };
 using ImaginedEpisode = std::map<std::string, ImaginedRollout>;  // rollout name -> rollout
 

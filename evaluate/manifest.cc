@@ -81,6 +81,8 @@ nlohmann::json EvalConfigJson(const EvalOptions& o) {
       {"seg_config_sha256", o.masks.seg_config.empty() ? "" : Sha256File(o.masks.seg_config)},
       {"intrinsics", o.masks.intrinsics},
       {"lpips_weights_sha256", o.lpips_weights.empty() ? "" : Sha256File(o.lpips_weights)}};
+  // Only when asked for, so a report without it keeps its config hash.
+  if (!o.retrace_ks.empty()) config["retrace_ks"] = o.retrace_ks;
   // Only in policy mode, so an open-loop report's config hash is what it always was.
   if (!o.policy_eval.policies.empty()) config["policy_eval"] = PolicyEvalConfigJson(o.policy_eval);
   return config;

@@ -52,6 +52,13 @@ EvalOptions MotionOptions(const EvalOptions& o, const std::string& name) {
         "uncertainty rows)",
         name, o.rollout.samples);
   }
+  if (!o.retrace_ks.empty()) {
+    spdlog::warn(
+        "{}: --retrace-ks varies a token model's context window; a motion model has none (no "
+        "uncertainty.csv)",
+        name);
+    m.retrace_ks.clear();
+  }
   return m;
 }
 

@@ -36,9 +36,16 @@ std::vector<ContextSlot> PlainContext(const float* actions, int64_t dim, int64_t
 std::vector<ContextSlot> RetraceContext(const float* actions, int64_t dim, int64_t t,
                                         int64_t context) {
   if (t < context || context < 2) return PlainContext(actions, dim, t, context);
-  // Frame 0, then the newest C-1 frames t-C+2..t; the retrace action bridges frame 0 to t-C+2.
-  std::vector<ContextSlot> slots = {{0, RetraceAction(actions, dim, t - context + 2)}};
-  for (int64_t f = t - context + 2; f <= t; ++f) slots.push_back({f, ActionAt(actions, dim, f)});
+  return AnchoredContext(actions, dim, t, context - 1);
+}
+
+std::vector<ContextSlot> AnchoredContext(const float* actions, int64_t dim, int64_t t,
+                                         int64_t kept) {
+  Check(kept >= 0 && t >= 0, "kept frames and t must be >= 0");
+  if (kept >= t) return PlainContext(actions, dim, t, t + 1);
+  // Frame 0, then frames t-kept+1..t; the retrace action bridges frame 0 to t-kept+1.
+  std::vector<ContextSlot> slots = {{0, RetraceAction(actions, dim, t - kept + 1)}};
+  for (int64_t f = t - kept + 1; f <= t; ++f) slots.push_back({f, ActionAt(actions, dim, f)});
   return slots;
 }
 

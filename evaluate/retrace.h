@@ -30,8 +30,18 @@ std::vector<ContextSlot> PlainContext(const float* actions, int64_t dim, int64_t
 
 // Once the plain window has slid past frame 0 (t >= C), the first slot is frame 0 with the
 // retrace of the skipped actions a_0..a_{t-C+1} (so it leads to frame t-C+2, the next slot),
-// followed by frames t-C+2..t; before that it equals PlainContext.
+// followed by frames t-C+2..t; before that it equals PlainContext. It is AnchoredContext with
+// C-1 kept frames once t >= C.
 std::vector<ContextSlot> RetraceContext(const float* actions, int64_t dim, int64_t t,
                                         int64_t context);
+
+// The real frame 0 as anchor followed by the newest `kept` (>= 0) frames t-kept+1..t; the
+// anchor's action is the retrace of a_0..a_{t-kept}, the t-kept+1 steps folded back to frame 0
+// (so it leads to frame t-kept+1, or with kept = 0 straight to the predicted frame t+1). When
+// kept >= t nothing is left to fold: frames 0..t with their own actions. Context frames:
+// min(kept, t) + 1. Different `kept` give the retracing variants of one step whose disagreement
+// is wm-eval --retrace-ks' uncertainty (WHALE section 3.4).
+std::vector<ContextSlot> AnchoredContext(const float* actions, int64_t dim, int64_t t,
+                                         int64_t kept);
 
 }  // namespace wm::evaluate

@@ -18,10 +18,6 @@ uint64_t MixSeed(uint64_t seed, int64_t counter) {
   return x ^ (x >> 31);
 }
 
-namespace {
-
-// z of each episode from the prior over its first real frames and actions; empty without
-// policy conditioning.
 std::vector<std::vector<float>> PolicyEmbeddings(const train::DynamicsModel& model,
                                                  const tokens::TokenDataset& data,
                                                  const std::vector<int64_t>& episodes,
@@ -39,8 +35,6 @@ std::vector<std::vector<float>> PolicyEmbeddings(const train::DynamicsModel& mod
   }
   return z;
 }
-
-}  // namespace
 
 uint64_t ImaginationSeed(uint64_t seed, int64_t episode, int sample, int64_t step) {
   return MixSeed(MixSeed(MixSeed(seed, episode), sample), step);
@@ -61,15 +55,23 @@ void AppendContextRow(const std::vector<int64_t>& frames, const std::vector<Cont
   }
 }
 
+train::FrameContext ImaginationContext(const train::DynamicsModel& model,
+                                       const std::vector<int64_t>& frames,
+                                       const std::vector<ContextSlot>& slots,
+                                       const std::vector<float>& policy_z, uint64_t row_seed) {
+  train::FrameContext c{.batch = 1};
+  AppendContextRow(frames, slots, model.tokens_per_frame(), c);
+  c.policy_z = policy_z;
+  c.row_seeds = {row_seed};
+  return c;
+}
+
 ImaginedFrame ImagineNextFrame(const train::DynamicsModel& model,
                                const std::vector<int64_t>& frames,
                                const std::vector<ContextSlot>& slots,
                                const std::vector<float>& policy_z, uint64_t row_seed,
                                const RolloutOptions& o) {
-  train::FrameContext c{.batch = 1};
-  AppendContextRow(frames, slots, model.tokens_per_frame(), c);
-  c.policy_z = policy_z;
-  c.row_seeds = {row_seed};
+  train::FrameContext c = ImaginationContext(model, frames, slots, policy_z, row_seed);
   ImaginedFrame out;
   out.tokens = model.PredictNextFrame(c, 0, o.decode_steps, o.temperature);  // [N]
   // The reward and terminal flag of the new frame's step, from the context extended by it.

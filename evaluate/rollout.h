@@ -81,10 +81,24 @@ struct ImaginedFrame {
   float terminal_prob = 0;      // P(is_terminal_t)
 };
 
+// z of each episode from the prior over its first `prefix` real frames and actions (one per
+// episode of `episodes`); empty vectors without policy conditioning.
+std::vector<std::vector<float>> PolicyEmbeddings(const train::DynamicsModel& model,
+                                                 const tokens::TokenDataset& data,
+                                                 const std::vector<int64_t>& episodes,
+                                                 int64_t prefix);
+
 // Appends a row to `c` (c.batch rows are expected in the end): the frames and actions of the
 // context `slots` of a rollout's frames so far (`frames`: [(t + 1) * n] tokens); sets c.frames.
 void AppendContextRow(const std::vector<int64_t>& frames, const std::vector<ContextSlot>& slots,
                       int64_t n, train::FrameContext& c);
+
+// The one-row model input of ImagineNextFrame: the context `slots` of `frames`, `policy_z` and
+// the row's sampling seed.
+train::FrameContext ImaginationContext(const train::DynamicsModel& model,
+                                       const std::vector<int64_t>& frames,
+                                       const std::vector<ContextSlot>& slots,
+                                       const std::vector<float>& policy_z, uint64_t row_seed);
 
 // Imagines the frame after the context `slots` (PlainContext / RetraceContext) of the rollout's
 // frames so far (`frames`: [(t + 1) * N] tokens) with one model call for the frame and one for

@@ -2,14 +2,13 @@
 
 #include <algorithm>
 #include <cmath>
-#include <limits>
-#include <numeric>
 #include <random>
 
 #include "core/episode.h"
 #include "core/error.h"
 #include "core/mix_bits.h"
 #include "core/shard/dataset_reader.h"
+#include "metrics/value/correlation.h"
 #include "trainkit/frame_decode.h"
 
 namespace wm::success {
@@ -74,24 +73,9 @@ void LabelledFrames::Load(const std::vector<FrameRef>& refs, float* frames, floa
 }
 
 double Auroc(const std::vector<float>& scores, const std::vector<float>& labels) {
-  std::vector<size_t> order(scores.size());
-  std::iota(order.begin(), order.end(), size_t{0});
-  std::stable_sort(order.begin(), order.end(),
-                   [&](size_t a, size_t b) { return scores[a] < scores[b]; });
-  // Mann-Whitney U: the sum of the positives' ranks (ties share their mean rank).
-  double rank_sum = 0, positives = 0;
-  for (size_t i = 0; i < order.size();) {
-    size_t j = i;
-    while (j < order.size() && scores[order[j]] == scores[order[i]]) ++j;
-    const double mean_rank = (static_cast<double>(i + 1) + static_cast<double>(j)) / 2;
-    for (size_t k = i; k < j; ++k) {
-      if (labels[order[k]] > 0.5f) rank_sum += mean_rank, positives += 1;
-    }
-    i = j;
-  }
-  const double negatives = static_cast<double>(scores.size()) - positives;
-  if (positives == 0 || negatives == 0) return std::numeric_limits<double>::quiet_NaN();
-  return (rank_sum - positives * (positives + 1) / 2) / (positives * negatives);
+  std::vector<bool> positive;
+  for (float label : labels) positive.push_back(label > 0.5f);
+  return metrics::Auroc(std::vector<double>(scores.begin(), scores.end()), positive);
 }
 
 }  // namespace wm::success

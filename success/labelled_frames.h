@@ -51,7 +51,8 @@ class LabelledFrames {
 };
 
 // Area under the ROC curve of `scores` for `labels` (1 = positive): the probability that a random
-// positive scores above a random negative, ties counted half. NaN without both classes.
+// positive scores above a random negative, ties counted half. NaN without both classes
+// (metrics::Auroc on the same numbers).
 double Auroc(const std::vector<float>& scores, const std::vector<float>& labels);
 
 }  // namespace wm::success

@@ -72,15 +72,26 @@ torch::Tensor ChooseCodes(const torch::Tensor& logp, double temperature,
 
 }  // namespace
 
+torch::Tensor Entropy(const torch::Tensor& log_probs) {
+  const torch::Tensor p = log_probs.exp();
+  return -torch::xlogy(p, p).sum(-1);  // xlogy: 0 log 0 = 0 where a code has probability 0
+}
+
 torch::Tensor SampleFrame(const FrameLogProbs& log_probs, int64_t N, int64_t K, bool one_pass,
-                          int steps, double temperature, const std::vector<uint64_t>& row_seeds) {
+                          int steps, double temperature, const std::vector<uint64_t>& row_seeds,
+                          torch::Tensor* token_entropy) {
   const auto B = static_cast<int64_t>(row_seeds.size());
   std::vector<at::Generator> gens;
   for (uint64_t seed : row_seeds) gens.push_back(at::detail::createCPUGenerator(seed));
   // Next-frame models predict every token at once from the clean context: one pass.
-  if (one_pass) return ChooseCodes(log_probs({}), temperature, gens).contiguous();
+  if (one_pass) {
+    torch::Tensor logp = log_probs({});
+    if (token_entropy) *token_entropy = Entropy(logp);
+    return ChooseCodes(logp, temperature, gens).contiguous();
+  }
   torch::Tensor frame = torch::full({B, N}, K, torch::kInt64);  // CPU; K = still masked
   torch::Tensor masked = torch::ones({B, N}, torch::kBool);     // CPU bookkeeping
+  if (token_entropy) *token_entropy = torch::zeros({B, N}, torch::kFloat);
   for (int s = 0; s < steps; ++s) {
     torch::Tensor logp = log_probs(frame);
     torch::Tensor choice = ChooseCodes(logp, temperature, gens);
@@ -94,6 +105,7 @@ torch::Tensor SampleFrame(const FrameLogProbs& log_probs, int64_t N, int64_t K, 
     newly.scatter_(1, order.slice(1, keep_masked, N), true);
     newly.logical_and_(masked);
     frame = torch::where(newly, choice, frame);
+    if (token_entropy) *token_entropy = torch::where(newly, Entropy(logp), *token_entropy);
     masked.logical_and_(newly.logical_not());
   }
   return frame;  // [B, N]
@@ -101,7 +113,8 @@ torch::Tensor SampleFrame(const FrameLogProbs& log_probs, int64_t N, int64_t K, 
 
 torch::Tensor DecodeNextFrame(WorldModel& model, const torch::Tensor& tokens,
                               const torch::Tensor& actions, const torch::Tensor& z, int steps,
-                              double temperature, const std::vector<uint64_t>& row_seeds) {
+                              double temperature, const std::vector<uint64_t>& row_seeds,
+                              torch::Tensor* token_entropy) {
   torch::NoGradGuard no_grad;
   const int64_t B = tokens.size(0), N = tokens.size(2);
   Check(static_cast<int64_t>(row_seeds.size()) == B,
@@ -113,7 +126,8 @@ torch::Tensor DecodeNextFrame(WorldModel& model, const torch::Tensor& tokens,
     return torch::log_softmax(logits.to(torch::kCPU, torch::kFloat), -1);
   };
   return SampleFrame(log_probs, N, model->config.model.num_codes,
-                     model->config.model.objective == "next_frame", steps, temperature, row_seeds);
+                     model->config.model.objective == "next_frame", steps, temperature, row_seeds,
+                     token_entropy);
 }
 
 }  // namespace wm::train

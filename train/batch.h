@@ -40,12 +40,20 @@ SegmentBatch MakeSegmentBatch(const DynamicsConfig& config, const SegmentData& d
 // The sampling loop of DecodeNextFrame over `log_probs(partial)`: CPU log-probabilities
 // [B, N, K] of the new frame's tokens given `partial` [B, N] (CPU, mask token K where still
 // unknown; undefined for `one_pass`). B = row_seeds.size(). Returns [B, N] int64 on the CPU.
+// `token_entropy`, when given, receives [B, N] float: the entropy (nats) of each token's
+// distribution, untempered, in the round that fixed it (the one pass of a next-frame model);
+// the frame sampled does not depend on it.
 using FrameLogProbs = std::function<torch::Tensor(const torch::Tensor& partial)>;
 torch::Tensor SampleFrame(const FrameLogProbs& log_probs, int64_t N, int64_t K, bool one_pass,
-                          int steps, double temperature, const std::vector<uint64_t>& row_seeds);
+                          int steps, double temperature, const std::vector<uint64_t>& row_seeds,
+                          torch::Tensor* token_entropy = nullptr);
+
+// Entropy (nats) over the last axis of log-probabilities: [..., K] -> [...].
+torch::Tensor Entropy(const torch::Tensor& log_probs);
 
 torch::Tensor DecodeNextFrame(WorldModel& model, const torch::Tensor& tokens,
                               const torch::Tensor& actions, const torch::Tensor& z, int steps,
-                              double temperature, const std::vector<uint64_t>& row_seeds);
+                              double temperature, const std::vector<uint64_t>& row_seeds,
+                              torch::Tensor* token_entropy = nullptr);
 
 }  // namespace wm::train

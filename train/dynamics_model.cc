@@ -166,14 +166,17 @@ FrameContext Extended(const FrameContext& context, const std::vector<int64_t>& f
 }  // namespace
 
 std::vector<int64_t> DynamicsModel::PredictNextFrame(const FrameContext& context, uint64_t seed,
-                                                     int steps, double temperature) const {
+                                                     int steps, double temperature,
+                                                     std::vector<float>* token_entropy) const {
   torch::NoGradGuard no_grad;
   State& s = *state_;  // unique_ptr: const API, non-const state
-  torch::Tensor tokens, actions, z;
+  torch::Tensor tokens, actions, z, entropy;
   s.Tensors(context, max_context_frames(), tokens, actions, z);
   const int n_steps = steps > 0 ? steps : s.config.model.decode_steps;
-  torch::Tensor next = DecodeNextFrame(s.model, tokens, actions, z, n_steps,
-                                       DecodeTemperature(temperature), RowSeeds(context, seed));
+  torch::Tensor next =
+      DecodeNextFrame(s.model, tokens, actions, z, n_steps, DecodeTemperature(temperature),
+                      RowSeeds(context, seed), token_entropy ? &entropy : nullptr);
+  if (token_entropy) *token_entropy = HostVector<float>(entropy.contiguous());  // [B, N]
   return HostVector<int64_t>(next);  // [B, N]
 }
 

@@ -70,8 +70,12 @@ class DynamicsModel {
   // Tokens of frame `frames` [batch, N]. `steps` / `temperature` <= 0 / < 0 take the config's
   // model.decode_steps / model.decode_temperature. Deterministic for a given seed on CPU; a row's
   // frame depends only on its own context and seed, not on the other rows.
+  // `token_entropy`, when given, receives [batch, N]: the entropy (nats) of the model's
+  // (untempered) distribution of each token in the MaskGIT round that fixed it, or of the one
+  // pass of a next_frame model; asking for it does not change the frame.
   std::vector<int64_t> PredictNextFrame(const FrameContext& context, uint64_t seed = 0,
-                                        int steps = 0, double temperature = -1) const;
+                                        int steps = 0, double temperature = -1,
+                                        std::vector<float>* token_entropy = nullptr) const;
   // PredictNextFrame, then PredictRewards' last frame for the context extended by the new frame
   // (and an unused zero action), with the window encoded once and reused by every MaskGIT round
   // and the reward (train/imagine_step.h): what the two calls give, up to float rounding.

@@ -29,6 +29,13 @@ reversed (--controllability shuffled: seeded shuffle; off: skip) and scored as m
 delta_tpsnr = PSNR minus the perturbed rollout's PSNR (Genie's ΔtPSNR; 0 for a model that
 ignores its actions, and for the copies).
 Compare checkpoints with `wm-report compare`.
+Uncertainty without ensembles (--retrace-ks 0,1,3; token models, end-effector-delta actions):
+every step t of the plain rollout is imagined again from the real frame 0, the newest K imagined
+frames and one retrace action for the older steps, once per K (the step's own seed); the
+variants' mean pairwise lpips_style is retrace_disagreement, the mean entropy (nats) of the step's
+token distributions token_entropy. Writes uncertainty.csv (per episode and step, beside the MSE
+and, with --samples >= 2, the samples' disagreement) and summary rows <signal>_error_pearson,
+_error_spearman and _auroc (flagging episodes whose mean MSE is above the median).
 Motion checkpoints (wm-motion train) are scored beside token ones in the same format: the plain
 rollout only, imagined from the real first frame under the logged actions (retrace skipped, with
 a warning when asked for), once (deterministic), with delta_tpsnr; no values.csv or contexts.csv
@@ -139,6 +146,11 @@ int main(int argc, char** argv) {
       ->capture_default_str();
   app.add_option("--samples", o.rollout.samples, "Imaginations per episode (>= 2: uncertainty)")
       ->capture_default_str();
+  app.add_option("--retrace-ks", o.retrace_ks,
+                 "Uncertainty without ensembles (WHALE 3.4): K,K,... kept imagined frames after "
+                 "the real frame 0; every plain step is imagined again per K, scored as "
+                 "retrace_disagreement and token_entropy, written to uncertainty.csv")
+      ->delimiter(',');
   app.add_option("--seed", o.rollout.seed, "Sampling and bootstrap seed")->capture_default_str();
   app.add_option("--temperature", o.rollout.temperature,
                  "MaskGIT sampling temperature (0: argmax; default: the checkpoint's)");

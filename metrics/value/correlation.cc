@@ -135,4 +135,18 @@ double KendallTauB(const std::vector<double>& x, const std::vector<double>& y) {
   return std::clamp(tau, -1.0, 1.0);
 }
 
+double Auroc(const std::vector<double>& score, const std::vector<bool>& positive) {
+  Check(score.size() == positive.size(), "AUROC of " + std::to_string(score.size()) +
+                                             " scores and " + std::to_string(positive.size()) +
+                                             " labels");
+  const std::vector<double> ranks = AverageRanks(score);
+  double rank_sum = 0, n_pos = 0;
+  for (size_t i = 0; i < score.size(); ++i) {
+    if (positive[i]) rank_sum += ranks[i], n_pos += 1;
+  }
+  const double n_neg = static_cast<double>(score.size()) - n_pos;
+  if (n_pos == 0 || n_neg == 0) return kNaN;
+  return (rank_sum - n_pos * (n_pos + 1) / 2) / (n_pos * n_neg);
+}
+
 }  // namespace wm::metrics

@@ -25,4 +25,10 @@ double Spearman(const std::vector<double>& x, const std::vector<double>& y);
 // O(n log n) algorithm (sort by x then y, count inversions of y by merge sort), as SciPy.
 double KendallTauB(const std::vector<double>& x, const std::vector<double>& y);
 
+// Area under the ROC curve of `score` for telling the `positive` items from the others: the
+// probability that a random positive scores above a random negative, ties counting half. By
+// ranks (the Mann-Whitney U of the positives over n_pos * n_neg): (sum of the positives' average
+// ranks - n_pos (n_pos + 1) / 2) / (n_pos n_neg). NaN without positives or negatives.
+double Auroc(const std::vector<double>& score, const std::vector<bool>& positive);
+
 }  // namespace wm::metrics

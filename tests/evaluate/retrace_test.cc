@@ -26,6 +26,12 @@ std::vector<int64_t> Frames(const std::vector<ContextSlot>& slots) {
   return f;
 }
 
+void ExpectSameSlots(const std::vector<ContextSlot>& a, const std::vector<ContextSlot>& b,
+                     int64_t t) {
+  ASSERT_EQ(Frames(a), Frames(b)) << "t = " << t;
+  for (size_t i = 0; i < a.size(); ++i) EXPECT_EQ(a[i].action, b[i].action) << t << " " << i;
+}
+
 TEST(Retrace, ActionSumsDeltasAndKeepsTheLastGripper) {
   auto a = Ramp(4);
   Action r = RetraceAction(a.data(), kActionDim, 3);  // actions 1, 2, 3 (1-based values)
@@ -58,13 +64,41 @@ TEST(Retrace, MatchesThePapersExample) {
 TEST(Retrace, EqualsPlainWhileFrameZeroIsStillInTheWindow) {
   auto a = Ramp(10);
   for (int64_t t = 0; t < 4; ++t) {
-    auto p = PlainContext(a.data(), kActionDim, t, 4);
-    auto r = RetraceContext(a.data(), kActionDim, t, 4);
-    EXPECT_EQ(Frames(p), Frames(r)) << t;
+    ExpectSameSlots(PlainContext(a.data(), kActionDim, t, 4),
+                    RetraceContext(a.data(), kActionDim, t, 4), t);
   }
   // First divergence: t = C, where the plain window drops frame 0.
   EXPECT_EQ(Frames(RetraceContext(a.data(), kActionDim, 4, 4)), (std::vector<int64_t>{0, 2, 3, 4}));
   EXPECT_EQ(RetraceContext(a.data(), kActionDim, 4, 4)[0].action[0], 3.f);  // a_0 + a_1 = 1 + 2
+}
+
+// wm-eval --retrace-ks: frame 0, then the newest `kept` frames; the t - kept + 1 older steps
+// folded into the anchor's action. Ramp's a_i[0] = i + 1.
+TEST(Retrace, AnchoredContextKeepsTheNewestFramesAndFoldsTheRest) {
+  auto a = Ramp(10);
+  auto k0 = AnchoredContext(a.data(), kActionDim, 5, 0);  // frame 0 straight to frame 6
+  EXPECT_EQ(Frames(k0), (std::vector<int64_t>{0}));
+  EXPECT_EQ(k0[0].action, (Action{21, 210, 0, 0, 0, -21, 1}));  // a_0..a_5; a_5 gripper 1
+  auto k2 = AnchoredContext(a.data(), kActionDim, 5, 2);        // a_0..a_3 folded, then frames 4, 5
+  EXPECT_EQ(Frames(k2), (std::vector<int64_t>{0, 4, 5}));
+  EXPECT_EQ(k2[0].action, (Action{10, 100, 0, 0, 0, -10, 1}));  // a_3 gripper 1
+  EXPECT_EQ(k2[1].action[0], 5.f);
+  EXPECT_EQ(k2[2].action[0], 6.f);
+  // Nothing to fold once kept >= t: frames 0..t with their own actions.
+  auto k5 = AnchoredContext(a.data(), kActionDim, 3, 5);
+  EXPECT_EQ(Frames(k5), (std::vector<int64_t>{0, 1, 2, 3}));
+  EXPECT_EQ(k5[0].action[0], 1.f);
+  EXPECT_EQ(Frames(AnchoredContext(a.data(), kActionDim, 3, 3)), Frames(k5));
+  EXPECT_NE(test::ErrorText([&] { AnchoredContext(a.data(), kActionDim, 3, -1); }), "(no error)");
+}
+
+// The retracing rollout's context is the anchored one with C - 1 kept frames, slot for slot.
+TEST(Retrace, RetraceContextIsAnchoredWithContextMinusOneKept) {
+  auto a = Ramp(12);
+  for (int64_t t = 4; t < 11; ++t) {
+    ExpectSameSlots(RetraceContext(a.data(), kActionDim, t, 4),
+                    AnchoredContext(a.data(), kActionDim, t, 3), t);
+  }
 }
 
 TEST(Retrace, SumsEveryDeltaButTheLastValueAtAnyWidth) {

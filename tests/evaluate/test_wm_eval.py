@@ -25,6 +25,7 @@ import unittest
 import cv2
 import jsonschema
 import numpy as np
+from scipy import stats
 from skimage.metrics import structural_similarity
 
 SRC = os.environ.get("WM_SOURCE_DIR", os.path.join(os.path.dirname(__file__), "..", ".."))
@@ -366,6 +367,76 @@ class WmEval(unittest.TestCase):
         rows = read_rows(os.path.join(self.path("argmax_samples", "dyn"), "per_episode.csv"))
         spread = [float(r["value"]) for r in rows if r["metric"] == "uncertainty"]
         self.assertEqual(spread, [0.0] * EPISODES)
+
+    def test_retrace_ks_adds_uncertainty_and_changes_nothing_else(self):
+        """--retrace-ks (docs/reports.md, "Uncertainty without ensembles"): the report without it
+        is this one less the new metrics' rows and uncertainty.csv, which validates against its
+        schema; the variants agree at step 1 (each is frame 0 and a_0); entropies lie in
+        (0, ln K]; the mse column is plain's. With --samples 2 on 4 episodes every signal's
+        Pearson, Spearman and AUROC (Mann-Whitney U / (n_pos n_neg), episodes above the median
+        mean MSE positive) equal SciPy's on the CSV; bad --retrace-ks values exit 1."""
+        signals = ("retrace_disagreement", "token_entropy", "sample_disagreement")
+        out = self.path("uncertainty")
+        ok("wm-eval", *self.eval_args(out), "--retrace-ks", "0,1,2")
+        report = os.path.join(out, "dyn")
+        for file in ("values.csv", "contexts.csv", *STRIPS):
+            self.assertEqual(read_bytes(os.path.join(report, file)),
+                             read_bytes(os.path.join(self.reports[0], file)), file)
+        for file in ("summary.csv", "per_step.csv", "per_episode.csv"):
+            rows = read_rows(os.path.join(report, file))
+            self.assertEqual([r for r in rows if not r["metric"].startswith(signals)],
+                             self.rows[file], file)
+        with open(os.path.join(report, "manifest.json"), encoding="utf-8") as f:
+            self.assertEqual(json.load(f)["config"]["retrace_ks"], [0, 1, 2])
+        rows = read_rows(os.path.join(report, "uncertainty.csv"))
+        validator = jsonschema.Draft202012Validator(schema("report-uncertainty"))
+        self.assertEqual(list(rows[0]), validator.schema["required"])
+        for row in rows:
+            validator.validate(typed(row))
+        self.assertEqual(len(rows), EPISODES * HORIZON)
+        num_codes = wmshard.TokenDataset(self.path("tokens", "val")).index["tokenizer"]["num_codes"]
+        for r in rows:
+            self.assertTrue(0 < float(r["token_entropy"]) <= np.log(num_codes), r)
+            if r["step"] == "1":
+                self.assertEqual(float(r["retrace_disagreement"]), 0.0, r)
+        plain_mse = [number(r["value"]) for r in self.select("per_episode.csv", "plain", "mse")]
+        for k, want in enumerate(plain_mse):
+            mse = [float(r["mse"]) for r in rows if r["episode"] == str(k)]
+            self.assert_close(np.mean(mse), want, f"episode {k} mse", rel=1e-6)
+        self.assert_uncertainty_scores_equal_scipy(signals)
+        for bad in ("0,9", "2"):
+            p = tool("wm-eval", *self.eval_args(self.path("bad_ks")), "--retrace-ks", bad)
+            self.assertEqual(p.returncode, 1, p.stderr)
+            self.assertIn("--retrace-ks", p.stderr)
+
+    def assert_uncertainty_scores_equal_scipy(self, signals):
+        args = self.eval_args(self.path("uncertainty4"))
+        args[args.index("--episodes") + 1] = 4
+        ok("wm-eval", *args, "--retrace-ks", "0,1,4", "--samples", 2, "--temperature", 1)
+        report = self.path("uncertainty4", "dyn")
+        rows = read_rows(os.path.join(report, "uncertainty.csv"))
+        summary = {r["metric"]: r for r in read_rows(os.path.join(report, "summary.csv"))
+                   if r["rollout"] == "plain"}
+        episodes = sorted({int(r["episode"]) for r in rows})
+        self.assertEqual(episodes, [0, 1, 2, 3])
+        error = np.array([float(r["mse"]) for r in rows])
+        of = np.array([int(r["episode"]) for r in rows])
+        mean_error = np.array([error[of == k].mean() for k in episodes])
+        positive = mean_error > np.median(mean_error)
+        for signal in signals:
+            x = np.array([float(r[signal]) for r in rows])
+            self.assert_close(number(summary[signal + "_error_pearson"]["mean"]),
+                              stats.pearsonr(x, error)[0], signal, rel=1e-6)
+            self.assert_close(number(summary[signal + "_error_spearman"]["mean"]),
+                              stats.spearmanr(x, error)[0], signal, rel=1e-6)
+            score = np.array([x[of == k].mean() for k in episodes])
+            u = stats.mannwhitneyu(score[positive], score[~positive]).statistic
+            self.assert_close(number(summary[signal + "_auroc"]["mean"]),
+                              u / (positive.sum() * (~positive).sum()), signal, rel=1e-6)
+            self.assertEqual(int(summary[signal + "_auroc"]["n"]), 4)
+            self.assertEqual(int(summary[signal + "_error_spearman"]["n"]), len(rows))
+        self.assert_close(number(summary["sample_disagreement_error_pearson"]["mean"]),
+                          number(summary["uncertainty_error_corr"]["mean"]), "samples", rel=1e-9)
 
     def test_sharded_jobs_write_the_single_job_report(self):
         args = self.eval_args(self.path("sharded"))

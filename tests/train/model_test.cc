@@ -4,6 +4,7 @@
 #include <torch/torch.h>
 
 #include <cmath>
+#include <limits>
 #include <numbers>
 
 #include "tests/train/test_config.h"
@@ -264,6 +265,37 @@ TEST(MaskGit, DecodingIsDeterministicGivenSeedAndFillsEveryToken) {
                                .logits.select(1, 3)
                                .argmax(-1);
   EXPECT_TRUE(torch::equal(g1, one_shot));  // one greedy step = argmax of the fully masked frame
+}
+
+// wm-eval --retrace-ks' token_entropy: each token's entropy in the round that fixed it. Hand
+// case, N = 2, K = 4: round 0 gives token 0 a sure code and token 1 a uniform distribution
+// (ln 4); round 1 gives token 1 two equally likely codes (ln 2). Two rounds fix one token each
+// (cos(pi/4) * 2 floors to 1 kept masked), the sure one first.
+TEST(MaskGit, TokenEntropyIsTheOneOfTheRoundThatFixedTheToken) {
+  const float inf = std::numeric_limits<float>::infinity();
+  EXPECT_NEAR(Entropy(torch::log(torch::tensor({0.25f, 0.25f, 0.25f, 0.25f}))).item<float>(),
+              std::log(4.f), 1e-6);
+  EXPECT_EQ(Entropy(torch::tensor({0.f, -inf, -inf})).item<float>(), 0.f);
+  int round = 0;
+  auto log_probs = [&](const torch::Tensor&) {
+    const float l2 = std::log(0.5f), l4 = std::log(0.25f);
+    auto rows = round++ == 0 ? torch::tensor({0.f, -inf, -inf, -inf, l4, l4, l4, l4})
+                             : torch::tensor({0.f, -inf, -inf, -inf, l2, l2, -inf, -inf});
+    return rows.view({1, 2, 4});
+  };
+  torch::Tensor entropy;
+  torch::Tensor frame = SampleFrame(log_probs, 2, 4, false, 2, 1.0, {7}, &entropy);
+  EXPECT_EQ(frame[0][0].item<int64_t>(), 0);
+  EXPECT_LT(frame[0][1].item<int64_t>(), 2);  // fixed in round 1
+  EXPECT_EQ(entropy.sizes(), (std::vector<int64_t>{1, 2}));
+  EXPECT_EQ(entropy[0][0].item<float>(), 0.f);
+  EXPECT_NEAR(entropy[0][1].item<float>(), std::log(2.f), 1e-6);
+  // Asking for the entropy does not change the frame sampled.
+  round = 0;
+  EXPECT_TRUE(torch::equal(frame, SampleFrame(log_probs, 2, 4, false, 2, 1.0, {7})));
+  round = 0;  // one pass: the first call's entropies
+  SampleFrame(log_probs, 2, 4, true, 2, 1.0, {7}, &entropy);
+  EXPECT_NEAR(entropy[0][1].item<float>(), std::log(4.f), 1e-6);
 }
 
 // model.copy_prior starts at the copy rule on any grid and either objective; without it an

@@ -84,5 +84,19 @@ TEST(Correlation, UndefinedCasesAreNaN) {
   EXPECT_TRUE(std::isnan(Pearson({0.1, 0.1, 0.1}, {1, 2, 3})));
 }
 
+// AUROC by hand: every (positive, negative) pair, 1 when the positive scores higher, 1/2 on ties.
+
+TEST(Auroc, CountsOrderedPairsAndTiesHalf) {
+  // Pairs (0.35, 0.1) 1, (0.35, 0.4) 0, (0.8, 0.1) 1, (0.8, 0.4) 1: 3 / 4.
+  EXPECT_DOUBLE_EQ(Auroc({0.1, 0.4, 0.35, 0.8}, {false, false, true, true}), 0.75);
+  // Pairs (2, 1) 1, (2, 2) 1/2, (3, 1) 1, (3, 2) 1: 3.5 / 4.
+  EXPECT_DOUBLE_EQ(Auroc({1, 2, 2, 3}, {false, true, false, true}), 0.875);
+  EXPECT_DOUBLE_EQ(Auroc({5, 1, 3}, {true, false, false}), 1.0);
+  EXPECT_DOUBLE_EQ(Auroc({5, 1, 3}, {false, true, true}), 0.0);
+  EXPECT_DOUBLE_EQ(Auroc({2, 2, 2}, {false, true, false}), 0.5);
+  EXPECT_TRUE(std::isnan(Auroc({1, 2}, {true, true})));
+  EXPECT_TRUE(std::isnan(Auroc({}, {})));
+}
+
 }  // namespace
 }  // namespace wm::metrics
