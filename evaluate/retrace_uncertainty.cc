@@ -63,6 +63,7 @@ std::vector<RetraceVariants> ImagineRetraceVariants(const train::DynamicsModel& 
   CheckRetraceKs(ks, ContextFrames(model, o.context));
   CheckRolloutModeFits(RolloutMode::kRetrace, data);
   std::vector<int64_t> episodes;
+  episodes.reserve(plain.size());
   for (const EpisodeRollout& r : plain) episodes.push_back(r.episode);
   const auto z = PolicyEmbeddings(model, data, episodes, o.policy_prefix);
   std::vector<RetraceVariants> out;

@@ -52,6 +52,7 @@ std::vector<bool> AboveMedian(const std::vector<double>& values) {
   const size_t n = sorted.size();
   const double median = n % 2 ? sorted[n / 2] : (sorted[n / 2 - 1] + sorted[n / 2]) / 2;
   std::vector<bool> out;
+  out.reserve(n);
   for (double v : values) out.push_back(v > median);
   return out;
 }

@@ -74,6 +74,7 @@ void LabelledFrames::Load(const std::vector<FrameRef>& refs, float* frames, floa
 
 double Auroc(const std::vector<float>& scores, const std::vector<float>& labels) {
   std::vector<bool> positive;
+  positive.reserve(labels.size());
   for (float label : labels) positive.push_back(label > 0.5f);
   return metrics::Auroc(std::vector<double>(scores.begin(), scores.end()), positive);
 }

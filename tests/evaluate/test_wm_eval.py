@@ -389,6 +389,7 @@ class WmEval(unittest.TestCase):
         with open(os.path.join(report, "manifest.json"), encoding="utf-8") as f:
             self.assertEqual(json.load(f)["config"]["retrace_ks"], [0, 1, 2])
         rows = read_rows(os.path.join(report, "uncertainty.csv"))
+        jsonschema.Draft202012Validator.check_schema(schema("report-uncertainty"))
         validator = jsonschema.Draft202012Validator(schema("report-uncertainty"))
         self.assertEqual(list(rows[0]), validator.schema["required"])
         for row in rows:
