@@ -37,6 +37,12 @@ std::optional<Direction> MetricDirection(const std::string& metric) {
   if (auto it = directions.find(metric); it != directions.end()) return it->second;
   // Segmented-region MSE (WPE eq. 3): mse_arm, mse_object, mse_background, any other region.
   if (metric.size() > 4 && metric.starts_with("mse_")) return Direction::kLowerIsBetter;
+  // wm-eval --retrace-ks: how well an uncertainty signal tracks the error (docs/reports.md).
+  for (const char* suffix : {"_error_pearson", "_error_spearman", "_auroc"}) {
+    if (metric.ends_with(suffix) && metric.size() > std::string(suffix).size()) {
+      return Direction::kHigherIsBetter;
+    }
+  }
   return std::nullopt;
 }
 
@@ -65,7 +71,7 @@ const std::vector<std::string>& HeadlineMetrics() {
 std::string KnownMetricsText() {
   std::string text;
   for (const auto& [name, direction] : Directions()) text += (text.empty() ? "" : ", ") + name;
-  return text + ", mse_<region>";
+  return text + ", mse_<region>, <signal>_error_pearson, <signal>_error_spearman, <signal>_auroc";
 }
 
 }  // namespace wm::report

@@ -8,6 +8,7 @@
 #include <cmath>
 
 #include "evaluate/report/compare_format.h"
+#include "evaluate/report/metric_direction.h"
 #include "report_fixture.h"
 #include "tests/core/test_util.h"
 
@@ -251,6 +252,18 @@ TEST(CompareFormat, MarkdownIsOneTableWithDirectionsAndStars) {
   EXPECT_THAT(md, HasSubstr("| checkpoint | rollout | mse ↓ | Δ mse |"));
   EXPECT_THAT(md, HasSubstr("| a | plain | **1 [0, 2] #1** | baseline |"));
   EXPECT_THAT(md, HasSubstr("| b | plain | 2 [1, 3] #2 | +1 [+1, +1] * |"));
+}
+
+TEST(MetricDirection, UncertaintySignalsTrackingTheErrorAreBetterHigher) {
+  for (const char* metric : {"token_entropy_auroc", "retrace_disagreement_error_pearson",
+                             "sample_disagreement_error_spearman", "uncertainty_error_corr"}) {
+    EXPECT_EQ(MetricDirection(metric), Direction::kHigherIsBetter) << metric;
+  }
+  // The signals themselves and bare suffixes have no better direction.
+  for (const char* metric : {"token_entropy", "retrace_disagreement", "_auroc", "uncertainty"}) {
+    EXPECT_EQ(MetricDirection(metric), std::nullopt) << metric;
+  }
+  EXPECT_EQ(MetricDirection("mse_block"), Direction::kLowerIsBetter);
 }
 
 }  // namespace
