@@ -12,7 +12,7 @@ over steps, and at step 8).
   bench/warp_predictor.py --train data/demo/shards/train --val data/demo/shards/val \
       [--steps 600] [--unroll 1] [--channels 48] [--no-jacobian] [--strip OUT.png] \
       [--self-condition P] [--post-refine C] [--edge-loss W] [--flow-l1 W] [--seed S] \
-      [--background-memory]
+      [--background-memory] [--retrace both|only [--pyramid-loss W]]
 
 The last options are variants tried against the smear (docs/motion.md, "How the recipe was
 chosen"); none is in wm-motion: --self-condition P feeds the net, with probability P per batch,
@@ -23,7 +23,10 @@ from it and the decoder's features (it sees the warped result, so it could sharp
 --flow-l1 W adds W times the mean flow length in pixels (most of the scene is static, and on a
 plain table the photometric loss leaves the flow of uniform regions free).
 --background-memory is a change of model class, not of recipe: the real frame 0 as a third
-source the net may copy per pixel (BackgroundMemoryNet).
+source the net may copy per pixel (BackgroundMemoryNet). --retrace is WHALE's retracing rollout
+for this model: frame 0 warped by a second flow linear in the retrace action (RetraceWarpNet),
+beside the warped current frame ("both") or alone ("only"); --pyramid-loss W adds W times the
+L1 of that warp at three blur levels, so a large flow gets a gradient on a plain table.
 """
 import argparse
 import os
@@ -35,6 +38,7 @@ import numpy as np
 import torch
 from skimage.metrics import structural_similarity
 from torch import nn
+from torch.nn import functional as F
 
 HERE = os.path.dirname(os.path.abspath(__file__))
 sys.path.insert(0, HERE)
@@ -53,12 +57,13 @@ def learning_rate(step, steps):  # trainkit::LearningRateAt: linear warmup, cosi
     return MIN_LR + 0.5 * (LR - MIN_LR) * (1 + np.cos(np.pi * progress))
 
 
-def unet_features(net, inp, action):
+def unet_features(net, inp, action, extra=0):
     """The twin's U-Net up to its head (warp_twin.WarpNet.forward's first lines): full-resolution
-    features of the input frames with the action added at the bottleneck."""
+    features of the input frames with the action (and `extra` [B, C]) added at the bottleneck."""
     h1 = net.down1(inp)
     h2 = net.down2(h1)
-    u = net.up3(net.middle(net.down3(h2) + net.action_in(action)[:, :, None, None]))
+    bottleneck = net.action_in(action) + extra
+    u = net.up3(net.middle(net.down3(h2) + bottleneck[:, :, None, None]))
     return net.up1(torch.cat([net.up2(torch.cat([u, h2], 1)), h1], 1))
 
 
@@ -123,20 +128,81 @@ class BackgroundMemoryNet(warp_twin.WarpNet):
         return (1 - gate) * kept + gate * rgb, flow, gate
 
 
-def predict_next(net, current, previous, action, first):
-    """One predicted frame; `first` (the real frame 0) reaches only a BackgroundMemoryNet."""
+class RetraceWarpNet(BackgroundMemoryNet):
+    """WHALE's retracing rollout (whale-x.txt Sec. 3.4) for a pixel model: beside the step's
+    action a_t the net gets the retrace action r_t = retrace(a_0..a_t) (eq. 6: end-effector
+    deltas summed, the last gripper command), which leads from the real frame 0 straight to
+    frame t+1, and a second flow linear in it that samples frame 0:
+
+      source0 = warp(x_0, b0 + sum_i J0_i r_t,i)          (one resampling of a real frame)
+      next = (1 - g) * ((1 - m) * warp(x_t, flow) + m * source0) + g * tanh(rgb)   ("both")
+      next = (1 - g) * source0 + g * tanh(rgb)                                     ("only")
+
+    The imagined x_t still tells the net where things are now (so J0 can be read off the arm's
+    current pixels); the pixels themselves come from the sharp real frame, so the arm need not
+    be resampled once per step. "only" is the pure fast track: every frame one warp of x_0."""
+
+    def __init__(self, model, action_dim, mode):
+        super().__init__(model, action_dim)
+        c, self.mode = model["channels"], mode
+        self.retrace_in = nn.Linear(action_dim, c)
+        self.extra0 = 2 + 2 * action_dim  # b0 and J0 after BackgroundMemoryNet's outputs
+        self.head = nn.Conv2d(c + 9, self.head.out_channels + self.extra0, 3, 1, 1)
+        nn.init.zeros_(self.head.weight)
+        nn.init.zeros_(self.head.bias)
+
+    def forward(self, current, previous, action, first, retrace):
+        inp = torch.cat([current, previous, first], 1)
+        out = self.head(torch.cat([unet_features(self, inp, action, self.retrace_in(retrace)),
+                                   inp], 1))
+        b, _, h, w = out.shape
+        out, out0 = out[:, :-self.extra0], out[:, -self.extra0:]
+        flow = out[:, warp_twin.FLOW_BIAS:warp_twin.JACOBIAN]
+        jac = out[:, warp_twin.JACOBIAN:-1].view(b, 2, self.action_dim, h, w)
+        flow = (flow + (jac * action.view(b, 1, self.action_dim, 1, 1)).sum(2)) * self.flow_scale
+        jac0 = out0[:, 2:].view(b, 2, self.action_dim, h, w)
+        flow0 = out0[:, :2] + (jac0 * retrace.view(b, 1, self.action_dim, 1, 1)).sum(2)
+        self.flow0 = flow0 * self.flow_scale  # for the pyramid loss
+        source0 = warp_twin.warp(first, self.flow0)
+        gate = torch.sigmoid(out[:, warp_twin.GATE:warp_twin.GATE + 1] + self.gate_bias)
+        rgb = torch.tanh(out[:, warp_twin.RGB:warp_twin.RGB + 3])
+        if self.mode == "only":
+            kept = source0
+        else:
+            memory = torch.sigmoid(out[:, -1:])
+            kept = (1 - memory) * warp_twin.warp(current, flow) + memory * source0
+        return (1 - gate) * kept + gate * rgb, flow, gate
+
+
+def retrace_actions(raw, norm):
+    """[T, D] raw actions -> [T, D] retrace actions r_t = retrace(a_0..a_t), scaled like the
+    actions: summed deltas divided by the actions' std (no mean: a sum of n means is not a
+    mean), the last (gripper) dimension normalised as the step's own action is."""
+    normed = norm(raw)
+    scale = norm(np.ones_like(raw[:1])) - norm(np.zeros_like(raw[:1]))  # 1 / std per dim
+    out = np.cumsum(raw, 0) * scale
+    out[:, -1] = normed[:, -1]
+    return out.astype(np.float32)
+
+
+def predict_next(net, current, previous, action, first, retrace=None):
+    """One predicted frame; `first` (the real frame 0) reaches only a BackgroundMemoryNet, the
+    retrace action only a RetraceWarpNet."""
+    if isinstance(net, RetraceWarpNet):
+        return net(current, previous, action, first, retrace)
     if isinstance(net, BackgroundMemoryNet):
         return net(current, previous, action, first)
     return net(current, previous, action)
 
 
 @torch.no_grad()
-def imagine(net, first, actions):
+def imagine(net, first, actions, retraces=None):
     """warp_twin.imagine through predict_next(): open-loop frames after `first`."""
     current = previous = first
     frames = []
     for h in range(actions.shape[1]):
-        nxt = predict_next(net, current, previous, actions[:, h], first)[0].clamp(-1, 1)
+        r = None if retraces is None else retraces[:, h]
+        nxt = predict_next(net, current, previous, actions[:, h], first, r)[0].clamp(-1, 1)
         frames.append(nxt)
         previous, current = current, nxt
     return torch.stack(frames, 1)
@@ -144,18 +210,20 @@ def imagine(net, first, actions):
 
 def batch(episodes, norm, rng, unroll):
     """[B, unroll + 3, 3, S, S] windows (frames t-2, t-1, t, t+1..t+unroll, indices clamped at
-    0), the normalised actions a_{t-1}..a_{t+unroll-1} (a_0 again at t = 0), whether t > 0 and
-    the episodes' frames 0 [B, 3, S, S]."""
-    clips, actions, later, firsts = [], [], [], []
+    0), the normalised actions a_{t-1}..a_{t+unroll-1} (a_0 again at t = 0), whether t > 0,
+    the episodes' frames 0 [B, 3, S, S] and the retrace actions r_{t-1}..r_{t+unroll-1}."""
+    clips, actions, later, firsts, retraces = [], [], [], [], []
     for _ in range(BATCH):
         frames, _, acts = episodes[rng.integers(len(episodes))]
         t = int(rng.integers(len(frames) - unroll))
         clips.append(frames[[max(t - 2, 0), max(t - 1, 0)] + list(range(t, t + unroll + 1))])
-        actions.append(norm(acts[[max(t - 1, 0)] + list(range(t, t + unroll))]))
+        steps = [max(t - 1, 0)] + list(range(t, t + unroll))
+        actions.append(norm(acts[steps]))
+        retraces.append(retrace_actions(acts[:t + unroll], norm)[steps])
         later.append(t > 0)
         firsts.append(frames[0])
     return (torch.stack(clips), torch.tensor(np.stack(actions)), torch.tensor(later),
-            torch.stack(firsts))
+            torch.stack(firsts), torch.tensor(np.stack(retraces)))
 
 
 def edge_l1(a, b):
@@ -168,6 +236,26 @@ def edge_l1(a, b):
     return (dx(a) - dx(b)).abs().mean() + (dy(a) - dy(b)).abs().mean()
 
 
+def box_blur(z, radius):
+    """Two box filters of width 2 radius + 1 (about a Gaussian of sigma 0.8 radius), edges
+    repeated."""
+    for _ in range(2):
+        z = F.avg_pool2d(F.pad(z, [radius] * 4, mode="replicate"), 2 * radius + 1, stride=1)
+    return z
+
+
+def pyramid_loss(net, first, target):
+    """L1 of frame 0 warped by the retrace flow against the target, both blurred at radii
+    2, 4, 8: a warp's gradient is the source's spatial gradient where the flow points, zero on
+    a plain table, so a large flow starting from 0 gets no signal at full resolution; blurred
+    copies spread the arm's edges far enough to pull the flow from afar (coarse-to-fine)."""
+    loss = 0
+    for radius in (2, 4, 8):
+        warped = warp_twin.warp(box_blur(first, radius), net.flow0)
+        loss = loss + (warped - box_blur(target, radius)).abs().mean() / 3
+    return loss
+
+
 def fit(net, episodes, norm, steps, args):
     opt = torch.optim.AdamW(net.parameters(), LR, betas=(0.9, 0.9), weight_decay=0.01)
     rng = np.random.default_rng(args.seed)
@@ -175,18 +263,22 @@ def fit(net, episodes, norm, steps, args):
     for step in range(steps):
         for group in opt.param_groups:
             group["lr"] = learning_rate(step, steps)
-        clips, actions, later, first = batch(episodes, norm, rng, unroll)
+        clips, actions, later, first, retraces = batch(episodes, norm, rng, unroll)
         previous, current, loss = clips[:, 1], clips[:, 2], 0
         if args.self_condition > 0 and rng.random() < args.self_condition:
             with torch.no_grad():  # frame t as imagined from t-1 (kept real where t = 0)
-                imagined = predict_next(net, clips[:, 1], clips[:, 0], actions[:, 0], first)[0]
+                imagined = predict_next(net, clips[:, 1], clips[:, 0], actions[:, 0], first,
+                                        retraces[:, 0])[0]
             imagined = imagined.clamp(-1, 1)
             current = torch.where(later.view(-1, 1, 1, 1), imagined, current)
         for u in range(unroll):
-            predicted, flow, _ = predict_next(net, current, previous, actions[:, u + 1], first)
+            predicted, flow, _ = predict_next(net, current, previous, actions[:, u + 1], first,
+                                              retraces[:, u + 1])
             loss = loss + (predicted - clips[:, u + 3]).abs().mean() / unroll
             if args.flow_l1 > 0:
                 loss = loss + args.flow_l1 * flow.norm(dim=1).mean() / unroll
+            if args.pyramid_loss > 0:
+                loss = loss + args.pyramid_loss * pyramid_loss(net, first, clips[:, u + 3]) / unroll
             if args.edge_loss > 0:
                 loss = loss + args.edge_loss * edge_l1(predicted, clips[:, u + 3]) / unroll
             previous, current = current, predicted
@@ -215,9 +307,12 @@ def score(net, episodes, norm):
     rows = []
     for k in range(recipes.ROLLOUTS):
         frames, seg, acts = episodes[k]
-        normed = torch.tensor(norm(acts[:H]))[None]
-        preds = {name: goal1.to_uint8(imagine(net, frames[:1], a)[0])
-                 for name, a in (("model", normed), ("reversed", torch.flip(normed, [1])))}
+        runs = {}
+        for name, raw in (("model", acts[:H]), ("reversed", acts[:H][::-1].copy())):
+            runs[name] = (torch.tensor(norm(raw))[None],
+                          torch.tensor(retrace_actions(raw, norm))[None])
+        preds = {name: goal1.to_uint8(imagine(net, frames[:1], a, r)[0])
+                 for name, (a, r) in runs.items()}
         real = goal1.to_uint8(frames[1:H + 1])
         preds["copy_last"] = np.repeat(goal1.to_uint8(frames[:1]), H, 0)
         for name, p in preds.items():
@@ -244,6 +339,10 @@ def main():
     ap.add_argument("--seed", type=int, default=0)
     ap.add_argument("--background-memory", action="store_true",
                     help="a third source: the real frame 0, chosen per pixel (BackgroundMemoryNet)")
+    ap.add_argument("--retrace", choices=("both", "only"),
+                    help="frame 0 warped by a flow linear in the retrace action (RetraceWarpNet)")
+    ap.add_argument("--pyramid-loss", type=float, default=0, metavar="W",
+                    help="with --retrace: W times the blurred-pyramid L1 of frame 0's warp")
     args = ap.parse_args()
     torch.set_num_threads(1)
     torch.manual_seed(args.seed)
@@ -256,7 +355,9 @@ def main():
         return ((a - mean) / std).astype(np.float32)
     model = {"channels": args.channels, "flow_scale": 4.0, "gate_bias": -3.0,
              "action_jacobian": not args.no_jacobian}
-    if args.background_memory:
+    if args.retrace:
+        net = RetraceWarpNet(model, actions.shape[1], args.retrace)
+    elif args.background_memory:
         net = BackgroundMemoryNet(model, actions.shape[1])
     elif args.post_refine:
         net = PostRefinedNet(model, actions.shape[1], args.post_refine)
