@@ -120,26 +120,38 @@ void WriteEpisodeStrip(const std::string& dir, int64_t episode, const Clip& real
 void WriteStripOverview(const std::string& dir, const std::vector<int64_t>& episodes, int count,
                         int size) {
   const int cell = size * StripScale(size);
-  std::vector<cv::Mat> parts;
+  std::vector<std::pair<int64_t, cv::Mat>> strips;
   for (size_t i = 0; i < episodes.size() && static_cast<int>(i) < count; ++i) {
-    const int64_t k = episodes[i];
     const std::string path =
-        (std::filesystem::path(dir) / ("episode_" + std::to_string(k) + ".png")).string();
+        (std::filesystem::path(dir) / ("episode_" + std::to_string(episodes[i]) + ".png")).string();
     if (!std::filesystem::exists(path)) continue;
-    const cv::Mat strip = cv::imread(path, cv::IMREAD_COLOR);
-    Check(!strip.empty(), "cannot read the strip back", {.file = path});
+    strips.emplace_back(episodes[i], cv::imread(path, cv::IMREAD_COLOR));
+    Check(!strips.back().second.empty(), "cannot read the strip back", {.file = path});
+  }
+  if (strips.empty()) return;
+  // Episodes shorter than the horizon have fewer columns: the header comes from the widest
+  // strip and narrower rows are padded on the right.
+  const cv::Mat& widest = std::max_element(strips.begin(), strips.end(), [](auto& a, auto& b) {
+                            return a.second.cols < b.second.cols;
+                          })->second;
+  const auto padded = [&](const cv::Mat& part) {
+    cv::Mat out;
+    cv::copyMakeBorder(part, out, 0, 0, 0, widest.cols - part.cols, cv::BORDER_CONSTANT,
+                       kBackground);
+    return out;
+  };
+  std::vector<cv::Mat> parts = {widest.rowRange(0, kStripHeaderHeight).clone()};
+  for (const auto& [episode, strip] : strips) {
     const int rows = (strip.rows - kStripHeaderHeight + kStripGap) / (cell + kStripGap);
-    if (parts.empty()) parts.push_back(strip.rowRange(0, kStripHeaderHeight).clone());
     for (int r : {0, 1, rows - 1}) {  // real, the first model rollout, its error
       const int y = kStripHeaderHeight + r * (cell + kStripGap);
-      cv::Mat row = strip.rowRange(y, std::min(strip.rows, y + cell + kStripGap)).clone();
-      cv::putText(row, "episode " + std::to_string(k), {4, 16}, cv::FONT_HERSHEY_SIMPLEX, 0.45,
-                  kText, 1, cv::LINE_AA);
+      cv::Mat row = padded(strip.rowRange(y, std::min(strip.rows, y + cell + kStripGap)));
+      cv::putText(row, "episode " + std::to_string(episode), {4, 16}, cv::FONT_HERSHEY_SIMPLEX,
+                  0.45, kText, 1, cv::LINE_AA);
       parts.push_back(row);
     }
-    parts.back().push_back(cv::Mat(3 * kStripGap, strip.cols, CV_8UC3, kBackground));
+    parts.back().push_back(cv::Mat(3 * kStripGap, widest.cols, CV_8UC3, kBackground));
   }
-  if (parts.empty()) return;
   cv::Mat overview;
   cv::vconcat(parts, overview);
   WritePng((std::filesystem::path(dir) / "overview.png").string(), overview);

@@ -34,7 +34,8 @@ void WriteEpisodeStrip(const std::string& dir, int64_t episode, const Clip& real
 
 // Writes DIR/overview.png atomically: the real, first model rollout and error rows of the strips
 // DIR/episode_K.png of the first `count` of `episodes` (frames `size` px a side), stacked under
-// one header, each row's label marked with its episode. Reads the strips back, so a sharded
+// one header, each row's label marked with its episode; strips of episodes shorter than the
+// horizon are padded on the right to the widest. Reads the strips back, so a sharded
 // run's completing job can draw strips that other jobs wrote. Does nothing without strips.
 void WriteStripOverview(const std::string& dir, const std::vector<int64_t>& episodes, int count,
                         int size);
