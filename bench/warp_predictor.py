@@ -12,7 +12,7 @@ over steps, and at step 8).
   bench/warp_predictor.py --train data/demo/shards/train --val data/demo/shards/val \
       [--steps 600] [--unroll 1] [--channels 48] [--no-jacobian] [--strip OUT.png] \
       [--self-condition P] [--post-refine C] [--edge-loss W] [--flow-l1 W] [--seed S] \
-      [--background-memory] [--retrace both|only [--pyramid-loss W]]
+      [--background-memory] [--retrace both|only [--pyramid-loss W]] [--gan W]
 
 The last options are variants tried against the smear (docs/motion.md, "How the recipe was
 chosen"); none is in wm-motion: --self-condition P feeds the net, with probability P per batch,
@@ -27,6 +27,8 @@ source the net may copy per pixel (BackgroundMemoryNet). --retrace is WHALE's re
 for this model: frame 0 warped by a second flow linear in the retrace action (RetraceWarpNet),
 beside the warped current frame ("both") or alone ("only"); --pyramid-loss W adds W times the
 L1 of that warp at three blur levels, so a large flow gets a gradient on a plain table.
+--gan W adds an adversarial loss (a PatchGAN critic of (current, next) pairs, as SAVP's) so the
+predictor is pushed away from blurred means towards frames a real step could produce.
 """
 import argparse
 import os
@@ -256,15 +258,47 @@ def pyramid_loss(net, first, target):
     return loss
 
 
+class Critic(nn.Module):
+    """A PatchGAN critic of (current, next) frame pairs, as SAVP's (Lee et al. 2018, stochastic
+    adversarial video prediction, on robot pushing): [B, 1, S/8, S/8] hinge logits, spectral
+    norm for stability. Under L1 alone the predictor paints the mean of what it is unsure of (the
+    blur); the critic penalises frames that no real step would produce."""
+
+    def __init__(self, channels=32):
+        super().__init__()
+        sn, c = nn.utils.spectral_norm, channels
+        self.net = nn.Sequential(
+            sn(nn.Conv2d(6, c, 4, 2, 1)), nn.LeakyReLU(0.2), sn(nn.Conv2d(c, 2 * c, 4, 2, 1)),
+            nn.LeakyReLU(0.2), sn(nn.Conv2d(2 * c, 4 * c, 4, 2, 1)), nn.LeakyReLU(0.2),
+            sn(nn.Conv2d(4 * c, 1, 3, 1, 1)))
+
+    def forward(self, current, nxt):
+        return self.net(torch.cat([current, nxt], 1))
+
+
+def critic_step(critic, opt, pairs):
+    """One hinge-loss step of the critic on (current, real next, imagined next) triples."""
+    opt.zero_grad()
+    loss = 0
+    for current, real, fake in pairs:
+        loss = loss + (F.relu(1 - critic(current, real)).mean() +
+                       F.relu(1 + critic(current, fake)).mean()) / len(pairs)
+    loss.backward()
+    opt.step()
+
+
 def fit(net, episodes, norm, steps, args):
     opt = torch.optim.AdamW(net.parameters(), LR, betas=(0.9, 0.9), weight_decay=0.01)
+    critic = Critic() if args.gan > 0 else None
+    critic_opt = (torch.optim.Adam(critic.parameters(), 2e-4, betas=(0.5, 0.999))
+                  if critic is not None else None)
     rng = np.random.default_rng(args.seed)
     unroll = args.unroll
     for step in range(steps):
         for group in opt.param_groups:
             group["lr"] = learning_rate(step, steps)
         clips, actions, later, first, retraces = batch(episodes, norm, rng, unroll)
-        previous, current, loss = clips[:, 1], clips[:, 2], 0
+        previous, current, loss, pairs = clips[:, 1], clips[:, 2], 0, []
         if args.self_condition > 0 and rng.random() < args.self_condition:
             with torch.no_grad():  # frame t as imagined from t-1 (kept real where t = 0)
                 imagined = predict_next(net, clips[:, 1], clips[:, 0], actions[:, 0], first,
@@ -277,6 +311,9 @@ def fit(net, episodes, norm, steps, args):
             loss = loss + (predicted - clips[:, u + 3]).abs().mean() / unroll
             if args.flow_l1 > 0:
                 loss = loss + args.flow_l1 * flow.norm(dim=1).mean() / unroll
+            if critic is not None:
+                loss = loss - args.gan * critic(current.detach(), predicted).mean() / unroll
+                pairs.append((current.detach(), clips[:, u + 3], predicted.detach()))
             if args.pyramid_loss > 0:
                 loss = loss + args.pyramid_loss * pyramid_loss(net, first, clips[:, u + 3]) / unroll
             if args.edge_loss > 0:
@@ -286,6 +323,8 @@ def fit(net, episodes, norm, steps, args):
         loss.backward()
         nn.utils.clip_grad_norm_(net.parameters(), 1.0)
         opt.step()
+        if critic is not None:
+            critic_step(critic, critic_opt, pairs)
 
 
 def psnr(a, b):
@@ -343,6 +382,8 @@ def main():
                     help="frame 0 warped by a flow linear in the retrace action (RetraceWarpNet)")
     ap.add_argument("--pyramid-loss", type=float, default=0, metavar="W",
                     help="with --retrace: W times the blurred-pyramid L1 of frame 0's warp")
+    ap.add_argument("--gan", type=float, default=0, metavar="W",
+                    help="W times a PatchGAN critic's hinge loss on the imagined frames (Critic)")
     args = ap.parse_args()
     torch.set_num_threads(1)
     torch.manual_seed(args.seed)
