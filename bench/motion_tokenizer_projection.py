@@ -12,8 +12,8 @@ episodes 0..7 as bench/warp_predictor.py does, for four ways of using the projec
 
   bench/motion_tokenizer_projection.py [--demo data/demo] [--strips DIR]
 
-Measured 2026-11-26 in docs/motion.md ("WHALE's retracing for the pixel model, and projecting
-through the tokenizer").
+Measured 2026-11-26 in docs/motion.md ("WHALE's retracing for the pixel model, projecting
+through the tokenizer, an adversarial loss").
 """
 import argparse
 import os
