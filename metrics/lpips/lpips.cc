@@ -12,39 +12,11 @@
 
 #include "core/error.h"
 #include "core/tensor_archive.h"
+#include "metrics/lpips/alexnet_trunk.h"
 #include "metrics/lpips/lpips_ops.h"
 
 namespace wm::metrics {
 namespace {
-
-// torchvision alexnet().features up to relu5 (its final max-pool, index 12, is not used),
-// tapped where lpips.pretrained_networks.alexnet cuts its slices: after indices 1, 4, 7, 9, 11.
-struct AlexNetTrunkImpl : torch::nn::Module {
-  AlexNetTrunkImpl() {
-    using torch::nn::Conv2dOptions;
-    conv1 =
-        register_module("conv1", torch::nn::Conv2d(Conv2dOptions(3, 64, 11).stride(4).padding(2)));
-    conv2 = register_module("conv2", torch::nn::Conv2d(Conv2dOptions(64, 192, 5).padding(2)));
-    conv3 = register_module("conv3", torch::nn::Conv2d(Conv2dOptions(192, 384, 3).padding(1)));
-    conv4 = register_module("conv4", torch::nn::Conv2d(Conv2dOptions(384, 256, 3).padding(1)));
-    conv5 = register_module("conv5", torch::nn::Conv2d(Conv2dOptions(256, 256, 3).padding(1)));
-  }
-
-  std::array<torch::Tensor, kLpipsLayers> forward(const torch::Tensor& x) {  // x: [N, 3, H, W]
-    std::array<torch::Tensor, kLpipsLayers> relu;
-    relu[0] = conv1->forward(x).relu_();                           // [N, 64, H1, W1]
-    torch::Tensor h = torch::max_pool2d(relu[0], {3, 3}, {2, 2});  // [N, 64, H2, W2]
-    relu[1] = conv2->forward(h).relu_();                           // [N, 192, H2, W2]
-    h = torch::max_pool2d(relu[1], {3, 3}, {2, 2});                // [N, 192, H3, W3]
-    relu[2] = conv3->forward(h).relu_();                           // [N, 384, H3, W3]
-    relu[3] = conv4->forward(relu[2]).relu_();                     // [N, 256, H3, W3]
-    relu[4] = conv5->forward(relu[3]).relu_();                     // [N, 256, H3, W3]
-    return relu;
-  }
-
-  torch::nn::Conv2d conv1{nullptr}, conv2{nullptr}, conv3{nullptr}, conv4{nullptr}, conv5{nullptr};
-};
-TORCH_MODULE(AlexNetTrunk);
 
 struct LpipsNetOptions {
   std::array<int64_t, kLpipsLayers> channels = {64, 192, 384, 256, 256};
@@ -112,8 +84,7 @@ void LoadWeights(const TensorArchiveReader& archive, LpipsNetImpl& net) {
   torch::NoGradGuard no_grad;
   Load(archive, "scaling_layer.shift", net.shift);
   Load(archive, "scaling_layer.scale", net.scale);
-  const std::array<torch::nn::Conv2d, kLpipsLayers> convs = {
-      net.trunk->conv1, net.trunk->conv2, net.trunk->conv3, net.trunk->conv4, net.trunk->conv5};
+  const std::array<torch::nn::Conv2d, kLpipsLayers>& convs = net.trunk->convs;
   // Index of each conv in torchvision's alexnet().features, kept by lpips in its slice names.
   const std::array<int, kLpipsLayers> feature_index = {0, 3, 6, 8, 10};
   for (int l = 0; l < kLpipsLayers; ++l) {
@@ -213,6 +184,7 @@ Lpips::Lpips(const std::string& weights_file, const LpipsOptions& options)
   state_->net->eval();
   state_->scaling = std::make_unique<InputScaling>(state_->net->shift, state_->net->scale);
   state_->net->to(state_->device);
+  if (state_->device.is_cpu()) state_->net->trunk->PrepackForOneDnn();
 }
 
 Lpips::~Lpips() = default;
