@@ -184,7 +184,7 @@ Lpips::Lpips(const std::string& weights_file, const LpipsOptions& options)
   state_->net->eval();
   state_->scaling = std::make_unique<InputScaling>(state_->net->shift, state_->net->scale);
   state_->net->to(state_->device);
-  if (state_->device.is_cpu()) state_->net->trunk->PrepackForOneDnn();
+  if (state_->device.is_cpu()) state_->net->trunk->PrepareForCpu();
 }
 
 Lpips::~Lpips() = default;
