@@ -1,7 +1,7 @@
 #pragma once
 // torchvision alexnet().features up to relu5 (its final max-pool, index 12, is not used), tapped
-// where lpips.pretrained_networks.alexnet cuts its slices: after indices 1, 4, 7, 9, 11. Internal to
-// wm_lpips (includes LibTorch).
+// where lpips.pretrained_networks.alexnet cuts its slices: after indices 1, 4, 7, 9, 11. Internal
+// to wm_lpips (includes LibTorch).
 #include <torch/torch.h>
 
 #include <array>

@@ -8,7 +8,8 @@
 namespace wm::metrics {
 
 InputScaling::InputScaling(const torch::Tensor& shift, const torch::Tensor& scale) {
-  // The byte table comes from the same torch ops the per-pixel chain ran, so it is bit-identical.
+  // The table comes from the float ops the per-pixel chain ran, in the same order, so uint8 inputs
+  // reach conv1 as before.
   const torch::Tensor bytes = torch::arange(256, torch::kFloat32).view({1, 1, 1, 256});
   const torch::Tensor table = ((bytes / 127.5 - 1.0) - shift) / scale;  // [1, 3, 1, 256]
   const torch::Tensor flat = table.contiguous();
@@ -66,8 +67,10 @@ double PairTermChannelsLast(const float* f0, const float* f1, const float* w, in
   for (int64_t p = 0; p < positions; ++p) {
     const float* a = f0 + p * channels;
     const float* b = f1 + p * channels;
-    const float inv_a = 1.0f / (std::sqrt(LaneSum(channels, [a](int64_t c) { return a[c] * a[c]; })) + eps);
-    const float inv_b = 1.0f / (std::sqrt(LaneSum(channels, [b](int64_t c) { return b[c] * b[c]; })) + eps);
+    const float inv_a =
+        1.0f / (std::sqrt(LaneSum(channels, [a](int64_t c) { return a[c] * a[c]; })) + eps);
+    const float inv_b =
+        1.0f / (std::sqrt(LaneSum(channels, [b](int64_t c) { return b[c] * b[c]; })) + eps);
     sum += LaneSum(channels, [&](int64_t c) {
       const float d = a[c] * inv_a - b[c] * inv_b;
       return w[c] * d * d;
@@ -127,8 +130,8 @@ torch::Tensor ScaledBatch(const std::vector<const float*>& images, int height, i
 torch::Tensor LayerTerms(const torch::Tensor& features, const torch::Tensor& lin, double eps) {
   TORCH_CHECK(features.is_cpu() && features.scalar_type() == torch::kFloat32 &&
               features.dim() == 4 && features.size(0) % 2 == 0);
-  const bool channels_last = !features.is_contiguous() &&
-                             features.is_contiguous(at::MemoryFormat::ChannelsLast);
+  const bool channels_last =
+      !features.is_contiguous() && features.is_contiguous(at::MemoryFormat::ChannelsLast);
   const torch::Tensor f = channels_last ? features : features.contiguous();
   const torch::Tensor w = lin.contiguous();
   const int64_t batch = f.size(0) / 2, channels = f.size(1), positions = f.size(2) * f.size(3);

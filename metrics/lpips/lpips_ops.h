@@ -25,7 +25,8 @@ class InputScaling {
   std::array<std::array<float, 256>, 3> of_byte_{};
 };
 
-// images: N pointers to H x W x 3 interleaved RGB -> s(image), [N, 3, H, W] float on the CPU.
+// images: N pointers to H x W x 3 interleaved RGB -> s(image), [N, 3, H, W] float on the CPU,
+// channels-last (the pixels keep their interleaved order).
 torch::Tensor ScaledBatch(const std::vector<const uint8_t*>& images, int height, int width,
                           const InputScaling& scaling);
 torch::Tensor ScaledBatch(const std::vector<const float*>& images, int height, int width,

@@ -4,8 +4,8 @@
 Weights: scripts/export_lpips_weights.py --random-seed 0. This file reads the archive with its own
 numpy reader, written from docs/metrics-lpips.md, and builds LPIPS-alex v0.1 from torch.nn.functional
 ops exactly as the lpips package computes it (ScalingLayer, alexnet slices, normalize_tensor,
-lin 1x1 conv, spatial mean, sum). Checks, on random and structured 64x64 pairs, a 48x80 set and a 144x176 set (the C++ trunk's
-channels-last path):
+lin 1x1 conv, spatial mean, sum). Checks, on random and structured 64x64 pairs, a 48x80 set
+and a 144x176 set (the C++ trunk's channels-last path):
   - C++ distances and per-layer terms == PyTorch within 1e-5 absolute;
   - C++ relu1..relu5 == torchvision.models.alexnet().features cut after indices 1, 4, 7, 9, 11
     (the lpips slices), and the reference's own taps == torchvision's;
