@@ -12,38 +12,11 @@
 
 #include "core/error.h"
 #include "core/tensor_archive.h"
+#include "metrics/lpips/alexnet_trunk.h"
+#include "metrics/lpips/lpips_ops.h"
 
 namespace wm::metrics {
 namespace {
-
-// torchvision alexnet().features up to relu5 (its final max-pool, index 12, is not used),
-// tapped where lpips.pretrained_networks.alexnet cuts its slices: after indices 1, 4, 7, 9, 11.
-struct AlexNetTrunkImpl : torch::nn::Module {
-  AlexNetTrunkImpl() {
-    using torch::nn::Conv2dOptions;
-    conv1 =
-        register_module("conv1", torch::nn::Conv2d(Conv2dOptions(3, 64, 11).stride(4).padding(2)));
-    conv2 = register_module("conv2", torch::nn::Conv2d(Conv2dOptions(64, 192, 5).padding(2)));
-    conv3 = register_module("conv3", torch::nn::Conv2d(Conv2dOptions(192, 384, 3).padding(1)));
-    conv4 = register_module("conv4", torch::nn::Conv2d(Conv2dOptions(384, 256, 3).padding(1)));
-    conv5 = register_module("conv5", torch::nn::Conv2d(Conv2dOptions(256, 256, 3).padding(1)));
-  }
-
-  std::array<torch::Tensor, kLpipsLayers> forward(const torch::Tensor& x) {  // x: [N, 3, H, W]
-    std::array<torch::Tensor, kLpipsLayers> relu;
-    relu[0] = conv1->forward(x).relu_();                           // [N, 64, H1, W1]
-    torch::Tensor h = torch::max_pool2d(relu[0], {3, 3}, {2, 2});  // [N, 64, H2, W2]
-    relu[1] = conv2->forward(h).relu_();                           // [N, 192, H2, W2]
-    h = torch::max_pool2d(relu[1], {3, 3}, {2, 2});                // [N, 192, H3, W3]
-    relu[2] = conv3->forward(h).relu_();                           // [N, 384, H3, W3]
-    relu[3] = conv4->forward(relu[2]).relu_();                     // [N, 256, H3, W3]
-    relu[4] = conv5->forward(relu[3]).relu_();                     // [N, 256, H3, W3]
-    return relu;
-  }
-
-  torch::nn::Conv2d conv1{nullptr}, conv2{nullptr}, conv3{nullptr}, conv4{nullptr}, conv5{nullptr};
-};
-TORCH_MODULE(AlexNetTrunk);
 
 struct LpipsNetOptions {
   std::array<int64_t, kLpipsLayers> channels = {64, 192, 384, 256, 256};
@@ -63,22 +36,25 @@ struct LpipsNetImpl : torch::nn::Module {
     }
   }
 
-  // x0, x1: [B, 3, H, W] in [-1, 1]. Returns the per-layer terms, [B, 5].
-  torch::Tensor forward(const torch::Tensor& x0, const torch::Tensor& x1) {
-    const int64_t batch = x0.size(0);
-    const torch::Tensor x = (torch::cat({x0, x1}) - shift) / scale;  // [2B, 3, H, W]
+  // x: s(x0) then s(x1), [2B, 3, H, W] (s: the ScalingLayer). Returns the per-layer terms, [B, 5]
+  // float64 on the CPU.
+  torch::Tensor forward(const torch::Tensor& x) {
     const auto features = trunk->forward(x);
     std::vector<torch::Tensor> terms;
     for (int l = 0; l < kLpipsLayers; ++l) {
-      const torch::Tensor f = Normalize(features[l]);  // [2B, C, h, w]
-      const torch::Tensor diff = (f.narrow(0, 0, batch) - f.narrow(0, batch, batch)).pow(2);
-      terms.push_back(lins[l]->forward(diff).mean({2, 3}).view({batch}));  // [B]
+      terms.push_back(features[l].is_cpu()
+                          ? LayerTerms(features[l], lins[l]->weight, options.eps)
+                          : LayerTermsOnDevice(features[l], lins[l]->weight));  // [B]
     }
     return torch::stack(terms, 1);  // [B, 5]
   }
 
-  torch::Tensor Normalize(const torch::Tensor& f) const {
-    return f / (torch::sqrt(f.pow(2).sum(1, /*keepdim=*/true)) + options.eps);
+  // LayerTerms in torch ops, for devices other than the CPU.
+  torch::Tensor LayerTermsOnDevice(const torch::Tensor& features, const torch::Tensor& lin) const {
+    const int64_t batch = features.size(0) / 2;
+    const torch::Tensor n = features / (torch::sqrt(features.pow(2).sum(1, true)) + options.eps);
+    const torch::Tensor diff = (n.narrow(0, 0, batch) - n.narrow(0, batch, batch)).pow(2);
+    return (diff.mean({2, 3}) * lin.view({1, -1})).sum(1).to(torch::kCPU, torch::kFloat64);
   }
 
   LpipsNetOptions options;
@@ -108,8 +84,7 @@ void LoadWeights(const TensorArchiveReader& archive, LpipsNetImpl& net) {
   torch::NoGradGuard no_grad;
   Load(archive, "scaling_layer.shift", net.shift);
   Load(archive, "scaling_layer.scale", net.scale);
-  const std::array<torch::nn::Conv2d, kLpipsLayers> convs = {
-      net.trunk->conv1, net.trunk->conv2, net.trunk->conv3, net.trunk->conv4, net.trunk->conv5};
+  const std::array<torch::nn::Conv2d, kLpipsLayers>& convs = net.trunk->convs;
   // Index of each conv in torchvision's alexnet().features, kept by lpips in its slice names.
   const std::array<int, kLpipsLayers> feature_index = {0, 3, 6, 8, 10};
   for (int l = 0; l < kLpipsLayers; ++l) {
@@ -167,31 +142,26 @@ struct Lpips::State {
   torch::Device device{torch::kCPU};
   LpipsNet net{nullptr};
 
-  // images: B pointers to H x W x 3 elements of `dtype` -> [B, 3, H, W] float in [-1, 1].
+  std::unique_ptr<InputScaling> scaling;  // from the loaded ScalingLayer buffers
+
+  // images[begin, end) of a, then of b -> s(images), [2n, 3, H, W] on the device.
   template <typename T>
-  torch::Tensor Stack(const std::vector<const T*>& images, size_t begin, size_t end, int height,
-                      int width, torch::ScalarType dtype) const {
-    const int64_t pixels = int64_t{height} * width * 3;
-    torch::Tensor hwc = torch::empty({static_cast<int64_t>(end - begin), height, width, 3}, dtype);
-    for (size_t i = begin; i < end; ++i) {
-      std::memcpy(static_cast<T*>(hwc.data_ptr()) + (i - begin) * pixels, images[i],
-                  pixels * sizeof(T));
-    }
-    torch::Tensor x = hwc.to(device).permute({0, 3, 1, 2}).to(torch::kFloat32);  // [B, 3, H, W]
-    return dtype == torch::kUInt8 ? x / 127.5 - 1.0 : x.contiguous();
+  torch::Tensor PairBatch(const std::vector<const T*>& a, const std::vector<const T*>& b,
+                          size_t begin, size_t end, int height, int width) const {
+    std::vector<const T*> images(a.begin() + begin, a.begin() + end);
+    images.insert(images.end(), b.begin() + begin, b.begin() + end);
+    return ScaledBatch(images, height, width, *scaling).to(device);
   }
 
   template <typename T>
   torch::Tensor Layers(const std::vector<const T*>& a, const std::vector<const T*>& b, int height,
-                       int width, torch::ScalarType dtype) {
+                       int width) {
     CheckPairs(a.size(), b.size(), height, width);
-    torch::NoGradGuard no_grad;
+    c10::InferenceMode inference;
     std::vector<torch::Tensor> chunks;
     for (size_t begin = 0; begin < a.size(); begin += options.batch_size) {
       const size_t end = std::min(a.size(), begin + options.batch_size);
-      chunks.push_back(net->forward(Stack(a, begin, end, height, width, dtype),
-                                    Stack(b, begin, end, height, width, dtype))
-                           .to(torch::kCPU, torch::kFloat64));  // [b, 5]
+      chunks.push_back(net->forward(PairBatch(a, b, begin, end, height, width)));  // [n, 5]
     }
     return chunks.empty() ? torch::zeros({0, kLpipsLayers}, torch::kFloat64) : torch::cat(chunks);
   }
@@ -212,7 +182,9 @@ Lpips::Lpips(const std::string& weights_file, const LpipsOptions& options)
   state_->net = LpipsNet();
   LoadWeights(archive, *state_->net);
   state_->net->eval();
+  state_->scaling = std::make_unique<InputScaling>(state_->net->shift, state_->net->scale);
   state_->net->to(state_->device);
+  if (state_->device.is_cpu()) state_->net->trunk->PrepareForCpu();
 }
 
 Lpips::~Lpips() = default;
@@ -231,19 +203,19 @@ std::vector<double> SumLayers(const torch::Tensor& layers) {  // [N, 5] float64 
 
 std::vector<double> Lpips::Distance(const std::vector<const uint8_t*>& a,
                                     const std::vector<const uint8_t*>& b, int height, int width) {
-  return SumLayers(state_->Layers(a, b, height, width, torch::kUInt8));
+  return SumLayers(state_->Layers(a, b, height, width));
 }
 
 std::vector<double> Lpips::DistanceFloat(const std::vector<const float*>& a,
                                          const std::vector<const float*>& b, int height,
                                          int width) {
-  return SumLayers(state_->Layers(a, b, height, width, torch::kFloat32));
+  return SumLayers(state_->Layers(a, b, height, width));
 }
 
 std::vector<std::array<double, kLpipsLayers>> Lpips::LayerDistances(
     const std::vector<const uint8_t*>& a, const std::vector<const uint8_t*>& b, int height,
     int width) {
-  const torch::Tensor layers = state_->Layers(a, b, height, width, torch::kUInt8).contiguous();
+  const torch::Tensor layers = state_->Layers(a, b, height, width).contiguous();
   std::vector<std::array<double, kLpipsLayers>> out(layers.size(0));
   if (!out.empty()) std::memcpy(out.data(), layers.data_ptr<double>(), layers.numel() * 8);
   return out;
@@ -251,10 +223,10 @@ std::vector<std::array<double, kLpipsLayers>> Lpips::LayerDistances(
 
 std::vector<LpipsFeatureMap> Lpips::Features(const uint8_t* image, int height, int width) {
   CheckPairs(1, 1, height, width);
-  torch::NoGradGuard no_grad;
-  const torch::Tensor x =
-      state_->Stack<uint8_t>({image}, 0, 1, height, width, torch::kUInt8);  // [1, 3, H, W]
-  const torch::Tensor scaled = (x - state_->net->shift) / state_->net->scale;
+  c10::InferenceMode inference;
+  const torch::Tensor scaled =
+      ScaledBatch(std::vector<const uint8_t*>{image}, height, width, *state_->scaling)
+          .to(state_->device);  // [1, 3, H, W]
   std::vector<LpipsFeatureMap> maps;
   for (const torch::Tensor& f : state_->net->trunk->forward(scaled)) {
     const torch::Tensor cpu = f[0].to(torch::kCPU).contiguous();  // [C, h, w]

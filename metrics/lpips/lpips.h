@@ -28,9 +28,10 @@ struct LpipsOptions {
   // Torch intra-op threads (process-wide setting); 0 leaves torch's default. Default 0.
   int threads = 0;
   // glibc only, process-wide, once: keep freed memory in the heap (mallopt M_MMAP_THRESHOLD
-  // 32 MiB, M_TRIM_THRESHOLD 1 GiB). Otherwise glibc hands the buffers of oneDNN's per-pass weight
+  // 32 MiB, M_TRIM_THRESHOLD 1 GiB). Otherwise glibc hands the buffers of oneDNN's per-pass
   // reorders back to the OS and every pass page-faults them in again: measured 1.5x slower at
-  // 64x64 on CPU (docs/metrics-lpips.md, "Speed"). Costs resident memory at the peak. Default on.
+  // 64x64 on CPU before the weights were prepacked (docs/metrics-lpips.md, "Speed"). Costs
+  // resident memory at the peak. Default on.
   bool tune_malloc = true;
   void Check() const;  // throws wm::Error on a bad value
 };

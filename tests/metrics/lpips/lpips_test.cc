@@ -87,17 +87,18 @@ TEST_F(LpipsTest, SymmetricAndPositive) {
   EXPECT_LT(ab[1], ab[2]);  // a shifted gradient is closer than noise
 }
 
-TEST_F(LpipsTest, BatchingThreadsAndInputTypeDoNotChangeResults) {
+// Batch size, repeated calls, uint8 vs float input and the per-layer split agree at h x w.
+void ExpectBatchingAndInputTypeDoNotChangeResults(const std::string& weights, int h, int w) {
   std::vector<Image> a, b;
   for (uint32_t i = 0; i < 5; ++i) {
-    a.push_back(RandomImage(48, 40, i));
-    b.push_back(Gradient(48, 40, static_cast<int>(i)));
+    a.push_back(RandomImage(h, w, i));
+    b.push_back(Gradient(h, w, static_cast<int>(i)));
   }
-  Lpips batched(*weights_, LpipsOptions{.batch_size = 16});
-  Lpips single(*weights_, LpipsOptions{.batch_size = 2});
-  const std::vector<double> d16 = batched.Distance(Ptrs(a), Ptrs(b), 48, 40);
-  const std::vector<double> d2 = single.Distance(Ptrs(a), Ptrs(b), 48, 40);
-  EXPECT_EQ(batched.Distance(Ptrs(a), Ptrs(b), 48, 40), d16);  // deterministic
+  Lpips batched(weights, LpipsOptions{.batch_size = 16});
+  Lpips single(weights, LpipsOptions{.batch_size = 2});
+  const std::vector<double> d16 = batched.Distance(Ptrs(a), Ptrs(b), h, w);
+  const std::vector<double> d2 = single.Distance(Ptrs(a), Ptrs(b), h, w);
+  EXPECT_EQ(batched.Distance(Ptrs(a), Ptrs(b), h, w), d16);  // deterministic
   std::vector<std::vector<float>> fa, fb;
   for (size_t i = 0; i < a.size(); ++i) {
     fa.emplace_back(a[i].begin(), a[i].end());
@@ -107,8 +108,8 @@ TEST_F(LpipsTest, BatchingThreadsAndInputTypeDoNotChangeResults) {
   }
   std::vector<const float*> pa, pb;
   for (size_t i = 0; i < a.size(); ++i) pa.push_back(fa[i].data()), pb.push_back(fb[i].data());
-  const std::vector<double> df = batched.DistanceFloat(pa, pb, 48, 40);
-  const auto layers = batched.LayerDistances(Ptrs(a), Ptrs(b), 48, 40);
+  const std::vector<double> df = batched.DistanceFloat(pa, pb, h, w);
+  const auto layers = batched.LayerDistances(Ptrs(a), Ptrs(b), h, w);
   for (size_t i = 0; i < a.size(); ++i) {
     EXPECT_NEAR(d16[i], d2[i], 1e-6 * d16[i]) << i;
     EXPECT_NEAR(d16[i], df[i], 1e-6 * d16[i]) << i;
@@ -116,7 +117,13 @@ TEST_F(LpipsTest, BatchingThreadsAndInputTypeDoNotChangeResults) {
     for (double t : layers[i]) sum += t;
     EXPECT_NEAR(sum, d16[i], 1e-9) << i;
   }
-  EXPECT_TRUE(batched.Distance({}, {}, 48, 40).empty());
+  EXPECT_TRUE(batched.Distance({}, {}, h, w).empty());
+}
+
+TEST_F(LpipsTest, BatchingThreadsAndInputTypeDoNotChangeResults) {
+  ExpectBatchingAndInputTypeDoNotChangeResults(*weights_, 48, 40);
+  // Above 128 x 128 pixels the trunk runs channels-last (AlexNetTrunkImpl::kBlockedMaxPixels).
+  ExpectBatchingAndInputTypeDoNotChangeResults(*weights_, 144, 176);
 }
 
 TEST_F(LpipsTest, FeatureShapesFollowAlexNet) {

@@ -4,7 +4,8 @@
 Weights: scripts/export_lpips_weights.py --random-seed 0. This file reads the archive with its own
 numpy reader, written from docs/metrics-lpips.md, and builds LPIPS-alex v0.1 from torch.nn.functional
 ops exactly as the lpips package computes it (ScalingLayer, alexnet slices, normalize_tensor,
-lin 1x1 conv, spatial mean, sum). Checks, on random and structured 64x64 pairs plus a 48x80 set:
+lin 1x1 conv, spatial mean, sum). Checks, on random and structured 64x64 pairs, a 48x80 set
+and a 144x176 set (the C++ trunk's channels-last path):
   - C++ distances and per-layer terms == PyTorch within 1e-5 absolute;
   - C++ relu1..relu5 == torchvision.models.alexnet().features cut after indices 1, 4, 7, 9, 11
     (the lpips slices), and the reference's own taps == torchvision's;
@@ -122,6 +123,19 @@ def torchvision_taps(w, x):
     return taps
 
 
+def check_taps(label, w, images, feats_dir):
+    """The C++ relu1..relu5 of `images` (written to feats_dir) == torchvision's taps."""
+    x = (to_tensor(images) - w["scaling_layer.shift"]) / w["scaling_layer.scale"]
+    tv, own = torchvision_taps(w, x), reference_features(w, x)
+    for k in range(5):
+        c = torch.from_numpy(np.load(os.path.join(feats_dir, f"relu{k + 1}.npy")))
+        scale = float(tv[k].abs().max())
+        check(c.shape == tv[k].shape and float((c - tv[k]).abs().max()) <= 1e-5 * scale,
+              f"{label}relu{k + 1} {list(c.shape)}: C++ == torchvision alexnet.features tap")
+        check(float((own[k] - tv[k]).abs().max()) <= 1e-6 * scale,
+              f"{label}relu{k + 1}: reference == torchvision tap")
+
+
 def to_tensor(images):  # uint8 [N, H, W, 3] -> float [N, 3, H, W] in [-1, 1]
     return torch.from_numpy(images).permute(0, 3, 1, 2).float() / 127.5 - 1
 
@@ -188,15 +202,7 @@ def main():
             compare_distances("64x64 random + structured", cpp, ref)
             check(cpp["distances"][-1] == 0.0 and cpp["distances"][-2] == 0.0,
                   "identical structured pairs give exactly 0")
-            x = (to_tensor(a) - w["scaling_layer.shift"]) / w["scaling_layer.scale"]
-            tv, own = torchvision_taps(w, x), reference_features(w, x)
-            for k in range(5):
-                c = torch.from_numpy(np.load(os.path.join(feats_dir, f"relu{k + 1}.npy")))
-                scale = float(tv[k].abs().max())
-                check(c.shape == tv[k].shape and float((c - tv[k]).abs().max()) <= 1e-5 * scale,
-                      f"relu{k + 1} {list(c.shape)}: C++ == torchvision alexnet.features tap")
-                check(float((own[k] - tv[k]).abs().max()) <= 1e-6 * scale,
-                      f"relu{k + 1}: reference == torchvision tap")
+            check_taps("", w, a, feats_dir)
 
             # Non-square images catch any H/W mix-up; float and raw inputs share the path.
             na = rng.integers(0, 256, (3, 48, 80, 3), dtype=np.uint8)
@@ -205,6 +211,18 @@ def main():
             compare_distances("48x80 noisy copies", run_tool(weights, na, nb, tmp, name="n"), ref_n)
             fa, fb = to_tensor(na).permute(0, 2, 3, 1).numpy(), to_tensor(nb).permute(0, 2, 3, 1).numpy()
             compare_distances("48x80 float32 input", run_tool(weights, fa, fb, tmp, name="f"), ref_n)
+
+            # Above 128 x 128 pixels the C++ trunk runs channels-last (AlexNetTrunkImpl).
+            la = rng.integers(0, 256, (3, 144, 176, 3), dtype=np.uint8)
+            lb = np.clip(la.astype(int) + rng.integers(-40, 40, la.shape), 0, 255).astype(np.uint8)
+            la, lb = np.concatenate([la, la[:1]]), np.concatenate([lb, la[:1]])
+            large_dir = os.path.join(tmp, "large_feats")
+            large = run_tool(weights, la, lb, tmp, ["--per-layer", "--features-dir", large_dir],
+                             name="l")
+            compare_distances("144x176 noisy copies", large,
+                              reference_lpips(w, to_tensor(la), to_tensor(lb)))
+            check(large["distances"][-1] == 0.0, "144x176 identical pair gives exactly 0")
+            check_taps("144x176 ", w, la, large_dir)
         raw_a, raw_b = os.path.join(tmp, "a.rgb"), os.path.join(tmp, "b.rgb")
         na.tofile(raw_a)
         nb.tofile(raw_b)
