@@ -29,14 +29,6 @@ SegmentBatch MakeSegmentBatch(const DynamicsConfig& config, const SegmentData& d
                               const StepNoise& noise, int64_t first, int world_size,
                               const torch::Device& device);
 
-// Decoding of the frame after `tokens` [B, Tc, N] (Tc < context_frames) with actions
-// [B, Tc, D] (normalised, padding zeroed; the last one leads to the new frame) and z [B, Tc, z_dim]
-// (undefined without policy conditioning): `steps` rounds, each sampling every masked token
-// (temperature 0 = argmax) and keeping the most confident so that cos(pi/2 * (s+1)/steps) of the
-// frame stays masked ("masked" objective; a "next_frame" model samples every token in one pass and
-// ignores `steps`). Row b samples with its own CPU generator seeded `row_seeds[b]`, so a row's
-// frame does not depend on the other rows of the batch (sharded evaluation reproduces a whole run).
-// Returns [B, N] int64.
 // The sampling loop of DecodeNextFrame over `log_probs(partial)`: CPU log-probabilities
 // [B, N, K] of the new frame's tokens given `partial` [B, N] (CPU, mask token K where still
 // unknown; undefined for `one_pass`). B = row_seeds.size(). Returns [B, N] int64 on the CPU.
@@ -51,6 +43,14 @@ torch::Tensor SampleFrame(const FrameLogProbs& log_probs, int64_t N, int64_t K, 
 // Entropy (nats) over the last axis of log-probabilities: [..., K] -> [...].
 torch::Tensor Entropy(const torch::Tensor& log_probs);
 
+// Decoding of the frame after `tokens` [B, Tc, N] (Tc < context_frames) with actions
+// [B, Tc, D] (normalised, padding zeroed; the last one leads to the new frame) and z [B, Tc, z_dim]
+// (undefined without policy conditioning): `steps` rounds, each sampling every masked token
+// (temperature 0 = argmax) and keeping the most confident so that cos(pi/2 * (s+1)/steps) of the
+// frame stays masked ("masked" objective; a "next_frame" model samples every token in one pass and
+// ignores `steps`). Row b samples with its own CPU generator seeded `row_seeds[b]`, so a row's
+// frame does not depend on the other rows of the batch (sharded evaluation reproduces a whole run).
+// Returns [B, N] int64; `token_entropy` as for SampleFrame.
 torch::Tensor DecodeNextFrame(WorldModel& model, const torch::Tensor& tokens,
                               const torch::Tensor& actions, const torch::Tensor& z, int steps,
                               double temperature, const std::vector<uint64_t>& row_seeds,
