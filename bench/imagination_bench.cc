@@ -3,7 +3,9 @@
 // batched, cached one wm-eval --policy runs (TokenWorldBatches), same model, starts and policy,
 // in one run. Counts imagined frames: each is one model step (tokens + reward + terminal
 // probability), its tokenizer decode, and the policy's answer to it (one policy process).
-// Also times the reference path's parts, and checks that both paths imagine the same.
+// Also times the reference path's parts, and checks that both paths imagine the same. A model
+// with rotary time also runs the rolling cache (wm-eval --rolling-cache), compared with the
+// batched path: the same until the window slides, its own semantics after.
 #include <CLI/CLI.hpp>
 #include <chrono>
 #include <cmath>
@@ -54,7 +56,13 @@ struct Run {
   std::vector<ev::ClosedLoopRollout> rollouts;
   double seconds = 0;
   int64_t frames = 0;
+  double Rate() const { return frames / seconds; }  // imagined frames/s
 };
+
+void PrintSpeed(const char* name, const Run& run, const char* ratio_name, double ratio) {
+  std::printf("%s: %lld frames in %.2f s = %.1f frames/s; %s = %.2fx\n", name,
+              static_cast<long long>(run.frames), run.seconds, run.Rate(), ratio_name, ratio);
+}
 
 Run Reference(const ev::WorldFactory& worlds, wm::policy::PolicyProcess& policy,
               const std::vector<ev::ClosedLoopStart>& starts, const ev::ClosedLoopOptions& o) {
@@ -115,13 +123,26 @@ void TimeParts(const wm::train::DynamicsModel& model, const wm::tokenize::Tokeni
               model_s * 1e3, decode_s * 1e3, policy_s * 1e3);
 }
 
-// How far the batched rollouts are from the reference ones.
-void Compare(const Run& ref, const Run& fast) {
-  double reward = 0, pixel = 0, action = 0;
+// The first frame where two rollouts differ by more than float rounding (their length if none).
+int64_t FirstDifferentFrame(const ev::ClosedLoopRollout& a, const ev::ClosedLoopRollout& b) {
+  const size_t frame = static_cast<size_t>(3) * a.frames.size * a.frames.size;
+  const size_t n = std::min(a.frames.pixels.size(), b.frames.pixels.size()) / frame;
+  for (size_t f = 0; f < n; ++f) {
+    for (size_t k = f * frame; k < (f + 1) * frame; ++k) {
+      if (std::abs(a.frames.pixels[k] - b.frames.pixels[k]) > 1e-4) return static_cast<int64_t>(f);
+    }
+  }
+  return static_cast<int64_t>(n);
+}
+
+// How far the `fast` rollouts are from the `ref` ones.
+void Compare(const Run& ref, const Run& fast, const char* what) {
+  double reward = 0, pixel = 0, action = 0, first_different = 0;
   int same_end = 0;
   for (size_t i = 0; i < ref.rollouts.size(); ++i) {
     const auto &a = ref.rollouts[i], &b = fast.rollouts[i];
     same_end += a.steps == b.steps && a.end == b.end;
+    first_different += FirstDifferentFrame(a, b) / double(ref.rollouts.size());
     for (size_t k = 0; k < std::min(a.rewards.size(), b.rewards.size()); ++k) {
       reward = std::max<double>(reward, std::abs(a.rewards[k] - b.rewards[k]));
     }
@@ -133,9 +154,9 @@ void Compare(const Run& ref, const Run& fast) {
     }
   }
   std::printf(
-      "equal to the reference: %d/%zu rollouts end alike; max |reward diff| %.3g, "
-      "max |pixel diff| %.3g (of [-1, 1]), max |action diff| %.3g\n",
-      same_end, ref.rollouts.size(), reward, pixel, action);
+      "%s: %d/%zu rollouts end alike; max |reward diff| %.3g, max |pixel diff| %.3g (of "
+      "[-1, 1]), max |action diff| %.3g; frames equal up to frame %.1f on average\n",
+      what, same_end, ref.rollouts.size(), reward, pixel, action, first_different);
 }
 
 }  // namespace
@@ -187,12 +208,14 @@ int main(int argc, char** argv) {
   if (!b.skip_reference) {
     TimeParts(*model, tok, policy, starts.front(), o, std::min<int64_t>(b.horizon, 20));
     const Run ref = Reference(ev::TokenWorlds(*model, tok, o), policy, starts, o);
-    std::printf(
-        "reference: %lld frames in %.2f s = %.1f frames/s; batched+cached / reference = "
-        "%.2fx\n",
-        static_cast<long long>(ref.frames), ref.seconds, ref.frames / ref.seconds,
-        (fast.frames / fast.seconds) / (ref.frames / ref.seconds));
-    Compare(ref, fast);
+    PrintSpeed("reference", ref, "batched+cached / reference", fast.Rate() / ref.Rate());
+    Compare(ref, fast, "batched+cached vs reference");
+  }
+  if (model->CanRoll()) {
+    o.rolling_cache = true;
+    const Run rolling = Batched(ev::TokenWorldBatches(*model, tok, o), policy, starts, o);
+    PrintSpeed("batched+rolling cache", rolling, "/ batched+cached", rolling.Rate() / fast.Rate());
+    Compare(fast, rolling, "rolling vs batched+cached (equal until the window slides)");
   }
   policy.Close();
   return 0;

@@ -39,6 +39,10 @@ struct ClosedLoopOptions {
   // Starts imagined together, as rows of one batch (token models; a motion model steps them in
   // turn). A row's frames depend on its batch only through float rounding (docs/reports.md).
   int batch = 16;
+  // Token models with rotary time: keep each imagined frame's temporal keys/values as the window
+  // slides (DynamicsModel::StartRolling; 2 frame passes per step instead of context_frames).
+  // The same frames as the window path until the window slides, its own semantics after.
+  bool rolling_cache = false;
   bool clamp_tabletop = true;  // clamp actions to the tabletop world's limits, as the simulator
   // A step whose success score (predicted reward, or P(success) of a success classifier)
   // exceeds this is a success and ends the episode (the tabletop dataset logs reward 1 on

@@ -55,6 +55,8 @@ nlohmann::json PolicyEvalConfigJson(const PolicyEvalOptions& p) {
       {"success_threshold", p.loop.success_threshold},
       {"terminal_threshold", p.loop.terminal_threshold},
       {"true_values_sha256", p.true_values.empty() ? "" : Sha256File(p.true_values)}};
+  // Only when on, so other runs' config hashes are what they always were.
+  if (p.loop.rolling_cache) config["rolling_cache"] = true;
   // Only with a success classifier, so a token model's config hash is what it always was.
   if (!p.success_model.empty()) {
     config["success_model_sha256"] = Sha256File(CheckpointFileIn(p.success_model));

@@ -2,6 +2,7 @@
 // TokenWorldBatches (the episodes of a batch as rows of one model call and one decode per step).
 #include <memory>
 
+#include "core/error.h"
 #include "evaluate/clip_decode.h"
 #include "evaluate/closed_loop.h"
 #include "evaluate/retrace.h"
@@ -58,22 +59,17 @@ class TokenBatch : public ImaginedWorlds {
         o_(o),
         context_(ContextFrames(model, o.imagination.context)) {
     for (const ClosedLoopStart* s : starts) tokens_.push_back(s->first_tokens);
+    Check(!o.rolling_cache || context_ == model.max_context_frames(),
+          "a rolling cache imagines with the model's whole window (" +
+              std::to_string(model.max_context_frames()) + " frames), not a context of " +
+              std::to_string(context_));
   }
 
   std::vector<ImaginedStep> Next(const std::vector<size_t>& rows,
                                  const std::vector<const std::vector<float>*>& actions,
                                  int64_t t) override {
-    const auto batch = static_cast<int64_t>(rows.size());
-    train::FrameContext c{.batch = batch};
-    for (int64_t k = 0; k < batch; ++k) {
-      const std::vector<ContextSlot> slots =
-          PlainContext(actions[k]->data(), model_.action_dim(), t, context_);
-      AppendContextRow(tokens_[rows[k]], slots, model_.tokens_per_frame(), c);
-      c.row_seeds.push_back(
-          ImaginationSeed(o_.imagination.seed, starts_[rows[k]]->episode, rollout_, t));
-    }
     const train::ImaginedSteps next =
-        model_.ImagineStep(c, 0, o_.imagination.decode_steps, o_.imagination.temperature);
+        o_.rolling_cache ? RollingStep(rows, actions, t) : WindowStep(rows, actions, t);
     const std::vector<float> pixels = DecodeFrames(rows, next.tokens);
     const int size = tok_.image_size();
     const size_t n = next.tokens.size() / rows.size(), frame_size = pixels.size() / rows.size();
@@ -92,6 +88,50 @@ class TokenBatch : public ImaginedWorlds {
   }
 
  private:
+  std::vector<uint64_t> RowSeeds(const std::vector<size_t>& rows, int64_t t) const {
+    std::vector<uint64_t> seeds;
+    for (size_t row : rows) {
+      seeds.push_back(ImaginationSeed(o_.imagination.seed, starts_[row]->episode, rollout_, t));
+    }
+    return seeds;
+  }
+
+  // The step with the context window encoded anew (DynamicsModel::ImagineStep).
+  train::ImaginedSteps WindowStep(const std::vector<size_t>& rows,
+                                  const std::vector<const std::vector<float>*>& actions,
+                                  int64_t t) const {
+    train::FrameContext c{.batch = static_cast<int64_t>(rows.size()),
+                          .row_seeds = RowSeeds(rows, t)};
+    for (size_t k = 0; k < rows.size(); ++k) {
+      const std::vector<ContextSlot> slots =
+          PlainContext(actions[k]->data(), model_.action_dim(), t, context_);
+      AppendContextRow(tokens_[rows[k]], slots, model_.tokens_per_frame(), c);
+    }
+    return model_.ImagineStep(c, 0, o_.imagination.decode_steps, o_.imagination.temperature);
+  }
+
+  // The step with every frame's temporal keys/values kept (DynamicsModel::StartRolling).
+  train::ImaginedSteps RollingStep(const std::vector<size_t>& rows,
+                                   const std::vector<const std::vector<float>*>& actions,
+                                   int64_t t) {
+    if (!rolling_) {
+      std::vector<int64_t> first;
+      for (const ClosedLoopStart* s : starts_)
+        first.insert(first.end(), s->first_tokens.begin(), s->first_tokens.end());
+      rolling_ = model_.StartRolling(first, static_cast<int64_t>(starts_.size()));
+    }
+    // Each row's actions so far, [(t + 1) * D]: the newest frame's is the last.
+    const auto D = static_cast<size_t>(model_.action_dim());
+    std::vector<float> step_actions;
+    for (const std::vector<float>* a : actions) {
+      Check(a->size() == static_cast<size_t>(t + 1) * D,
+            "closed loop: expected the actions of steps 0.." + std::to_string(t));
+      step_actions.insert(step_actions.end(), a->end() - D, a->end());
+    }
+    return rolling_->Step({rows.begin(), rows.end()}, step_actions, RowSeeds(rows, t),
+                          o_.imagination.temperature);
+  }
+
   // One decode of the new frames ([rows, N]), each anchored on its start's real first frame.
   std::vector<float> DecodeFrames(const std::vector<size_t>& rows,
                                   const std::vector<int64_t>& frames) const {
@@ -111,7 +151,8 @@ class TokenBatch : public ImaginedWorlds {
   const int rollout_;
   const ClosedLoopOptions& o_;
   const int64_t context_;
-  std::vector<std::vector<int64_t>> tokens_;  // per row: [(t + 1) * N]
+  std::vector<std::vector<int64_t>> tokens_;            // per row: [(t + 1) * N]
+  std::unique_ptr<train::RollingImagination> rolling_;  // with o.rolling_cache, from step 0
 };
 
 }  // namespace

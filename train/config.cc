@@ -35,6 +35,7 @@ void VisitFields(Config& c, F&& f) {
   f("model", "mask_frame_prob", m.mask_frame_prob);
   f("model", "objective", m.objective);
   f("model", "copy_prior", m.copy_prior);
+  f("model", "temporal_positions", m.temporal_positions);
   f("model", "decode_steps", m.decode_steps);
   f("model", "decode_temperature", m.decode_temperature);
   auto& p = c.policy;
@@ -76,6 +77,8 @@ DynamicsConfig LoadDynamicsConfig(const std::string& path) {
 nlohmann::json ConfigToJson(const DynamicsConfig& config) {
   nlohmann::json j = SectionedToJson(config, [](auto& c, auto&& f) { VisitFields(c, f); });
   if (config.model.action_dim != kActionDim) j["model"]["action_dim"] = config.model.action_dim;
+  // Configs and checkpoints from before rotary time keep their bytes and hashes.
+  if (config.model.temporal_positions == "learned") j["model"].erase("temporal_positions");
   return j;
 }
 
@@ -105,6 +108,8 @@ void ValidateConfig(const DynamicsConfig& c, const std::string& file) {
           "must be in (0, 1]");
   require(m.objective == "masked" || m.objective == "next_frame", "model.objective",
           "must be 'masked' or 'next_frame'");
+  require(m.temporal_positions == "learned" || m.temporal_positions == "rope",
+          "model.temporal_positions", "must be 'learned' or 'rope'");
   require(m.decode_steps > 0, "model.decode_steps", "must be > 0");
   require(m.decode_temperature >= 0, "model.decode_temperature", "must be >= 0");
   require(m.action_dim >= 1 && m.action_dim <= kMaxActionDim, "model.action_dim",

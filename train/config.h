@@ -32,6 +32,11 @@ struct ModelConfig {
   // A learned logit bonus for the code the same cell held in the previous frame, initialised so
   // that an untrained model predicts "copy the last frame"; training then only learns motion.
   bool copy_prior = false;
+  // How the temporal attention knows when a frame is: "learned" (a vector per window slot, added
+  // to the input) or "rope" (rotary, by frame index: only the distance between two frames
+  // counts, so imagination can keep each frame's temporal keys/values as the window slides:
+  // train/rolling_imagination.h). Stored in the checkpoint's config only when "rope".
+  std::string temporal_positions = "learned";
   int decode_steps = 8;             // MaskGIT iterations per predicted frame at inference
   double decode_temperature = 1.0;  // sampling temperature at inference (0 = argmax)
   // Values per action the model takes (D). Not a YAML key: wm-train sets it from the token data

@@ -7,6 +7,7 @@
 #include "train/batch.h"
 #include "train/checkpoint.h"
 #include "train/imagine_step.h"
+#include "train/rolling_imagination.h"
 #include "train/segment_sampler.h"
 #include "train/world_model.h"
 
@@ -21,6 +22,17 @@ struct DynamicsModel::State {
   std::string file;  // the loaded checkpoint.wmt
 
   int64_t N() const { return int64_t{config.model.grid_h} * config.model.grid_w; }
+
+  // Raw actions [rows, A] of the action dataset as the model's normalised, zero-padded
+  // [rows, action_dim] on the model's device.
+  torch::Tensor NormalisedActions(const std::vector<float>& raw, int64_t rows) const {
+    const int64_t A = norm.dim(), D = config.model.action_dim;
+    Check(static_cast<int64_t>(raw.size()) == rows * A,
+          std::to_string(raw.size()) + " action values, expected rows x " + std::to_string(A));
+    std::vector<float> normed(static_cast<size_t>(rows * D), 0.f);
+    norm.Apply(raw.data(), normed.data(), rows, D);
+    return torch::tensor(normed).view({rows, D}).to(device);
+  }
 
   // The context's last `keep` frames as tensors: tokens [B, Tk, N], normalised actions
   // [B, Tk, D] (a narrower action dataset's zero-padded, as in training), z [B, Tk, Z]
@@ -41,14 +53,12 @@ struct DynamicsModel::State {
                                 : "context has " + std::to_string(got) +
                                       " action values, expected batch x frames x " +
                                       std::to_string(A) + " = " + std::to_string(B * T * A));
-    std::vector<float> normed(static_cast<size_t>(B * T * D), 0.f);
-    norm.Apply(c.actions.data(), normed.data(), B * T, D);
     const int64_t first = std::max<int64_t>(0, T - keep);
     tokens = torch::tensor(c.tokens, torch::kInt64).view({B, T, n}).slice(1, first, T);
     Check(
         tokens.min().item<int64_t>() >= 0 && tokens.max().item<int64_t>() < config.model.num_codes,
         "context token outside [0, num_codes)");
-    actions = torch::tensor(normed).view({B, T, D}).slice(1, first, T);
+    actions = NormalisedActions(c.actions, B * T).view({B, T, D}).slice(1, first, T);
     tokens = tokens.contiguous().to(device);
     actions = actions.contiguous().to(device);
     if (!model->policy) {
@@ -177,7 +187,7 @@ std::vector<int64_t> DynamicsModel::PredictNextFrame(const FrameContext& context
       DecodeNextFrame(s.model, tokens, actions, z, n_steps, DecodeTemperature(temperature),
                       RowSeeds(context, seed), token_entropy ? &entropy : nullptr);
   if (token_entropy) *token_entropy = HostVector<float>(entropy.contiguous());  // [B, N]
-  return HostVector<int64_t>(next);  // [B, N]
+  return HostVector<int64_t>(next);                                             // [B, N]
 }
 
 ImaginedSteps DynamicsModel::ImagineStep(const FrameContext& context, uint64_t seed, int steps,
@@ -198,6 +208,62 @@ ImaginedSteps DynamicsModel::ImagineStep(const FrameContext& context, uint64_t s
   // prior's z included), as PredictRewards sees it.
   s.Tensors(Extended(context, out.tokens, action_dim()), context.frames + 1, tokens, actions, z);
   const DynamicsOutput r = window.StepReward(tokens, actions, z);
+  out.reward = HostVector<float>(r.reward.to(torch::kFloat));
+  out.terminal_prob = HostVector<float>(torch::sigmoid(r.terminal_logit).to(torch::kFloat));
+  return out;
+}
+
+bool DynamicsModel::CanRoll() const {
+  const ModelConfig& m = state_->config.model;
+  return m.temporal_positions == "rope" && m.objective == "next_frame";
+}
+
+struct RollingImagination::State {
+  WorldModel model{nullptr};
+  const DynamicsModel::State* owner = nullptr;
+  std::unique_ptr<RollingWindow> window;
+};
+
+RollingImagination::RollingImagination() : state_(std::make_unique<State>()) {}
+RollingImagination::~RollingImagination() = default;
+
+std::unique_ptr<RollingImagination> DynamicsModel::StartRolling(
+    const std::vector<int64_t>& first_frames, int64_t batch) const {
+  torch::NoGradGuard no_grad;
+  const State& s = *state_;
+  Check(CanRoll(), s.file +
+                       ": rolling imagination needs a next_frame model with "
+                       "model.temporal_positions rope (this one: " +
+                       s.config.model.objective + ", " + s.config.model.temporal_positions + ")");
+  Check(batch > 0 && static_cast<int64_t>(first_frames.size()) == batch * s.N(),
+        "StartRolling: first_frames must hold batch x " + std::to_string(s.N()) + " tokens");
+  const torch::Tensor first = torch::tensor(first_frames, torch::kInt64).view({batch, s.N()});
+  Check(first.min().item<int64_t>() >= 0 && first.max().item<int64_t>() < s.config.model.num_codes,
+        "first frame token outside [0, num_codes)");
+  std::unique_ptr<RollingImagination> r(new RollingImagination());
+  r->state_->model = s.model;
+  r->state_->owner = &s;
+  // The reward pass's action not yet taken: a raw zero, as ImagineStep's extended window has.
+  const torch::Tensor unknown = s.NormalisedActions(std::vector<float>(s.norm.dim(), 0.f), 1);
+  r->state_->window =
+      std::make_unique<RollingWindow>(r->state_->model, first.to(s.device), unknown);
+  return r;
+}
+
+ImaginedSteps RollingImagination::Step(const std::vector<int64_t>& rows,
+                                       const std::vector<float>& actions,
+                                       const std::vector<uint64_t>& row_seeds, double temperature) {
+  torch::NoGradGuard no_grad;
+  const OneDnnLinearScope onednn;
+  const DynamicsModel::State& s = *state_->owner;
+  const auto R = static_cast<int64_t>(rows.size());
+  const torch::Tensor row_index = torch::tensor(rows, torch::kInt64).to(s.device);
+  DynamicsOutput r;
+  const torch::Tensor next = state_->window->Step(
+      row_index, s.NormalisedActions(actions, R),
+      temperature >= 0 ? temperature : s.config.model.decode_temperature, row_seeds, r);
+  ImaginedSteps out;
+  out.tokens = HostVector<int64_t>(next);
   out.reward = HostVector<float>(r.reward.to(torch::kFloat));
   out.terminal_prob = HostVector<float>(torch::sigmoid(r.terminal_logit).to(torch::kFloat));
   return out;

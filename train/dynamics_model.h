@@ -38,6 +38,8 @@ struct ImaginedSteps {
   std::vector<float> terminal_prob;  // [batch]: P(is_terminal_t)
 };
 
+class RollingImagination;
+
 class DynamicsModel {
  public:
   // `path`: a RUN_DIR or its checkpoint.wmt. `device`: "cpu", "cuda" or "cuda:N".
@@ -82,6 +84,14 @@ class DynamicsModel {
   // context.frames <= max_context_frames().
   ImaginedSteps ImagineStep(const FrameContext& context, uint64_t seed = 0, int steps = 0,
                             double temperature = -1) const;
+  // Whether StartRolling works: a next_frame model with rotary time (model.temporal_positions).
+  bool CanRoll() const;
+  // Imagination of `batch` episodes in lockstep from their real first frames `first_frames`
+  // [batch, N], keeping each frame's temporal keys/values as the window slides
+  // (train/rolling_imagination.h: 2 frame passes per imagined frame instead of context_frames;
+  // the same as ImagineStep until the window slides, its own semantics after).
+  std::unique_ptr<RollingImagination> StartRolling(const std::vector<int64_t>& first_frames,
+                                                   int64_t batch) const;
   // Reward and terminal probability of each of the context's frames (step t of frame t).
   RewardPrediction PredictRewards(const FrameContext& context) const;
   // The prior's z_h class probabilities after the last frame [batch, categories * classes];
@@ -90,6 +100,24 @@ class DynamicsModel {
 
  private:
   DynamicsModel();
+  friend class RollingImagination;
+  struct State;
+  std::unique_ptr<State> state_;
+};
+
+class RollingImagination {
+ public:
+  ~RollingImagination();
+  // One step of the episodes `rows` (ascending indices into the batch; an episode left out once
+  // has ended and may not come back): `actions` [rows, action_dim()] raw, each one's action at its
+  // newest frame; `row_seeds` one per row; `temperature` < 0 takes the config's. Returns the new
+  // frames [rows, N] with the step's reward and terminal probability.
+  ImaginedSteps Step(const std::vector<int64_t>& rows, const std::vector<float>& actions,
+                     const std::vector<uint64_t>& row_seeds, double temperature = -1);
+
+ private:
+  friend class DynamicsModel;
+  RollingImagination();
   struct State;
   std::unique_ptr<State> state_;
 };

@@ -28,7 +28,9 @@ CachedWindow::CachedWindow(WorldModel& model, const torch::Tensor& tokens,
 }
 
 torch::Tensor CachedWindow::NewFrameOutput(const torch::Tensor& x) {
-  return model_->dynamics->transformer->ForwardAppended(LastFrame(x), cache_);  // [B, 1, N, D]
+  // The window's frames were encoded as frames 0..Tc-1 (rotary time): the new one is frame Tc.
+  return model_->dynamics->transformer->ForwardAppended(LastFrame(x), cache_,
+                                                        tokens_.size(1));  // [B, 1, N, D]
 }
 
 torch::Tensor CachedWindow::LogProbs(const torch::Tensor& partial) {

@@ -23,6 +23,7 @@ const std::vector<std::string> kShapeKeys = {"model.grid_h",
                                              "model.policy_conditioning",
                                              "model.tied_token_head",
                                              "model.copy_prior",
+                                             "model.temporal_positions",
                                              "policy.d_model",
                                              "policy.num_heads",
                                              "policy.posterior_layers",
@@ -30,6 +31,14 @@ const std::vector<std::string> kShapeKeys = {"model.grid_h",
                                              "policy.decoder_layers",
                                              "policy.categories",
                                              "policy.classes"};
+
+// The config as the shape check reads it: every key present (ConfigToJson leaves out a default
+// model.temporal_positions, which would read as null).
+nlohmann::json ShapeJson(const DynamicsConfig& c) {
+  nlohmann::json j = ConfigToJson(c);
+  j["model"]["temporal_positions"] = c.model.temporal_positions;
+  return j;
+}
 
 }  // namespace
 
@@ -43,7 +52,7 @@ std::optional<trainkit::Parent> ReadDynamicsParent(const TrainOptions& o) {
     throw trainkit::ParentError(parent, e.what());
   }
   const DynamicsConfig theirs = ConfigFromJson(meta.config);
-  trainkit::CheckSameShapes(parent, ConfigToJson(theirs), ConfigToJson(o.config), kShapeKeys);
+  trainkit::CheckSameShapes(parent, ShapeJson(theirs), ShapeJson(o.config), kShapeKeys);
   if (theirs.model.action_dim != o.config.model.action_dim) {
     throw trainkit::ParentError(parent, "the parent takes " +
                                             std::to_string(theirs.model.action_dim) +

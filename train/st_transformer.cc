@@ -69,11 +69,12 @@ AttentionInputs AttentionImpl::Project(const torch::Tensor& x) {
   return {parts[0], parts[1], parts[2]};
 }
 
-torch::Tensor AttentionImpl::Attend(const AttentionInputs& in, bool causal) {
+torch::Tensor AttentionImpl::Attend(const AttentionInputs& in, bool causal, int64_t span) {
   const torch::Tensor &q = in.q, &k = in.k, &v = in.v;
   const int64_t M = q.size(0), L = q.size(2), hd = q.size(3), D = heads * hd;
+  const bool band = causal && span > 0 && span < L;
 #if TORCH_VERSION_MAJOR >= 2
-  if (q.is_cuda() && UseFusedAttention()) {
+  if (q.is_cuda() && UseFusedAttention() && !band) {
     torch::Tensor out = at::scaled_dot_product_attention(q, k, v, {}, 0.0, causal);  // [M,H,L,hd]
     return proj->forward(out.transpose(1, 2).reshape({M, L, D}));
   }
@@ -81,9 +82,11 @@ torch::Tensor AttentionImpl::Attend(const AttentionInputs& in, bool causal) {
   torch::Tensor scores =
       torch::matmul(q, k.transpose(-2, -1)) / std::sqrt(double(hd));  // [M,H,L,Lk]
   if (causal) {
-    torch::Tensor future =
-        torch::ones({L, L}, torch::TensorOptions().dtype(torch::kBool).device(q.device())).triu(1);
-    scores = scores.masked_fill(future, -std::numeric_limits<float>::infinity());
+    const torch::Tensor ones =
+        torch::ones({L, L}, torch::TensorOptions().dtype(torch::kBool).device(q.device()));
+    torch::Tensor hidden = ones.triu(1);  // the future
+    if (band) hidden.logical_or_(ones.tril(-span));
+    scores = scores.masked_fill(hidden, -std::numeric_limits<float>::infinity());
   }
   torch::Tensor out = torch::matmul(torch::softmax(scores, -1), v);  // [M, H, L, hd]
   return ApplyLayer(*proj, out.transpose(1, 2).reshape({M, L, D}));  // [M, L, D]
@@ -103,27 +106,48 @@ StBlockImpl::StBlockImpl(const StBlockOptions& o) : options(o) {
   fc2 = register_module("fc2", torch::nn::Linear(o.mlp_ratio * o.dim, o.dim));
 }
 
-torch::Tensor StBlockImpl::Forward(const torch::Tensor& x_in, TemporalCache* cache) {
+torch::Tensor RotateByFrame(const torch::Tensor& x, int64_t first) {
+  const int64_t L = x.size(2), half = x.size(3) / 2;
+  const auto f64 = torch::TensorOptions().dtype(torch::kFloat64);
+  // Angles in double: frame indices of long episodes times the fastest frequency keep their
+  // digits, and the same frame gets the same angle whichever forward it is in.
+  const torch::Tensor inv_freq = torch::pow(10000.0, -torch::arange(half, f64) / double(half));
+  const torch::Tensor angle = torch::outer(torch::arange(first, first + L, f64), inv_freq);
+  const torch::Tensor cos = angle.cos().to(x.options()), sin = angle.sin().to(x.options());
+  const torch::Tensor x1 = x.narrow(-1, 0, half), x2 = x.narrow(-1, half, half);  // [M,H,L,hd/2]
+  return torch::cat({x1 * cos - x2 * sin, x1 * sin + x2 * cos}, -1);
+}
+
+AttentionInputs StBlockImpl::TemporalInputs(const torch::Tensor& x, int64_t first) {
+  AttentionInputs in = temporal->Project(norm2->forward(x));
+  if (options.rope_time) in.q = RotateByFrame(in.q, first), in.k = RotateByFrame(in.k, first);
+  return in;
+}
+
+torch::Tensor StBlockImpl::Forward(const torch::Tensor& x_in, TemporalCache* cache,
+                                   const TimeAxis& time) {
   const int64_t B = x_in.size(0), T = x_in.size(1), N = x_in.size(2), D = x_in.size(3);
   // Spatial: every frame on its own, all tokens see each other.
   torch::Tensor x = x_in.reshape({B * T, N, D});  // [B*T, N, D]
   x = x + spatial->forward(norm1->forward(x), /*causal=*/false);
   // Temporal: every grid position on its own, causal over frames.
   x = x.view({B, T, N, D}).transpose(1, 2).reshape({B * N, T, D});  // [B*N, T, D]
-  const AttentionInputs in = temporal->Project(norm2->forward(x));
+  const AttentionInputs in = TemporalInputs(x, time.first);
   if (cache) cache->keys.push_back(in.k), cache->values.push_back(in.v);
-  x = x + temporal->Attend(in, options.causal_time);
+  x = x + temporal->Attend(in, options.causal_time, time.span);
   x = x.view({B, N, T, D}).transpose(1, 2);  // [B, T, N, D]
   return x + ApplyLayer(*fc2, torch::gelu(ApplyLayer(*fc1, norm3->forward(x))));
 }
 
 torch::Tensor StBlockImpl::ForwardAppended(const torch::Tensor& x_in, const torch::Tensor& past_k,
-                                           const torch::Tensor& past_v) {
+                                           const torch::Tensor& past_v, int64_t index,
+                                           torch::Tensor* new_k, torch::Tensor* new_v) {
   const int64_t B = x_in.size(0), N = x_in.size(2), D = x_in.size(3);
   torch::Tensor x = x_in.reshape({B, N, D});  // [B, N, D]: the new frame's tokens
   x = x + spatial->forward(norm1->forward(x), /*causal=*/false);
   x = x.reshape({B * N, 1, D});  // [B*N, 1, D]: each grid position's new frame
-  AttentionInputs in = temporal->Project(norm2->forward(x));
+  AttentionInputs in = TemporalInputs(x, index);
+  if (new_k) *new_k = in.k, *new_v = in.v;
   // The new frame is the window's last: it sees every cached frame and itself, no mask needed.
   in.k = torch::cat({past_k, in.k}, 2), in.v = torch::cat({past_v, in.v}, 2);  // [B*N,H,T+1,hd]
   x = x + temporal->Attend(in, /*causal=*/false);
@@ -137,21 +161,28 @@ StTransformerImpl::StTransformerImpl(const StBlockOptions& options, int64_t laye
   norm = register_module("norm", Norm(options.dim, options.rms_norm));
 }
 
-torch::Tensor StTransformerImpl::forward(torch::Tensor x) {
-  for (const auto& block : *blocks) x = block->as<StBlock>()->forward(x);
+torch::Tensor StTransformerImpl::Forward(torch::Tensor x, const TimeAxis& time) {
+  for (const auto& block : *blocks) x = block->as<StBlock>()->Forward(x, nullptr, time);
   return norm->forward(x);
 }
 
 torch::Tensor StTransformerImpl::ForwardCaching(torch::Tensor x, TemporalCache& cache) {
   cache = {};
-  for (const auto& block : *blocks) x = block->as<StBlock>()->Forward(x, &cache);
+  for (const auto& block : *blocks) x = block->as<StBlock>()->Forward(x, &cache, {});
   return norm->forward(x);
 }
 
-torch::Tensor StTransformerImpl::ForwardAppended(torch::Tensor x, const TemporalCache& cache) {
+torch::Tensor StTransformerImpl::ForwardAppended(torch::Tensor x, const TemporalCache& cache,
+                                                 int64_t index, TemporalCache* appended) {
   Check(cache.keys.size() == blocks->size(), "temporal cache of another transformer");
+  if (appended) {
+    appended->keys.assign(blocks->size(), torch::Tensor());
+    appended->values.assign(blocks->size(), torch::Tensor());
+  }
   for (size_t i = 0; i < blocks->size(); ++i) {
-    x = blocks[i]->as<StBlock>()->ForwardAppended(x, cache.keys[i], cache.values[i]);
+    x = blocks[i]->as<StBlock>()->ForwardAppended(x, cache.keys[i], cache.values[i], index,
+                                                  appended ? &appended->keys[i] : nullptr,
+                                                  appended ? &appended->values[i] : nullptr);
   }
   return norm->forward(x);
 }

@@ -48,7 +48,8 @@ struct AttentionImpl : torch::nn::Module {
   torch::Tensor forward(const torch::Tensor& x, bool causal);
   AttentionInputs Project(const torch::Tensor& x);  // [M, L, D] -> 3x [M, H, L, hd]
   // Queries [M, H, Lq, hd] over keys/values [M, H, Lk, hd] -> [M, Lq, D]; `causal` needs Lq == Lk.
-  torch::Tensor Attend(const AttentionInputs& in, bool causal);
+  // `span` > 0 (with `causal`) also hides keys `span` or more positions back (a band).
+  torch::Tensor Attend(const AttentionInputs& in, bool causal, int64_t span = 0);
   int64_t heads;
   torch::nn::Linear qkv{nullptr}, proj{nullptr};
 };
@@ -56,29 +57,50 @@ TORCH_MODULE(Attention);
 
 // Each block's temporal keys and values over the frames of one context window, [B*N, H, T, hd]
 // per block. The temporal attention is causal, so a frame appended to the window attends to these
-// instead of recomputing the window (StTransformerImpl::ForwardAppended). The positions are
-// absolute within the window (the caller adds them to the input), so the cache is only valid for
-// that window: once the window slides, every frame's keys change.
+// instead of recomputing the window (StTransformerImpl::ForwardAppended). With learned positions
+// (the caller adds them to the input) the cache is only valid for that window: once the window
+// slides, every frame's keys change. With rotary time (StBlockOptions::rope_time) a key depends on
+// its frame's index, not on its slot in the window, so a rolling cache stays valid
+// (train/rolling_imagination.h).
 struct TemporalCache {
   std::vector<torch::Tensor> keys, values;
+};
+
+// Where a forward's frames sit in time: frame i of the input is frame `first` + i of the episode
+// (the rotary angle's index; learned positions ignore it), and its temporal attention sees at most
+// the `span` newest frames up to itself (0 = every earlier frame of the input: plain causal).
+struct TimeAxis {
+  int64_t first = 0, span = 0;
 };
 
 struct StBlockOptions {
   int64_t dim = 128, heads = 4, mlp_ratio = 4;
   bool rms_norm = false;
   bool causal_time = true;  // false only for the posterior q(z | tau_H), which sees the segment
+  // Rotary position embedding (RoFormer) on the temporal attention's queries and keys, by frame
+  // index: attention then depends on how far apart two frames are, not where they sit.
+  bool rope_time = false;
 };
+
+// Queries or keys [M, H, L, hd] rotated by frame index first + l (RoFormer's rotation, applied to
+// the two halves of each head: GPT-NeoX's layout, base 10000).
+torch::Tensor RotateByFrame(const torch::Tensor& x, int64_t first);
 
 // x + spatial(norm(x)); x + temporal(norm(x)); x + mlp(norm(x)). x: [B, T, N, D].
 struct StBlockImpl : torch::nn::Module {
   explicit StBlockImpl(const StBlockOptions& options);
-  torch::Tensor forward(const torch::Tensor& x) { return Forward(x, nullptr); }
+  torch::Tensor forward(const torch::Tensor& x) { return Forward(x, nullptr, {}); }
   // forward() that also appends this block's temporal keys and values to `cache` (when not null).
-  torch::Tensor Forward(const torch::Tensor& x, TemporalCache* cache);
-  // One frame x [B, 1, N, D] after the window whose temporal keys/values are `past_k`/`past_v`.
+  torch::Tensor Forward(const torch::Tensor& x, TemporalCache* cache, const TimeAxis& time);
+  // One frame x [B, 1, N, D], frame `index` of the episode, after the frames whose temporal
+  // keys/values are `past_k`/`past_v` (all of them visible). `new_k`/`new_v`, when not null,
+  // receive the frame's own.
   torch::Tensor ForwardAppended(const torch::Tensor& x, const torch::Tensor& past_k,
-                                const torch::Tensor& past_v);
+                                const torch::Tensor& past_v, int64_t index,
+                                torch::Tensor* new_k = nullptr, torch::Tensor* new_v = nullptr);
   StBlockOptions options;
+  // The temporal attention's inputs for x [B*N, T, D] whose first frame has index `first`.
+  AttentionInputs TemporalInputs(const torch::Tensor& x, int64_t first);
   Norm norm1{nullptr}, norm2{nullptr}, norm3{nullptr};
   Attention spatial{nullptr}, temporal{nullptr};
   torch::nn::Linear fc1{nullptr}, fc2{nullptr};
@@ -88,12 +110,16 @@ TORCH_MODULE(StBlock);
 // A stack of StBlocks followed by a final norm.
 struct StTransformerImpl : torch::nn::Module {
   StTransformerImpl(const StBlockOptions& options, int64_t layers);
-  torch::Tensor forward(torch::Tensor x);  // [B, T, N, D] -> [B, T, N, D]
+  torch::Tensor forward(torch::Tensor x) { return Forward(x, {}); }  // [B,T,N,D] -> [B,T,N,D]
+  torch::Tensor Forward(torch::Tensor x, const TimeAxis& time);
   // forward() that fills `cache` (emptied first) with the window's temporal keys and values.
   torch::Tensor ForwardCaching(torch::Tensor x, TemporalCache& cache);
   // The output for one frame x [B, 1, N, D] appended to the window `cache` holds: what forward()
-  // of the window extended by it gives at the new frame, up to float rounding.
-  torch::Tensor ForwardAppended(torch::Tensor x, const TemporalCache& cache);
+  // of the window extended by it gives at the new frame, up to float rounding. `index`: the new
+  // frame's index in the episode (rotary time; the cache's keys carry their own). `appended`,
+  // when not null, receives each block's keys/values of the new frame ([B*N, H, 1, hd]).
+  torch::Tensor ForwardAppended(torch::Tensor x, const TemporalCache& cache, int64_t index = 0,
+                                TemporalCache* appended = nullptr);
   torch::nn::ModuleList blocks{nullptr};
   Norm norm{nullptr};
 };

@@ -26,7 +26,9 @@ DynamicsNetImpl::DynamicsNetImpl(const ModelConfig& m, int64_t z_dim) : config(m
   const int64_t d = m.d_model, N = int64_t{m.grid_h} * m.grid_w;
   token_embed = register_module("token_embed", torch::nn::Embedding(m.num_codes + 1, d));
   spatial_pos = register_parameter("spatial_pos", torch::randn({N, d}) * 0.02);
-  temporal_pos = register_parameter("temporal_pos", torch::randn({m.context_frames, d}) * 0.02);
+  if (!rope_time()) {
+    temporal_pos = register_parameter("temporal_pos", torch::randn({m.context_frames, d}) * 0.02);
+  }
   action_start = register_parameter("action_start", torch::randn({d}) * 0.02);
   action_in = register_module("action_in", torch::nn::Linear(m.action_dim, d));
   if (z_dim > 0) z_in = register_module("z_in", torch::nn::Linear(z_dim, d));
@@ -35,7 +37,8 @@ DynamicsNetImpl::DynamicsNetImpl(const ModelConfig& m, int64_t z_dim) : config(m
                                                                   .heads = m.num_heads,
                                                                   .mlp_ratio = m.mlp_ratio,
                                                                   .rms_norm = m.norm == "rmsnorm",
-                                                                  .causal_time = true},
+                                                                  .causal_time = true,
+                                                                  .rope_time = rope_time()},
                                                    m.num_layers));
   if (m.tied_token_head) {
     token_bias = register_parameter("token_bias", torch::zeros({m.num_codes}));
@@ -72,8 +75,8 @@ torch::Tensor DynamicsNetImpl::Embed(const torch::Tensor& tokens, const torch::T
     torch::Tensor zc = z_in->forward(z.slice(1, 0, n_cond));
     cond = cond + (shifted ? zc : F::pad(zc, F::PadFuncOptions({0, 0, 1, 0})));  // [B, T, D]
   }
-  return token_embed->forward(tokens) + spatial_pos +  // [B, T, N, D]
-         (temporal_pos.slice(0, 0, T) + cond).unsqueeze(2);
+  if (temporal_pos.defined()) cond = cond + temporal_pos.slice(0, 0, T);
+  return token_embed->forward(tokens) + spatial_pos + cond.unsqueeze(2);  // [B, T, N, D]
 }
 
 torch::Tensor DynamicsNetImpl::TokenLogits(const torch::Tensor& h, const torch::Tensor& prev) {
@@ -94,9 +97,9 @@ void DynamicsNetImpl::RewardHead(const torch::Tensor& h, DynamicsOutput& out) {
 }
 
 DynamicsOutput DynamicsNetImpl::forward(const torch::Tensor& tokens, const torch::Tensor& actions,
-                                        const torch::Tensor& z) {
+                                        const torch::Tensor& z, const TimeAxis& time) {
   const int64_t T = tokens.size(1), K = config.num_codes;
-  torch::Tensor h = transformer->forward(Embed(tokens, actions, z));  // [B, T, N, D]
+  torch::Tensor h = transformer->Forward(Embed(tokens, actions, z), time);  // [B, T, N, D]
   // The code each position's predicted frame had one frame earlier: the input frame itself when
   // predicting the next one, else the input one position back (none at j = 0; a masked one gets
   // no bonus).

@@ -50,9 +50,10 @@ struct WorldModelLosses {
 struct DynamicsNetImpl : torch::nn::Module {
   explicit DynamicsNetImpl(const ModelConfig& config, int64_t z_dim);
   // tokens [B, T, N] (value num_codes = mask), actions [B, T, D], z [B, T, z_dim] (z_h at h) or
-  // undefined when policy conditioning is off.
+  // undefined when policy conditioning is off. `time`: where the frames sit (rotary time) and
+  // how far back each sees (a band, for histories longer than a training segment).
   DynamicsOutput forward(const torch::Tensor& tokens, const torch::Tensor& actions,
-                         const torch::Tensor& z);
+                         const torch::Tensor& z, const TimeAxis& time = {});
   // forward() in parts, for decoding with a temporal cache (train/imagine_step.h):
   // the transformer's input [B, T, N, D] (token, grid and window-position embeddings and the
   // action/z conditioning of each position),
@@ -67,7 +68,8 @@ struct DynamicsNetImpl : torch::nn::Module {
   ModelConfig config;
   int64_t z_dim;
   torch::nn::Embedding token_embed{nullptr};  // num_codes + 1 rows: the last is the mask token
-  torch::Tensor spatial_pos, temporal_pos, action_start;  // [N, D], [T, D], [D]
+  // [N, D], [T, D] (undefined with rotary time), [D]
+  torch::Tensor spatial_pos, temporal_pos, action_start;
   torch::nn::Linear action_in{nullptr}, z_in{nullptr};
   StTransformer transformer{nullptr};
   torch::nn::Linear token_head{nullptr}, reward_head{nullptr};  // token_head null when tied
@@ -76,6 +78,7 @@ struct DynamicsNetImpl : torch::nn::Module {
   // (weight zero, bias log(num_codes) at init, so every position starts at "copy").
   torch::nn::Linear copy_gate{nullptr};
   bool next_frame() const { return config.objective == "next_frame"; }
+  bool rope_time() const { return config.temporal_positions == "rope"; }
 };
 TORCH_MODULE(DynamicsNet);
 

@@ -81,6 +81,10 @@ void AddPolicyOptions(CLI::App& app, PolicyArgs& a, wm::evaluate::PolicyEvalOpti
                  "to one at a time up to float rounding)")
       ->check(CLI::PositiveNumber)
       ->capture_default_str();
+  app.add_flag("--rolling-cache", p.loop.rolling_cache,
+               "Closed loop of token models with rotary time (model.temporal_positions rope): keep "
+               "each frame's temporal keys/values as the window slides (faster; the same frames "
+               "until the window slides, its own semantics after: docs/reports.md)");
   app.add_option("--clamp-actions", a.clamp, "tabletop (the simulator's limits) or none")
       ->check(CLI::IsMember({"tabletop", "none"}))
       ->capture_default_str();

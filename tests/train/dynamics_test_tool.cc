@@ -1,6 +1,6 @@
 // dynamics_test_tool: fixtures for the Python checks of the dynamics model.
 //   make-tokens --out DIR ...        a moving-block token dataset (tests/train/moving_block.h)
-//   reference --out FILE [--rmsnorm] [--no-policy] [--tied] [--copy-prior] [--next-frame]
+//   reference --out FILE [--rmsnorm] [--no-policy] [--tied] [--copy-prior] [--next-frame] [--rope]
 //             [--action-dim D] [--padded K]
 //                                    (--padded: row 1 is a K-dim dataset's, padded to D and
 //                                    masked, its padding filled with noise that must not matter)
@@ -26,7 +26,8 @@ namespace {
 using namespace wm::train;
 
 struct ReferenceFlags {
-  bool rmsnorm = false, no_policy = false, tied = false, copy_prior = false, next_frame = false;
+  bool rmsnorm = false, no_policy = false, tied = false, copy_prior = false, next_frame = false,
+       rope = false;
   int action_dim = 7, padded = 0;
 };
 
@@ -37,6 +38,7 @@ void WriteReference(const std::string& path, const ReferenceFlags& f, uint64_t s
   c.model.tied_token_head = f.tied;
   c.model.copy_prior = f.copy_prior;
   c.model.objective = f.next_frame ? "next_frame" : "masked";
+  c.model.temporal_positions = f.rope ? "rope" : "learned";
   c.model.action_dim = f.action_dim;
   c.train.reward_weight = 0.7;
   c.train.terminal_weight = 0.3;
@@ -164,6 +166,7 @@ int main(int argc, char** argv) {
   ref->add_flag("--tied", flags.tied);
   ref->add_flag("--copy-prior", flags.copy_prior);
   ref->add_flag("--next-frame", flags.next_frame);
+  ref->add_flag("--rope", flags.rope);
   ref->add_option("--action-dim", flags.action_dim);
   ref->add_option("--padded", flags.padded);
   ref->add_option("--seed", seed);

@@ -55,9 +55,11 @@ class Attention(nn.Module):
         self.qkv = nn.Linear(dim, 3 * dim)
         self.proj = nn.Linear(dim, dim)
 
-    def forward(self, x, causal):
+    def forward(self, x, causal, rope=False):
         m, l, d = x.shape
         q, k, v = self.qkv(x).view(m, l, 3, self.heads, d // self.heads).permute(2, 0, 3, 1, 4)
+        if rope:
+            q, k = rotate(q), rotate(k)
         scores = q @ k.transpose(-2, -1) / math.sqrt(d // self.heads)
         if causal:
             future = torch.ones(l, l, dtype=torch.bool, device=x.device).triu(1)
@@ -65,10 +67,21 @@ class Attention(nn.Module):
         return self.proj((scores.softmax(-1) @ v).transpose(1, 2).reshape(m, l, d))
 
 
+def rotate(x):
+    """Rotary time (RoFormer): pair (i, i + hd/2) of frame l turned by l * 10000^(-2i/hd)."""
+    length, hd = x.shape[-2], x.shape[-1]
+    inv_freq = 10000.0 ** (-torch.arange(hd // 2, dtype=torch.float64) / (hd // 2))
+    angle = torch.arange(length, dtype=torch.float64)[:, None] * inv_freq[None, :]
+    cos, sin = angle.cos().to(x.dtype), angle.sin().to(x.dtype)
+    x1, x2 = x[..., :hd // 2], x[..., hd // 2:]
+    return torch.cat([x1 * cos - x2 * sin, x1 * sin + x2 * cos], -1)
+
+
 class StBlock(nn.Module):
-    def __init__(self, dim, heads, mlp_ratio, rms, causal_time=True):
+    def __init__(self, dim, heads, mlp_ratio, rms, causal_time=True, rope_time=False):
         super().__init__()
         self.causal_time = causal_time
+        self.rope_time = rope_time
         self.norm1, self.norm2, self.norm3 = Norm(dim, rms), Norm(dim, rms), Norm(dim, rms)
         self.spatial, self.temporal = Attention(dim, heads), Attention(dim, heads)
         self.fc1, self.fc2 = nn.Linear(dim, mlp_ratio * dim), nn.Linear(mlp_ratio * dim, dim)
@@ -78,16 +91,16 @@ class StBlock(nn.Module):
         x = x.reshape(b * t, n, d)
         x = x + self.spatial(self.norm1(x), False)
         x = x.view(b, t, n, d).transpose(1, 2).reshape(b * n, t, d)
-        x = x + self.temporal(self.norm2(x), self.causal_time)
+        x = x + self.temporal(self.norm2(x), self.causal_time, self.rope_time)
         x = x.view(b, n, t, d).transpose(1, 2)
         return x + self.fc2(F.gelu(self.fc1(self.norm3(x))))
 
 
 class StTransformer(nn.Module):
-    def __init__(self, dim, heads, mlp_ratio, rms, layers, causal_time=True):
+    def __init__(self, dim, heads, mlp_ratio, rms, layers, causal_time=True, rope_time=False):
         super().__init__()
         self.blocks = nn.ModuleList(
-            [StBlock(dim, heads, mlp_ratio, rms, causal_time) for _ in range(layers)])
+            [StBlock(dim, heads, mlp_ratio, rms, causal_time, rope_time) for _ in range(layers)])
         self.norm = Norm(dim, rms)
 
     def forward(self, x):
@@ -152,13 +165,16 @@ class DynamicsNet(nn.Module):
         self.z_dim = z_dim
         self.token_embed = nn.Embedding(m["num_codes"] + 1, d)
         self.spatial_pos = nn.Parameter(torch.zeros(n, d))
-        self.temporal_pos = nn.Parameter(torch.zeros(m["context_frames"], d))
+        self.rope_time = m.get("temporal_positions", "learned") == "rope"
+        if not self.rope_time:  # rotary time rotates queries and keys instead
+            self.temporal_pos = nn.Parameter(torch.zeros(m["context_frames"], d))
         self.action_start = nn.Parameter(torch.zeros(d))
         self.action_in = nn.Linear(action_dim(m), d)
         if z_dim:
             self.z_in = nn.Linear(z_dim, d)
         self.transformer = StTransformer(d, m["num_heads"], m["mlp_ratio"],
-                                         m["norm"] == "rmsnorm", m["num_layers"])
+                                         m["norm"] == "rmsnorm", m["num_layers"],
+                                         rope_time=self.rope_time)
         self.num_codes = m["num_codes"]
         self.next_frame = m.get("objective", "masked") == "next_frame"
         if m.get("tied_token_head", False):
@@ -182,8 +198,9 @@ class DynamicsNet(nn.Module):
                               self.action_in(actions[:, :t - 1])], 1)
             if self.z_dim:
                 cond = cond + F.pad(self.z_in(z[:, :t - 1]), (0, 0, 1, 0))
-        h = self.transformer(self.token_embed(tokens) + self.spatial_pos +
-                             (self.temporal_pos[:t] + cond).unsqueeze(2))
+        if not self.rope_time:
+            cond = cond + self.temporal_pos[:t]
+        h = self.transformer(self.token_embed(tokens) + self.spatial_pos + cond.unsqueeze(2))
         reward, terminal = self.reward_head(h.mean(2)).unbind(-1)
         if hasattr(self, "token_head"):
             logits = self.token_head(h)

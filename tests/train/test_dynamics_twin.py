@@ -61,6 +61,7 @@ def main():
     with tempfile.TemporaryDirectory() as tmp:
         for flags in ([], ["--rmsnorm"], ["--no-policy"], ["--tied"], ["--tied", "--copy-prior"],
                       ["--next-frame"], ["--tied", "--copy-prior", "--next-frame"],
+                      ["--tied", "--copy-prior", "--next-frame", "--rope"],
                       ["--action-dim", "26"],  # a G1-wide joint action
                       ["--action-dim", "14", "--padded", "7"]):  # a 7 + 14 mixture's padding
             failures += check_case(tool, flags, tmp)

@@ -336,6 +336,55 @@ TEST_F(DynamicsTrainTest, RewardHeadLearnsTheFinalStepsReward) {
       << rewarded.size() << " rewarded steps, " << unrewarded.size() << " others";
 }
 
+// A trained rotary-time model through the public API: rolling imagination gives ImagineStep's
+// frames and rewards until the window slides (here context_frames 4: the first 3 steps), refuses
+// a learned-position model naming its checkpoint, and the config key round-trips.
+TEST_F(DynamicsTrainTest, RollingImaginationOfARotaryTimeModel) {
+  TrainOptions o = Options("rope", 10);
+  o.config.model.objective = "next_frame";
+  o.config.model.copy_prior = true;
+  o.config.model.temporal_positions = "rope";
+  TrainDynamics(o);
+  auto model = DynamicsModel::Load(dir_ / "rope");
+  EXPECT_EQ(model->config().model.temporal_positions, "rope");
+  ASSERT_TRUE(model->CanRoll());
+  const int64_t n = model->tokens_per_frame(), rows = 2;
+  std::vector<int64_t> first;
+  for (int64_t i = 0; i < rows * n; ++i) first.push_back((i * 5) % 32);
+  auto rolling = model->StartRolling(first, rows);
+  std::vector<int64_t> tokens = first;  // [rows, t + 1, N] row-major per row below
+  std::vector<std::vector<int64_t>> history(rows);
+  std::vector<std::vector<float>> actions(rows);
+  for (int64_t b = 0; b < rows; ++b)
+    history[b].assign(first.begin() + b * n, first.begin() + (b + 1) * n);
+  for (int64_t t = 0; t < model->max_context_frames(); ++t) {
+    FrameContext window{.batch = rows, .frames = t + 1, .row_seeds = {40 + t, 50 + t}};
+    std::vector<float> step;
+    for (int64_t b = 0; b < rows; ++b) {
+      for (int i = 0; i < 7; ++i) actions[b].push_back(0.01f * ((b + t + i) % 5) - 0.02f);
+      step.insert(step.end(), actions[b].end() - 7, actions[b].end());
+      window.tokens.insert(window.tokens.end(), history[b].begin(), history[b].end());
+      window.actions.insert(window.actions.end(), actions[b].begin(), actions[b].end());
+    }
+    const ImaginedSteps want = model->ImagineStep(window, 0, 1, 1.0);
+    const ImaginedSteps got = rolling->Step({0, 1}, step, window.row_seeds, 1.0);
+    EXPECT_EQ(got.tokens, want.tokens) << "step " << t;
+    for (int64_t b = 0; b < rows; ++b) {
+      EXPECT_NEAR(got.reward[b], want.reward[b], 1e-5) << "step " << t;
+      EXPECT_NEAR(got.terminal_prob[b], want.terminal_prob[b], 1e-5) << "step " << t;
+      history[b].insert(history[b].end(), got.tokens.begin() + b * n,
+                        got.tokens.begin() + (b + 1) * n);
+    }
+  }
+  TrainDynamics(Options("learned", 2));
+  EXPECT_NE(wm::test::ErrorText([&] {
+              DynamicsModel::Load(dir_ / "learned")->StartRolling(first, rows);
+            }).find("learned/checkpoint.wmt: rolling imagination needs"),
+            std::string::npos);
+  EXPECT_EQ(ConfigToJson(o.config)["model"]["temporal_positions"], "rope");
+  EXPECT_FALSE(ConfigToJson(Options("x", 1).config)["model"].contains("temporal_positions"));
+}
+
 TEST(DynamicsConfig, PresetsLoadAndErrorsNameFileAndKey) {
   for (const char* name :
        {"tiny", "meta64", "whale-x-small", "whale-x-medium", "whale-x-base", "whale-x-large"}) {
@@ -357,6 +406,9 @@ TEST(DynamicsConfig, PresetsLoadAndErrorsNameFileAndKey) {
             std::string::npos);
   EXPECT_NE(error("model:\n  norm: batchnorm\n").find("key 'model.norm'"), std::string::npos);
   EXPECT_NE(error("model:\n  objective: diffusion\n").find("key 'model.objective'"),
+            std::string::npos);
+  EXPECT_NE(error("model:\n  temporal_positions: alibi\n")
+                .find("key 'model.temporal_positions': must be 'learned' or 'rope'"),
             std::string::npos);
   // A checkpoint written before model.objective / model.copy_prior existed keeps its behaviour.
   nlohmann::json old = ConfigToJson(m);
