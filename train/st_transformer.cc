@@ -79,6 +79,14 @@ torch::Tensor AttentionImpl::Attend(const AttentionInputs& in, bool causal, int6
     return proj->forward(out.transpose(1, 2).reshape({M, L, D}));
   }
 #endif
+  if (L == 1 && !causal && q.device().is_cpu()) {
+    // One query (a frame appended to a cache) over a few keys: as products and sums rather than
+    // M*H tiny matrix products, which a generic BLAS runs one call at a time.
+    torch::Tensor p =
+        torch::softmax((q * k).sum(-1, true) / std::sqrt(double(hd)), 2);  // [M,H,Lk,1]
+    torch::Tensor out = (p * v).sum(2, true);                              // [M, H, 1, hd]
+    return ApplyLayer(*proj, out.transpose(1, 2).reshape({M, L, D}));
+  }
   torch::Tensor scores =
       torch::matmul(q, k.transpose(-2, -1)) / std::sqrt(double(hd));  // [M,H,L,Lk]
   if (causal) {
@@ -106,16 +114,40 @@ StBlockImpl::StBlockImpl(const StBlockOptions& o) : options(o) {
   fc2 = register_module("fc2", torch::nn::Linear(o.mlp_ratio * o.dim, o.dim));
 }
 
-torch::Tensor RotateByFrame(const torch::Tensor& x, int64_t first) {
-  const int64_t L = x.size(2), half = x.size(3) / 2;
+namespace {
+
+struct Rotation {
+  int64_t first = -1, length = 0, half = 0;
+  torch::TensorOptions options;
+  torch::Tensor cos, sin;  // [length, half]
+};
+
+// cos and sin of the rotary angles of frames first..first+length-1. Every block's queries and keys
+// of one pass share them, so the last ones are kept (per thread: forwards on other threads do not
+// race).
+const Rotation& Angles(int64_t first, int64_t length, int64_t half,
+                       const torch::TensorOptions& options) {
+  thread_local Rotation last;
+  if (last.first == first && last.length == length && last.half == half &&
+      last.options.dtype() == options.dtype() && last.options.device() == options.device()) {
+    return last;
+  }
   const auto f64 = torch::TensorOptions().dtype(torch::kFloat64);
   // Angles in double: frame indices of long episodes times the fastest frequency keep their
   // digits, and the same frame gets the same angle whichever forward it is in.
   const torch::Tensor inv_freq = torch::pow(10000.0, -torch::arange(half, f64) / double(half));
-  const torch::Tensor angle = torch::outer(torch::arange(first, first + L, f64), inv_freq);
-  const torch::Tensor cos = angle.cos().to(x.options()), sin = angle.sin().to(x.options());
+  const torch::Tensor angle = torch::outer(torch::arange(first, first + length, f64), inv_freq);
+  last = {first, length, half, options, angle.cos().to(options), angle.sin().to(options)};
+  return last;
+}
+
+}  // namespace
+
+torch::Tensor RotateByFrame(const torch::Tensor& x, int64_t first) {
+  const int64_t L = x.size(2), half = x.size(3) / 2;
+  const Rotation& r = Angles(first, L, half, x.options());
   const torch::Tensor x1 = x.narrow(-1, 0, half), x2 = x.narrow(-1, half, half);  // [M,H,L,hd/2]
-  return torch::cat({x1 * cos - x2 * sin, x1 * sin + x2 * cos}, -1);
+  return torch::cat({x1 * r.cos - x2 * r.sin, x1 * r.sin + x2 * r.cos}, -1);
 }
 
 AttentionInputs StBlockImpl::TemporalInputs(const torch::Tensor& x, int64_t first) {
