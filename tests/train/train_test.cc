@@ -271,12 +271,15 @@ TEST_F(DynamicsTrainTest, ModelApiPredictsFramesAndRewards) {
 // then PredictRewards over the extended window give for each row alone: the same tokens (same
 // row seeds), rewards and terminal probabilities within float rounding (docs/reports.md).
 TEST_F(DynamicsTrainTest, ImagineStepEqualsPredictThenRewardsRowByRow) {
-  for (const char* objective : {"masked", "next_frame"}) {
-    TrainOptions o = Options(objective, 10);
+  for (const std::string variant : {"masked", "next_frame", "next_frame rope"}) {
+    const std::string objective = variant.substr(0, variant.find(' '));
+    const std::string run = variant.ends_with("rope") ? "rope" : objective;
+    TrainOptions o = Options(run, 10);
     o.config.model.objective = objective;
     o.config.model.copy_prior = true;
+    if (variant.ends_with("rope")) o.config.model.temporal_positions = "rope";
     TrainDynamics(o);
-    auto model = DynamicsModel::Load(dir_ / objective);
+    auto model = DynamicsModel::Load(dir_ / run);
     const int64_t n = model->tokens_per_frame(), rows = 3, frames = 3;
     FrameContext batch{.batch = rows, .frames = frames, .row_seeds = {5, 6, 7}};
     for (int64_t i = 0; i < rows * frames * n; ++i) batch.tokens.push_back((i * 7 + i / 5) % 32);
@@ -293,13 +296,13 @@ TEST_F(DynamicsTrainTest, ImagineStepEqualsPredictThenRewardsRowByRow) {
       const std::vector<int64_t> next = model->PredictNextFrame(row, 0, 4, 1.0);
       EXPECT_EQ(next, std::vector<int64_t>(steps.tokens.begin() + b * n,
                                            steps.tokens.begin() + (b + 1) * n))
-          << objective << " row " << b;
+          << variant << " row " << b;
       row.frames += 1;
       row.tokens.insert(row.tokens.end(), next.begin(), next.end());
       row.actions.insert(row.actions.end(), 7, 0.f);
       const RewardPrediction r = model->PredictRewards(row);
-      EXPECT_NEAR(steps.reward[b], r.reward.back(), 1e-5) << objective << " row " << b;
-      EXPECT_NEAR(steps.terminal_prob[b], r.terminal_prob.back(), 1e-5) << objective;
+      EXPECT_NEAR(steps.reward[b], r.reward.back(), 1e-5) << variant << " row " << b;
+      EXPECT_NEAR(steps.terminal_prob[b], r.terminal_prob.back(), 1e-5) << variant;
     }
   }
 }
