@@ -23,6 +23,13 @@ struct DynamicsModel::State {
 
   int64_t N() const { return int64_t{config.model.grid_h} * config.model.grid_w; }
 
+  // Refuses `tokens` with a code outside [0, num_codes), naming them as `what`.
+  void CheckCodes(const torch::Tensor& tokens, const std::string& what) const {
+    Check(
+        tokens.min().item<int64_t>() >= 0 && tokens.max().item<int64_t>() < config.model.num_codes,
+        what + " token outside [0, num_codes)");
+  }
+
   // Raw actions [rows, A] of the action dataset as the model's normalised, zero-padded
   // [rows, action_dim] on the model's device.
   torch::Tensor NormalisedActions(const std::vector<float>& raw, int64_t rows) const {
@@ -55,9 +62,7 @@ struct DynamicsModel::State {
                                       std::to_string(A) + " = " + std::to_string(B * T * A));
     const int64_t first = std::max<int64_t>(0, T - keep);
     tokens = torch::tensor(c.tokens, torch::kInt64).view({B, T, n}).slice(1, first, T);
-    Check(
-        tokens.min().item<int64_t>() >= 0 && tokens.max().item<int64_t>() < config.model.num_codes,
-        "context token outside [0, num_codes)");
+    CheckCodes(tokens, "context");
     actions = NormalisedActions(c.actions, B * T).view({B, T, D}).slice(1, first, T);
     tokens = tokens.contiguous().to(device);
     actions = actions.contiguous().to(device);
@@ -213,14 +218,10 @@ ImaginedSteps DynamicsModel::ImagineStep(const FrameContext& context, uint64_t s
   return out;
 }
 
-bool DynamicsModel::CanRoll() const {
-  const ModelConfig& m = state_->config.model;
-  return m.temporal_positions == "rope" && m.objective == "next_frame";
-}
+bool DynamicsModel::CanRoll() const { return state_->model->dynamics->can_roll(); }
 
 struct RollingImagination::State {
-  WorldModel model{nullptr};
-  const DynamicsModel::State* owner = nullptr;
+  const DynamicsModel::State* owner = nullptr;  // the model it imagines with, which outlives it
   std::unique_ptr<RollingWindow> window;
 };
 
@@ -230,7 +231,7 @@ RollingImagination::~RollingImagination() = default;
 std::unique_ptr<RollingImagination> DynamicsModel::StartRolling(
     const std::vector<int64_t>& first_frames, int64_t batch) const {
   torch::NoGradGuard no_grad;
-  const State& s = *state_;
+  State& s = *state_;  // unique_ptr: const API, non-const state
   Check(CanRoll(), s.file +
                        ": rolling imagination needs a next_frame model with "
                        "model.temporal_positions rope (this one: " +
@@ -238,15 +239,12 @@ std::unique_ptr<RollingImagination> DynamicsModel::StartRolling(
   Check(batch > 0 && static_cast<int64_t>(first_frames.size()) == batch * s.N(),
         "StartRolling: first_frames must hold batch x " + std::to_string(s.N()) + " tokens");
   const torch::Tensor first = torch::tensor(first_frames, torch::kInt64).view({batch, s.N()});
-  Check(first.min().item<int64_t>() >= 0 && first.max().item<int64_t>() < s.config.model.num_codes,
-        "first frame token outside [0, num_codes)");
+  s.CheckCodes(first, "first frame");
   std::unique_ptr<RollingImagination> r(new RollingImagination());
-  r->state_->model = s.model;
   r->state_->owner = &s;
   // The reward pass's action not yet taken: a raw zero, as ImagineStep's extended window has.
   const torch::Tensor unknown = s.NormalisedActions(std::vector<float>(s.norm.dim(), 0.f), 1);
-  r->state_->window =
-      std::make_unique<RollingWindow>(r->state_->model, first.to(s.device), unknown);
+  r->state_->window = std::make_unique<RollingWindow>(s.model, first.to(s.device), unknown);
   return r;
 }
 

@@ -89,7 +89,8 @@ class DynamicsModel {
   // Imagination of `batch` episodes in lockstep from their real first frames `first_frames`
   // [batch, N], keeping each frame's temporal keys/values as the window slides
   // (train/rolling_imagination.h: 2 frame passes per imagined frame instead of context_frames;
-  // the same as ImagineStep until the window slides, its own semantics after).
+  // the same as ImagineStep until the window slides, its own semantics after). It imagines with
+  // this model, so it must not outlive it.
   std::unique_ptr<RollingImagination> StartRolling(const std::vector<int64_t>& first_frames,
                                                    int64_t batch) const;
   // Reward and terminal probability of each of the context's frames (step t of frame t).

@@ -26,7 +26,7 @@ RollingWindow::RollingWindow(WorldModel& model, const torch::Tensor& first,
                              const torch::Tensor& unknown_action)
     : model_(model), context_(model->config.model.context_frames) {
   const ModelConfig& m = model->config.model;
-  Check(m.temporal_positions == "rope" && m.objective == "next_frame",
+  Check(model->dynamics->can_roll(),
         "rolling imagination needs a next_frame model with model.temporal_positions rope");
   const int64_t B = first.size(0), N = first.size(1), H = m.num_heads, hd = m.d_model / H;
   tokens_ = first.unsqueeze(1);

@@ -79,6 +79,9 @@ struct DynamicsNetImpl : torch::nn::Module {
   torch::nn::Linear copy_gate{nullptr};
   bool next_frame() const { return config.objective == "next_frame"; }
   bool rope_time() const { return config.temporal_positions == "rope"; }
+  // Whether imagination can keep frames' temporal keys/values as the window slides
+  // (train/rolling_imagination.h): one-pass decoding and keys that do not depend on the slot.
+  bool can_roll() const { return next_frame() && rope_time(); }
 };
 TORCH_MODULE(DynamicsNet);
 
