@@ -361,7 +361,8 @@ TEST_F(DynamicsTrainTest, RollingImaginationOfARotaryTimeModel) {
   for (int64_t b = 0; b < rows; ++b)
     history[b].assign(first.begin() + b * n, first.begin() + (b + 1) * n);
   for (int64_t t = 0; t < model->max_context_frames(); ++t) {
-    FrameContext window{.batch = rows, .frames = t + 1, .row_seeds = {40 + t, 50 + t}};
+    FrameContext window{
+        .batch = rows, .frames = t + 1, .row_seeds = {uint64_t(40 + t), uint64_t(50 + t)}};
     std::vector<float> step;
     for (int64_t b = 0; b < rows; ++b) {
       for (int i = 0; i < 7; ++i) actions[b].push_back(0.01f * ((b + t + i) % 5) - 0.02f);
