@@ -12,7 +12,7 @@ over steps, and at step 8).
   bench/warp_predictor.py --train data/demo/shards/train --val data/demo/shards/val \
       [--steps 600] [--unroll 1] [--channels 48] [--no-jacobian] [--strip OUT.png] \
       [--self-condition P] [--post-refine C] [--edge-loss W] [--flow-l1 W] [--seed S] \
-      [--background-memory] [--retrace both|only [--pyramid-loss W]] [--gan W]
+      [--background-memory] [--retrace both|only [--pyramid-loss W]] [--gan W] [--splat]
 
 The last options are variants tried against the smear (docs/motion.md, "How the recipe was
 chosen"); none is in wm-motion: --self-condition P feeds the net, with probability P per batch,
@@ -29,6 +29,8 @@ beside the warped current frame ("both") or alone ("only"); --pyramid-loss W add
 L1 of that warp at three blur levels, so a large flow gets a gradient on a plain table.
 --gan W adds an adversarial loss (a PatchGAN critic of (current, next) pairs, as SAVP's) so the
 predictor is pushed away from blurred means towards frames a real step could produce.
+--splat moves the current frame's pixels forward (softmax splatting, SplatWarpNet) instead of
+sampling it backward: the flow then belongs to the pixels that move.
 """
 import argparse
 import os
@@ -174,6 +176,67 @@ class RetraceWarpNet(BackgroundMemoryNet):
             memory = torch.sigmoid(out[:, -1:])
             kept = (1 - memory) * warp_twin.warp(current, flow) + memory * source0
         return (1 - gate) * kept + gate * rgb, flow, gate
+
+
+def forward_splat(image, flow, importance):
+    """Softmax splatting (Niklaus and Liu 2020): each source pixel p of `image` [B, C, S, S] is
+    moved to p + flow(p) and spread bilinearly over the 4 nearest target pixels, weighted by
+    exp(importance(p)) so that where several land on one pixel the more important one wins
+    (the arm over the table it passes). Returns the splatted image and its coverage [B, 1, S, S]
+    (the bilinear weights landing on each target, at most 1: 0 where nothing arrived)."""
+    b, c, h, w = image.shape
+    xs = torch.arange(w, dtype=image.dtype).view(1, 1, w) + flow[:, 0]
+    ys = torch.arange(h, dtype=image.dtype).view(1, h, 1) + flow[:, 1]
+    x0, y0 = xs.floor(), ys.floor()
+    fx, fy = xs - x0, ys - y0
+    weight = torch.exp(importance[:, 0].clamp(-10, 10))
+    num = image.new_zeros(b, c, h * w)
+    den = image.new_zeros(b, 1, h * w)
+    cover = image.new_zeros(b, 1, h * w)
+    for dx, dy, bilinear in ((0, 0, (1 - fx) * (1 - fy)), (1, 0, fx * (1 - fy)),
+                             (0, 1, (1 - fx) * fy), (1, 1, fx * fy)):
+        tx, ty = x0 + dx, y0 + dy
+        inside = ((tx >= 0) & (tx < w) & (ty >= 0) & (ty < h)).to(image.dtype)
+        index = (ty.clamp(0, h - 1) * w + tx.clamp(0, w - 1)).long().view(b, 1, -1)
+        share = (bilinear * inside).view(b, 1, -1)
+        num.scatter_add_(2, index.expand(b, c, -1), image.view(b, c, -1) * share * weight.view(
+            b, 1, -1))
+        den.scatter_add_(2, index, share * weight.view(b, 1, -1))
+        cover.scatter_add_(2, index, share)
+    splat = num / den.clamp(min=1e-6)
+    return splat.view(b, c, h, w), cover.clamp(max=1).view(b, 1, h, w)
+
+
+class SplatWarpNet(warp_twin.WarpNet):
+    """The twin with a forward warp instead of a backward one: the flow is defined on the
+    current frame's pixels (where each one goes), so the arm's flow is the arm's own motion and
+    its discontinuity sits on the arm's visible edge, not on the edge of where the arm will be,
+    which a backward flow must guess (and smooths over, dragging the disc and block along). One
+    more head channel is the splatting importance; holes (what the arm uncovers) take the
+    painted colour:
+
+      next = (1 - g) * (cover * splat(x_t, flow, z) + (1 - cover) * tanh(rgb)) + g * tanh(rgb)
+
+    At zero init every pixel lands on itself with cover 1: the twin's copy-last start."""
+
+    def __init__(self, model, action_dim):
+        super().__init__(model, action_dim)
+        c = model["channels"]
+        self.head = nn.Conv2d(c + 6, self.head.out_channels + 1, 3, 1, 1)
+        nn.init.zeros_(self.head.weight)
+        nn.init.zeros_(self.head.bias)
+
+    def forward(self, current, previous, action):
+        inp = torch.cat([current, previous], 1)
+        out = self.head(torch.cat([unet_features(self, inp, action), inp], 1))
+        b, _, h, w = out.shape
+        jac = out[:, warp_twin.JACOBIAN:-1].view(b, 2, self.action_dim, h, w)
+        flow = out[:, warp_twin.FLOW_BIAS:warp_twin.JACOBIAN]
+        flow = (flow + (jac * action.view(b, 1, self.action_dim, 1, 1)).sum(2)) * self.flow_scale
+        gate = torch.sigmoid(out[:, warp_twin.GATE:warp_twin.GATE + 1] + self.gate_bias)
+        rgb = torch.tanh(out[:, warp_twin.RGB:warp_twin.RGB + 3])
+        splat, cover = forward_splat(current, flow, out[:, -1:])
+        return (1 - gate) * (cover * splat + (1 - cover) * rgb) + gate * rgb, flow, gate
 
 
 def retrace_actions(raw, norm):
@@ -382,6 +445,8 @@ def main():
                     help="frame 0 warped by a flow linear in the retrace action (RetraceWarpNet)")
     ap.add_argument("--pyramid-loss", type=float, default=0, metavar="W",
                     help="with --retrace: W times the blurred-pyramid L1 of frame 0's warp")
+    ap.add_argument("--splat", action="store_true",
+                    help="a forward warp (softmax splatting) instead of the backward one")
     ap.add_argument("--gan", type=float, default=0, metavar="W",
                     help="W times a PatchGAN critic's hinge loss on the imagined frames (Critic)")
     args = ap.parse_args()
@@ -400,6 +465,8 @@ def main():
         net = RetraceWarpNet(model, actions.shape[1], args.retrace)
     elif args.background_memory:
         net = BackgroundMemoryNet(model, actions.shape[1])
+    elif args.splat:
+        net = SplatWarpNet(model, actions.shape[1])
     elif args.post_refine:
         net = PostRefinedNet(model, actions.shape[1], args.post_refine)
     else:
