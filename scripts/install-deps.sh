@@ -18,40 +18,23 @@ PACKAGES=(
 )
 # Packages only some targets need, named by them (make fuzz: clang libclang-rt-dev).
 PACKAGES+=("$@")
-# Speed only: tried, and a warning where they cannot be installed (no apt mirror reachable).
-# OpenBLAS (OpenMP build, so it shares LibTorch's libgomp threads) replaces Debian's generic
-# ATLAS as libblas.so.3 (update-alternatives priority 100 > 35): about 20% faster training of
-# every model and imagination (README, "Build notes").
-OPTIONAL=(libopenblas0-openmp)
 
-installed() { dpkg-query -W -f='${Status}' "$1" 2>/dev/null | grep -q "install ok installed"; }
-
-missing=() optional_missing=()
-for p in "${PACKAGES[@]}"; do installed "$p" || missing+=("$p"); done
-for p in "${OPTIONAL[@]}"; do installed "$p" || optional_missing+=("$p"); done
-if [ ${#missing[@]} -eq 0 ] && [ ${#optional_missing[@]} -eq 0 ]; then
+missing=()
+for p in "${PACKAGES[@]}"; do
+  dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")
+done
+if [ ${#missing[@]} -eq 0 ]; then
   echo "install-deps: all ${#PACKAGES[@]} packages present"
   exit 0
 fi
 
 SUDO=""
 if [ "$(id -u)" -ne 0 ]; then SUDO="sudo"; fi
+echo "install-deps: installing ${#missing[@]} missing packages: ${missing[*]}"
 export DEBIAN_FRONTEND=noninteractive
-apt_install() {
-  # An empty package list means apt-get update never ran on this machine.
-  if [ -z "$(ls -A /var/lib/apt/lists 2>/dev/null | grep -v -e lock -e partial)" ] ||
-     ! apt-cache policy "$1" 2>/dev/null | grep -q Candidate; then
-    $SUDO apt-get update -q
-  fi
-  $SUDO apt-get install -y -q --no-install-recommends "$@"
-}
-if [ ${#missing[@]} -gt 0 ]; then
-  echo "install-deps: installing ${#missing[@]} missing packages: ${missing[*]}"
-  apt_install "${missing[@]}"
+# An empty package list means apt-get update never ran on this machine.
+if [ -z "$(ls -A /var/lib/apt/lists 2>/dev/null | grep -v -e lock -e partial)" ] ||
+   ! apt-cache policy "${missing[0]}" 2>/dev/null | grep -q Candidate; then
+  $SUDO apt-get update -q
 fi
-if [ ${#optional_missing[@]} -gt 0 ]; then
-  echo "install-deps: installing optional speed packages: ${optional_missing[*]}"
-  apt_install "${optional_missing[@]}" ||
-    echo "install-deps: warning: could not install ${optional_missing[*]}; wmkit works without" \
-      "them, slower (README, Build notes)" >&2
-fi
+$SUDO apt-get install -y -q --no-install-recommends "${missing[@]}"
