@@ -20,6 +20,17 @@ torch::Tensor Scatter(const torch::Tensor& part, const torch::Tensor& rows, int6
   return torch::zeros(shape, part.options()).index_copy_(0, rows, part);
 }
 
+// `past` with the frame `added` encoded after it: what PastOf gives one frame later, without
+// selecting the rows' kept keys/values again.
+TemporalCache Appended(const TemporalCache& past, const TemporalCache& added) {
+  TemporalCache out;
+  for (size_t i = 0; i < past.keys.size(); ++i) {
+    out.keys.push_back(torch::cat({past.keys[i], added.keys[i]}, 2));  // [R*N, H, S + 1, hd]
+    out.values.push_back(torch::cat({past.values[i], added.values[i]}, 2));
+  }
+  return out;
+}
+
 }  // namespace
 
 RollingWindow::RollingWindow(WorldModel& model, const torch::Tensor& first,
@@ -100,8 +111,8 @@ torch::Tensor RollingWindow::Step(const torch::Tensor& rows, const torch::Tensor
                  1);  // [R, W, D]
   const torch::Tensor newest = Newest(window, 1), action = Newest(acts, 1);
   TemporalCache added;
-  const torch::Tensor h =
-      Encode(newest, action, LastZ(window, acts), PastOf(rows, context_ - 2), newest_, &added);
+  const TemporalCache past = PastOf(rows, context_ - 2);
+  const torch::Tensor h = Encode(newest, action, LastZ(window, acts), past, newest_, &added);
   const torch::Tensor log_probs = torch::log_softmax(
       net.TokenLogits(h, newest).select(1, 0).to(torch::kCPU, torch::kFloat), -1);  // [R, N, K]
   const torch::Tensor next =
@@ -110,12 +121,13 @@ torch::Tensor RollingWindow::Step(const torch::Tensor& rows, const torch::Tensor
   if (log_probs_out) *log_probs_out = log_probs;
   Keep(rows, added);
   // The reward of the step to the new frame: the new frame with the unknown action after the kept
-  // frames (its window: the newest context_frames - 1 and itself), as PredictRewards sees it.
+  // frames (its window: the newest context_frames - 1 and itself), as PredictRewards sees it;
+  // the kept ones are `past` and the frame just encoded (PastOf(rows, context_ - 1) after Keep).
   const torch::Tensor next_dev = next.to(window.device()).unsqueeze(1);  // [R, 1, N]
   const torch::Tensor unknown = unknown_action_.expand_as(action);
   const torch::Tensor h_new = Encode(
       next_dev, unknown, LastZ(torch::cat({window, next_dev}, 1), torch::cat({acts, unknown}, 1)),
-      PastOf(rows, context_ - 1), newest_ + 1, nullptr);
+      Appended(past, added), newest_ + 1, nullptr);
   net.RewardHead(h_new, reward);
   reward.reward = reward.reward.select(1, 0);
   reward.terminal_logit = reward.terminal_logit.select(1, 0);
