@@ -13,6 +13,7 @@ over steps, and at step 8).
       [--steps 600] [--unroll 1] [--channels 48] [--no-jacobian] [--strip OUT.png] \
       [--self-condition P] [--post-refine C] [--edge-loss W] [--flow-l1 W] [--seed S] \
       [--background-memory] [--retrace both|only [--pyramid-loss W]] [--gan W] [--splat]
+      [--max-lr LR]
 
 The last options are variants tried against the smear (docs/motion.md, "How the recipe was
 chosen"); none is in wm-motion: --self-condition P feeds the net, with probability P per batch,
@@ -54,11 +55,11 @@ import warp_twin  # noqa: E402
 BATCH, LR, MIN_LR, WARMUP = 16, 1e-3, 1e-4, 50
 
 
-def learning_rate(step, steps):  # trainkit::LearningRateAt: linear warmup, cosine to MIN_LR
+def learning_rate(step, steps, peak=LR):  # trainkit::LearningRateAt: warmup, cosine to MIN_LR
     if step < WARMUP:
-        return LR * (step + 1) / WARMUP
+        return peak * (step + 1) / WARMUP
     progress = (step - WARMUP) / max(1, steps - WARMUP)
-    return MIN_LR + 0.5 * (LR - MIN_LR) * (1 + np.cos(np.pi * progress))
+    return MIN_LR + 0.5 * (peak - MIN_LR) * (1 + np.cos(np.pi * progress))
 
 
 def unet_features(net, inp, action, extra=0):
@@ -359,7 +360,7 @@ def fit(net, episodes, norm, steps, args):
     unroll = args.unroll
     for step in range(steps):
         for group in opt.param_groups:
-            group["lr"] = learning_rate(step, steps)
+            group["lr"] = learning_rate(step, steps, args.max_lr)
         clips, actions, later, first, retraces = batch(episodes, norm, rng, unroll)
         previous, current, loss, pairs = clips[:, 1], clips[:, 2], 0, []
         if args.self_condition > 0 and rng.random() < args.self_condition:
@@ -439,6 +440,7 @@ def main():
     ap.add_argument("--edge-loss", type=float, default=0, metavar="W")
     ap.add_argument("--flow-l1", type=float, default=0, metavar="W")
     ap.add_argument("--seed", type=int, default=0)
+    ap.add_argument("--max-lr", type=float, default=LR, help="peak learning rate")
     ap.add_argument("--background-memory", action="store_true",
                     help="a third source: the real frame 0, chosen per pixel (BackgroundMemoryNet)")
     ap.add_argument("--retrace", choices=("both", "only"),
