@@ -72,6 +72,19 @@ def unet_features(net, inp, action, extra=0):
     return net.up1(torch.cat([net.up2(torch.cat([u, h2], 1)), h1], 1))
 
 
+def head_outputs(net, out, action, own=0):
+    """The twin's head channels in `out` (as warp_twin.WarpNet.forward reads them) -> flow in
+    pixels, gate and painted colour; the last `own` channels are a variant's own, left out."""
+    b, _, h, w = out.shape
+    flow = out[:, warp_twin.FLOW_BIAS:warp_twin.JACOBIAN]
+    if net.jacobian:
+        jac = out[:, warp_twin.JACOBIAN:out.shape[1] - own].view(b, 2, net.action_dim, h, w)
+        flow = flow + (jac * action.view(b, 1, net.action_dim, 1, 1)).sum(2)
+    gate = torch.sigmoid(out[:, warp_twin.GATE:warp_twin.GATE + 1] + net.gate_bias)
+    rgb = torch.tanh(out[:, warp_twin.RGB:warp_twin.RGB + 3])
+    return flow * net.flow_scale, gate, rgb
+
+
 class PostRefinedNet(warp_twin.WarpNet):
     """The twin plus a zero-initialised conv block that corrects the composited frame, reading it
     and the decoder's full-resolution features."""
@@ -87,13 +100,7 @@ class PostRefinedNet(warp_twin.WarpNet):
     def forward(self, current, previous, action):
         inp = torch.cat([current, previous], 1)
         u = unet_features(self, inp, action)
-        out = self.head(torch.cat([u, inp], 1))
-        b, _, h, w = out.shape
-        jac = out[:, warp_twin.JACOBIAN:].view(b, 2, self.action_dim, h, w)
-        flow = out[:, warp_twin.FLOW_BIAS:warp_twin.JACOBIAN]
-        flow = (flow + (jac * action.view(b, 1, self.action_dim, 1, 1)).sum(2)) * self.flow_scale
-        gate = torch.sigmoid(out[:, warp_twin.GATE:warp_twin.GATE + 1] + self.gate_bias)
-        rgb = torch.tanh(out[:, warp_twin.RGB:warp_twin.RGB + 3])
+        flow, gate, rgb = head_outputs(self, self.head(torch.cat([u, inp], 1)), action)
         composite = (1 - gate) * warp_twin.warp(current, flow) + gate * rgb
         return composite + self.post(torch.cat([composite, u], 1)), flow, gate
 
@@ -120,15 +127,8 @@ class BackgroundMemoryNet(warp_twin.WarpNet):
     def forward(self, current, previous, action, first):
         inp = torch.cat([current, previous, first], 1)
         out = self.head(torch.cat([unet_features(self, inp, action), inp], 1))
-        b, _, h, w = out.shape
-        flow = out[:, warp_twin.FLOW_BIAS:warp_twin.JACOBIAN]
-        if self.jacobian:
-            jac = out[:, warp_twin.JACOBIAN:-1].view(b, 2, self.action_dim, h, w)
-            flow = flow + (jac * action.view(b, 1, self.action_dim, 1, 1)).sum(2)
-        flow = flow * self.flow_scale
-        gate = torch.sigmoid(out[:, warp_twin.GATE:warp_twin.GATE + 1] + self.gate_bias)
+        flow, gate, rgb = head_outputs(self, out, action, own=1)
         memory = torch.sigmoid(out[:, -1:])
-        rgb = torch.tanh(out[:, warp_twin.RGB:warp_twin.RGB + 3])
         kept = (1 - memory) * warp_twin.warp(current, flow) + memory * first
         return (1 - gate) * kept + gate * rgb, flow, gate
 
@@ -162,15 +162,11 @@ class RetraceWarpNet(BackgroundMemoryNet):
                                    inp], 1))
         b, _, h, w = out.shape
         out, out0 = out[:, :-self.extra0], out[:, -self.extra0:]
-        flow = out[:, warp_twin.FLOW_BIAS:warp_twin.JACOBIAN]
-        jac = out[:, warp_twin.JACOBIAN:-1].view(b, 2, self.action_dim, h, w)
-        flow = (flow + (jac * action.view(b, 1, self.action_dim, 1, 1)).sum(2)) * self.flow_scale
+        flow, gate, rgb = head_outputs(self, out, action, own=1)
         jac0 = out0[:, 2:].view(b, 2, self.action_dim, h, w)
         flow0 = out0[:, :2] + (jac0 * retrace.view(b, 1, self.action_dim, 1, 1)).sum(2)
         self.flow0 = flow0 * self.flow_scale  # for the pyramid loss
         source0 = warp_twin.warp(first, self.flow0)
-        gate = torch.sigmoid(out[:, warp_twin.GATE:warp_twin.GATE + 1] + self.gate_bias)
-        rgb = torch.tanh(out[:, warp_twin.RGB:warp_twin.RGB + 3])
         if self.mode == "only":
             kept = source0
         else:
@@ -190,7 +186,7 @@ def forward_splat(image, flow, importance):
     ys = torch.arange(h, dtype=image.dtype).view(1, h, 1) + flow[:, 1]
     x0, y0 = xs.floor(), ys.floor()
     fx, fy = xs - x0, ys - y0
-    weight = torch.exp(importance[:, 0].clamp(-10, 10))
+    weight = torch.exp(importance.clamp(-10, 10)).view(b, 1, -1)
     num = image.new_zeros(b, c, h * w)
     den = image.new_zeros(b, 1, h * w)
     cover = image.new_zeros(b, 1, h * w)
@@ -200,9 +196,8 @@ def forward_splat(image, flow, importance):
         inside = ((tx >= 0) & (tx < w) & (ty >= 0) & (ty < h)).to(image.dtype)
         index = (ty.clamp(0, h - 1) * w + tx.clamp(0, w - 1)).long().view(b, 1, -1)
         share = (bilinear * inside).view(b, 1, -1)
-        num.scatter_add_(2, index.expand(b, c, -1), image.view(b, c, -1) * share * weight.view(
-            b, 1, -1))
-        den.scatter_add_(2, index, share * weight.view(b, 1, -1))
+        num.scatter_add_(2, index.expand(b, c, -1), image.view(b, c, -1) * share * weight)
+        den.scatter_add_(2, index, share * weight)
         cover.scatter_add_(2, index, share)
     splat = num / den.clamp(min=1e-6)
     return splat.view(b, c, h, w), cover.clamp(max=1).view(b, 1, h, w)
@@ -230,12 +225,7 @@ class SplatWarpNet(warp_twin.WarpNet):
     def forward(self, current, previous, action):
         inp = torch.cat([current, previous], 1)
         out = self.head(torch.cat([unet_features(self, inp, action), inp], 1))
-        b, _, h, w = out.shape
-        jac = out[:, warp_twin.JACOBIAN:-1].view(b, 2, self.action_dim, h, w)
-        flow = out[:, warp_twin.FLOW_BIAS:warp_twin.JACOBIAN]
-        flow = (flow + (jac * action.view(b, 1, self.action_dim, 1, 1)).sum(2)) * self.flow_scale
-        gate = torch.sigmoid(out[:, warp_twin.GATE:warp_twin.GATE + 1] + self.gate_bias)
-        rgb = torch.tanh(out[:, warp_twin.RGB:warp_twin.RGB + 3])
+        flow, gate, rgb = head_outputs(self, out, action, own=1)
         splat, cover = forward_splat(current, flow, out[:, -1:])
         return (1 - gate) * (cover * splat + (1 - cover) * rgb) + gate * rgb, flow, gate
 
