@@ -394,8 +394,12 @@ def scores(real, pred, seg):
             "obj": np.nanmean(goal1.region_mse(real, pred, seg, 2))}
 
 
-def score(net, episodes, norm):
+def score(net, episodes, norm, imagine_fn=None):
+    """Means over val episodes 0..ROLLOUTS-1 of scores() for the net's rollout under the logged
+    and the reversed actions and for copy_last, and strip rows of episodes 0-2.
+    `imagine_fn(first, actions, retraces)`, when given, replaces imagine(net, ...)."""
     H = recipes.HORIZON
+    imagine_fn = imagine_fn or (lambda first, a, r: imagine(net, first, a, r))
     found = {k: [] for k in ("model", "reversed", "copy_last")}
     rows = []
     for k in range(recipes.ROLLOUTS):
@@ -404,7 +408,7 @@ def score(net, episodes, norm):
         for name, raw in (("model", acts[:H]), ("reversed", acts[:H][::-1].copy())):
             runs[name] = (torch.tensor(norm(raw))[None],
                           torch.tensor(retrace_actions(raw, norm))[None])
-        preds = {name: goal1.to_uint8(imagine(net, frames[:1], a, r)[0])
+        preds = {name: goal1.to_uint8(imagine_fn(frames[:1], a, r)[0])
                  for name, (a, r) in runs.items()}
         real = goal1.to_uint8(frames[1:H + 1])
         preds["copy_last"] = np.repeat(goal1.to_uint8(frames[:1]), H, 0)
@@ -417,20 +421,12 @@ def score(net, episodes, norm):
 
 
 def main():
-    ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
-    ap.add_argument("--train", required=True)
-    ap.add_argument("--val", required=True)
-    ap.add_argument("--steps", type=int, default=600)
-    ap.add_argument("--unroll", type=int, default=1)
-    ap.add_argument("--channels", type=int, default=48)
+    ap = arguments(__doc__, steps=600, unroll=1, channels=48)
     ap.add_argument("--no-jacobian", action="store_true", help="action added at the bottleneck only")
-    ap.add_argument("--strip", help="PNG: real, predicted, reversed-actions rows, val episodes 0-2")
     ap.add_argument("--self-condition", type=float, default=0, metavar="P")
     ap.add_argument("--post-refine", type=int, default=0, metavar="C")
     ap.add_argument("--edge-loss", type=float, default=0, metavar="W")
     ap.add_argument("--flow-l1", type=float, default=0, metavar="W")
-    ap.add_argument("--seed", type=int, default=0)
-    ap.add_argument("--max-lr", type=float, default=LR, help="peak learning rate")
     ap.add_argument("--background-memory", action="store_true",
                     help="a third source: the real frame 0, chosen per pixel (BackgroundMemoryNet)")
     ap.add_argument("--retrace", choices=("both", "only"),
@@ -442,15 +438,7 @@ def main():
     ap.add_argument("--gan", type=float, default=0, metavar="W",
                     help="W times a PatchGAN critic's hinge loss on the imagined frames (Critic)")
     args = ap.parse_args()
-    torch.set_num_threads(1)
-    torch.manual_seed(args.seed)
-    train, val = recipes.load(args.train), recipes.load(args.val)
-    actions = np.concatenate([a for _, _, a in train])
-    mean, std = actions.mean(0), actions.std(0)
-    std[std < 1e-6] = 1
-
-    def norm(a):
-        return ((a - mean) / std).astype(np.float32)
+    train, val, actions, norm = setup(args)
     model = {"channels": args.channels, "flow_scale": 4.0, "gate_bias": -3.0,
              "action_jacobian": not args.no_jacobian}
     if args.retrace:
@@ -467,17 +455,56 @@ def main():
     fit(net, train, norm, args.steps, args)
     seconds = time.time() - start
     r, rows = score(net.eval(), val, norm)
-    m, c = r["model"], r["copy_last"]
     print(f"warp predictor ({'additive action' if args.no_jacobian else 'action Jacobian'}, "
           f"{args.channels} ch), {args.steps} steps, unroll {args.unroll}, {seconds:.0f} s: "
-          f"PSNR {m['psnr']:.2f} (copy_last {c['psnr']:.2f}), SSIM {m['ssim']:.3f} "
-          f"({c['ssim']:.3f}),\n  PSNR - reversed actions' {m['psnr'] - r['reversed']['psnr']:+.2f}, "
-          f"arm / copy_last {m['arm'] / c['arm']:.2f} (step 8: {m['arm8'] / c['arm8']:.2f}), "
-          f"object / copy_last {m['obj'] / c['obj']:.2f}")
+          f"{summary(r)}")
     if args.strip:
-        img = np.concatenate(rows, 0).clip(0, 255).astype(np.uint8)[..., ::-1]
-        cv2.imwrite(args.strip, cv2.resize(img, None, fx=2, fy=2,
-                                           interpolation=cv2.INTER_NEAREST))
+        write_strip(args.strip, rows)
+
+
+def arguments(doc, steps, unroll, channels):
+    """The options every predictor script here takes, with its own defaults."""
+    ap = argparse.ArgumentParser(description=doc.split("\n")[0])
+    ap.add_argument("--train", required=True)
+    ap.add_argument("--val", required=True)
+    ap.add_argument("--steps", type=int, default=steps)
+    ap.add_argument("--unroll", type=int, default=unroll)
+    ap.add_argument("--channels", type=int, default=channels)
+    ap.add_argument("--seed", type=int, default=0)
+    ap.add_argument("--max-lr", type=float, default=LR, help="peak learning rate")
+    ap.add_argument("--strip", help="PNG: real, predicted, reversed-actions rows, val episodes 0-2")
+    return ap
+
+
+def setup(args):
+    """One thread, args.seed; -> (train, val episodes as recipes.load gives them, the training
+    actions [n, D], the action normaliser fitted on them)."""
+    torch.set_num_threads(1)
+    torch.manual_seed(args.seed)
+    train, val = recipes.load(args.train), recipes.load(args.val)
+    actions = np.concatenate([a for _, _, a in train])
+    mean, std = actions.mean(0), actions.std(0)
+    std[std < 1e-6] = 1
+
+    def norm(a):
+        return ((a - mean) / std).astype(np.float32)
+    return train, val, actions, norm
+
+
+def summary(r):
+    """score()'s means as the docs' columns: PSNR and SSIM beside copy_last's, controllability,
+    arm and object MSE over copy_last's."""
+    m, c = r["model"], r["copy_last"]
+    return (f"PSNR {m['psnr']:.2f} (copy_last {c['psnr']:.2f}), SSIM {m['ssim']:.3f} "
+            f"({c['ssim']:.3f}),\n  PSNR - reversed actions' {m['psnr'] - r['reversed']['psnr']:+.2f}, "
+            f"arm / copy_last {m['arm'] / c['arm']:.2f} (step 8: {m['arm8'] / c['arm8']:.2f}), "
+            f"object / copy_last {m['obj'] / c['obj']:.2f}")
+
+
+def write_strip(path, rows):
+    """Strip rows ([S, n*S, 3] uint8 levels, RGB) stacked, doubled in size, as a PNG."""
+    img = np.concatenate(rows, 0).clip(0, 255).astype(np.uint8)[..., ::-1]
+    cv2.imwrite(path, cv2.resize(img, None, fx=2, fy=2, interpolation=cv2.INTER_NEAREST))
 
 
 if __name__ == "__main__":
