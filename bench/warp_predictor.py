@@ -13,7 +13,7 @@ over steps, and at step 8).
       [--steps 600] [--unroll 1] [--channels 48] [--no-jacobian] [--strip OUT.png] \
       [--self-condition P] [--post-refine C] [--edge-loss W] [--flow-l1 W] [--seed S] \
       [--background-memory] [--retrace both|only [--pyramid-loss W]] [--gan W] [--splat]
-      [--max-lr LR]
+      [--max-lr LR] [--flow-target W]
 
 The last options are variants tried against the smear (docs/motion.md, "How the recipe was
 chosen"); none is in wm-motion: --self-condition P feeds the net, with probability P per batch,
@@ -30,6 +30,9 @@ beside the warped current frame ("both") or alone ("only"); --pyramid-loss W add
 L1 of that warp at three blur levels, so a large flow gets a gradient on a plain table.
 --gan W adds an adversarial loss (a PatchGAN critic of (current, next) pairs, as SAVP's) so the
 predictor is pushed away from blurred means towards frames a real step could produce.
+--flow-target W adds W times the L1 (px) between the predicted flow and OpenCV's DIS optical
+flow measured on the real pair, enlarged 4x (bench/warp_oracle.py: warping by that flow alone
+reaches the arm goal; DIS at 64 px does not).
 --splat moves the current frame's pixels forward (softmax splatting, SplatWarpNet) instead of
 sampling it backward: the flow then belongs to the pixels that move.
 """
@@ -267,11 +270,14 @@ def imagine(net, first, actions, retraces=None):
 def batch(episodes, norm, rng, unroll):
     """[B, unroll + 3, 3, S, S] windows (frames t-2, t-1, t, t+1..t+unroll, indices clamped at
     0), the normalised actions a_{t-1}..a_{t+unroll-1} (a_0 again at t = 0), whether t > 0,
-    the episodes' frames 0 [B, 3, S, S] and the retrace actions r_{t-1}..r_{t+unroll-1}."""
-    clips, actions, later, firsts, retraces = [], [], [], [], []
+    the episodes' frames 0 [B, 3, S, S], the retrace actions r_{t-1}..r_{t+unroll-1} and the
+    windows' (episode, t)."""
+    clips, actions, later, firsts, retraces, where = [], [], [], [], [], []
     for _ in range(BATCH):
-        frames, _, acts = episodes[rng.integers(len(episodes))]
+        e = int(rng.integers(len(episodes)))
+        frames, _, acts = episodes[e]
         t = int(rng.integers(len(frames) - unroll))
+        where.append((e, t))
         clips.append(frames[[max(t - 2, 0), max(t - 1, 0)] + list(range(t, t + unroll + 1))])
         steps = [max(t - 1, 0)] + list(range(t, t + unroll))
         actions.append(norm(acts[steps]))
@@ -279,7 +285,30 @@ def batch(episodes, norm, rng, unroll):
         later.append(t > 0)
         firsts.append(frames[0])
     return (torch.stack(clips), torch.tensor(np.stack(actions)), torch.tensor(later),
-            torch.stack(firsts), torch.tensor(np.stack(retraces)))
+            torch.stack(firsts), torch.tensor(np.stack(retraces)), where)
+
+
+def backward_flow(target, source, upscale):
+    """[2, S, S] flow (px) on `target`'s pixels to where they are in `source` (uint8 levels,
+    HWC), by OpenCV's DIS optical flow on the frames enlarged `upscale` times (at 64 px it
+    misses the arm's motion: bench/warp_oracle.py)."""
+    def gray(x):
+        g = cv2.cvtColor(x.astype(np.uint8), cv2.COLOR_RGB2GRAY)
+        return cv2.resize(g, None, fx=upscale, fy=upscale, interpolation=cv2.INTER_CUBIC)
+    dis = cv2.DISOpticalFlow_create(cv2.DISOPTICAL_FLOW_PRESET_MEDIUM)
+    flow = dis.calc(gray(target), gray(source), None)
+    flow = cv2.resize(flow, target.shape[1::-1], interpolation=cv2.INTER_AREA) / upscale
+    return torch.from_numpy(flow.transpose(2, 0, 1).copy())
+
+
+def episode_flows(episodes, upscale=4):
+    """Per episode [T - 1, 2, S, S]: the backward flow of each step t -> t+1 on frame t+1."""
+    out = []
+    for frames, _, _ in episodes:
+        real = goal1.to_uint8(frames)
+        out.append(torch.stack([backward_flow(real[t + 1], real[t], upscale)
+                                for t in range(len(real) - 1)]))
+    return out
 
 
 def edge_l1(a, b):
@@ -342,6 +371,7 @@ def critic_step(critic, opt, pairs):
 
 
 def fit(net, episodes, norm, steps, args):
+    flows = episode_flows(episodes) if args.flow_target > 0 else None
     opt = torch.optim.AdamW(net.parameters(), LR, betas=(0.9, 0.9), weight_decay=0.01)
     critic = Critic() if args.gan > 0 else None
     critic_opt = (torch.optim.Adam(critic.parameters(), 2e-4, betas=(0.5, 0.999))
@@ -351,7 +381,7 @@ def fit(net, episodes, norm, steps, args):
     for step in range(steps):
         for group in opt.param_groups:
             group["lr"] = learning_rate(step, steps, args.max_lr)
-        clips, actions, later, first, retraces = batch(episodes, norm, rng, unroll)
+        clips, actions, later, first, retraces, where = batch(episodes, norm, rng, unroll)
         previous, current, loss, pairs = clips[:, 1], clips[:, 2], 0, []
         if args.self_condition > 0 and rng.random() < args.self_condition:
             with torch.no_grad():  # frame t as imagined from t-1 (kept real where t = 0)
@@ -365,6 +395,9 @@ def fit(net, episodes, norm, steps, args):
             loss = loss + (predicted - clips[:, u + 3]).abs().mean() / unroll
             if args.flow_l1 > 0:
                 loss = loss + args.flow_l1 * flow.norm(dim=1).mean() / unroll
+            if args.flow_target > 0:  # the measured flow of step t+u -> t+u+1
+                target = torch.stack([flows[e][t + u] for e, t in where])
+                loss = loss + args.flow_target * (flow - target).abs().mean() / unroll
             if critic is not None:
                 loss = loss - args.gan * critic(current.detach(), predicted).mean() / unroll
                 pairs.append((current.detach(), clips[:, u + 3], predicted.detach()))
@@ -427,6 +460,8 @@ def main():
     ap.add_argument("--post-refine", type=int, default=0, metavar="C")
     ap.add_argument("--edge-loss", type=float, default=0, metavar="W")
     ap.add_argument("--flow-l1", type=float, default=0, metavar="W")
+    ap.add_argument("--flow-target", type=float, default=0, metavar="W",
+                    help="W times the L1 (px) between the flow and DIS's on 4x enlarged frames")
     ap.add_argument("--background-memory", action="store_true",
                     help="a third source: the real frame 0, chosen per pixel (BackgroundMemoryNet)")
     ap.add_argument("--retrace", choices=("both", "only"),

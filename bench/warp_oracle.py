@@ -1,0 +1,78 @@
+#!/usr/bin/python3
+"""Issue 20, goal 2: how far can a warp go? The motion model makes each frame by warping the last
+one (docs/motion.md); here the flow is not predicted but measured on the real frames (OpenCV's
+DIS optical flow, no training), so what is left is the model class's own error: disocclusions a
+warp cannot fill, and resampling. Scored as bench/warp_predictor.py scores (val episodes 0..7,
+8 steps from frame 0; arm / object MSE over copy_last's):
+
+  recursive  each imagined frame = the last imagined frame warped by the real flow t -> t+1
+             (what the motion model does, with a perfect flow)
+  from_first each imagined frame = the real frame 0 warped once by the real flow 0 -> t+1
+             (no accumulated resampling)
+
+  bench/warp_oracle.py --val data/demo/shards/val [--upscale 4] [--strip OUT.png]
+
+--upscale computes the flow on frames enlarged by that factor (DIS is coarse at 64 px).
+"""
+import argparse
+import os
+import sys
+
+import cv2
+import numpy as np
+import torch
+
+HERE = os.path.dirname(os.path.abspath(__file__))
+sys.path.insert(0, HERE)
+sys.path.insert(0, os.path.join(HERE, "..", "tests", "motion"))
+import dynamics_token_recipes as recipes  # noqa: E402
+import tokenizer_goal1 as goal1  # noqa: E402
+import warp_predictor as wp  # noqa: E402
+from warp_twin import warp  # noqa: E402
+
+
+def rollouts(frames, horizon, upscale):
+    """{name: [H, 3, S, S] in [-1, 1]} of the two oracle rollouts from frame 0."""
+    real = goal1.to_uint8(frames[:horizon + 1])
+    recursive, current = [], frames[:1]
+    from_first = []
+    for t in range(horizon):
+        step = wp.backward_flow(real[t + 1], real[t], upscale)[None]
+        current = warp(current, step).clamp(-1, 1)
+        recursive.append(current[0])
+        whole = wp.backward_flow(real[t + 1], real[0], upscale)[None]
+        from_first.append(warp(frames[:1], whole).clamp(-1, 1)[0])
+    return {"recursive": torch.stack(recursive), "from_first": torch.stack(from_first)}
+
+
+def main():
+    ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    ap.add_argument("--val", required=True)
+    ap.add_argument("--upscale", type=int, default=4)
+    ap.add_argument("--strip", help="PNG: real, recursive, from_first rows, val episodes 0-2")
+    args = ap.parse_args()
+    cv2.setNumThreads(1)
+    H = recipes.HORIZON
+    found, rows = {}, []
+    for k, (frames, seg, _) in enumerate(recipes.load(args.val)[:recipes.ROLLOUTS]):
+        real = goal1.to_uint8(frames[1:H + 1])
+        preds = {n: goal1.to_uint8(x) for n, x in rollouts(frames, H, args.upscale).items()}
+        preds["copy_last"] = np.repeat(goal1.to_uint8(frames[:1]), H, 0)
+        for name, p in preds.items():
+            found.setdefault(name, []).append(wp.scores(real, p, seg[1:H + 1]))
+        if k < 3:
+            rows += [np.concatenate(list(r), 1)
+                     for r in (real, preds["recursive"], preds["from_first"])]
+    mean = {n: {m: float(np.nanmean([s[m] for s in v])) for m in v[0]} for n, v in found.items()}
+    c = mean["copy_last"]
+    for name in ("recursive", "from_first"):
+        m = mean[name]
+        print(f"{name}: PSNR {m['psnr']:.2f} (copy_last {c['psnr']:.2f}), SSIM {m['ssim']:.3f} "
+              f"({c['ssim']:.3f}), arm / copy_last {m['arm'] / c['arm']:.2f} (step 8: "
+              f"{m['arm8'] / c['arm8']:.2f}), object / copy_last {m['obj'] / c['obj']:.2f}")
+    if args.strip:
+        wp.write_strip(args.strip, rows)
+
+
+if __name__ == "__main__":
+    main()
