@@ -13,7 +13,7 @@ over steps, and at step 8).
       [--steps 600] [--unroll 1] [--channels 48] [--no-jacobian] [--strip OUT.png] \
       [--self-condition P] [--post-refine C] [--edge-loss W] [--flow-l1 W] [--seed S] \
       [--background-memory] [--retrace both|only [--pyramid-loss W]] [--gan W] [--splat]
-      [--max-lr LR] [--flow-target W]
+      [--max-lr LR] [--flow-target W] [--flow-report]
 
 The last options are variants tried against the smear (docs/motion.md, "How the recipe was
 chosen"); none is in wm-motion: --self-condition P feeds the net, with probability P per batch,
@@ -33,6 +33,8 @@ predictor is pushed away from blurred means towards frames a real step could pro
 --flow-target W adds W times the L1 (px) between the predicted flow and OpenCV's DIS optical
 flow measured on the real pair, enlarged 4x (bench/warp_oracle.py: warping by that flow alone
 reaches the arm goal; DIS at 64 px does not).
+--flow-report prints the flow's error on arm pixels against that DIS flow, with real and with
+imagined frames as input.
 --splat moves the current frame's pixels forward (softmax splatting, SplatWarpNet) instead of
 sampling it backward: the flow then belongs to the pixels that move.
 """
@@ -414,6 +416,33 @@ def fit(net, episodes, norm, steps, args):
             critic_step(critic, critic_opt, pairs)
 
 
+@torch.no_grad()
+def flow_report(net, episodes, norm):
+    """Mean end-point error (px) of the net's flow against DIS's (4x) of the real step, on the
+    next frame's arm pixels, over val episodes 0..ROLLOUTS-1 and steps 0..HORIZON-1: with the
+    real frames as input (teacher-forced) and along the open-loop rollout (imagined input);
+    and the measured flow's mean length there."""
+    H, err, length = recipes.HORIZON, {"teacher_forced": [], "imagined": []}, []
+    for frames, seg, acts in episodes[:recipes.ROLLOUTS]:
+        real = goal1.to_uint8(frames[:H + 1])
+        a = torch.tensor(norm(acts[:H]))
+        imagined = [frames[0:1], frames[0:1]]  # previous, current
+        for t in range(H):
+            target = backward_flow(real[t + 1], real[t], 4)
+            arm = torch.from_numpy(seg[t + 1] == 1)
+            if not arm.any():
+                continue
+            length.append(float(target.norm(dim=0)[arm].mean()))
+            real_in = predict_next(net, frames[t:t + 1], frames[max(t - 1, 0):max(t - 1, 0) + 1],
+                                   a[t:t + 1], frames[0:1])
+            own_in = predict_next(net, imagined[1], imagined[0], a[t:t + 1], frames[0:1])
+            for name, out in (("teacher_forced", real_in), ("imagined", own_in)):
+                err[name].append(float((out[1][0] - target).norm(dim=0)[arm].mean()))
+            imagined = [imagined[1], own_in[0].clamp(-1, 1)]
+    return ", ".join(f"{n} {np.mean(v):.2f} px" for n, v in err.items()) + \
+        f" (measured flow {np.mean(length):.2f} px)"
+
+
 def psnr(a, b):
     return 10 * np.log10(255.0 ** 2 / max(1e-10, float(np.mean((a - b) ** 2))))
 
@@ -460,6 +489,8 @@ def main():
     ap.add_argument("--post-refine", type=int, default=0, metavar="C")
     ap.add_argument("--edge-loss", type=float, default=0, metavar="W")
     ap.add_argument("--flow-l1", type=float, default=0, metavar="W")
+    ap.add_argument("--flow-report", action="store_true",
+                    help="the flow's error on arm pixels against DIS's, real and imagined input")
     ap.add_argument("--flow-target", type=float, default=0, metavar="W",
                     help="W times the L1 (px) between the flow and DIS's on 4x enlarged frames")
     ap.add_argument("--background-memory", action="store_true",
@@ -495,6 +526,8 @@ def main():
           f"{summary(r)}")
     if args.strip:
         write_strip(args.strip, rows)
+    if args.flow_report:
+        print("flow error on arm pixels against DIS (4x):", flow_report(net, val, norm))
 
 
 def arguments(doc, steps, unroll, channels):
