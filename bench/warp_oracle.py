@@ -36,9 +36,8 @@ def rollouts(frames, horizon, upscale):
     real = goal1.to_uint8(frames[:horizon + 1])
     recursive, current = [], frames[:1]
     from_first = []
-    for t in range(horizon):
-        step = wp.backward_flow(real[t + 1], real[t], upscale)[None]
-        current = warp(current, step).clamp(-1, 1)
+    for t, step in enumerate(wp.step_flows(frames[:horizon + 1], upscale)):
+        current = warp(current, step[None]).clamp(-1, 1)
         recursive.append(current[0])
         whole = wp.backward_flow(real[t + 1], real[0], upscale)[None]
         from_first.append(warp(frames[:1], whole).clamp(-1, 1)[0])
@@ -63,13 +62,9 @@ def main():
         if k < 3:
             rows += [np.concatenate(list(r), 1)
                      for r in (real, preds["recursive"], preds["from_first"])]
-    mean = {n: {m: float(np.nanmean([s[m] for s in v])) for m in v[0]} for n, v in found.items()}
-    c = mean["copy_last"]
+    mean = wp.means(found)
     for name in ("recursive", "from_first"):
-        m = mean[name]
-        print(f"{name}: PSNR {m['psnr']:.2f} (copy_last {c['psnr']:.2f}), SSIM {m['ssim']:.3f} "
-              f"({c['ssim']:.3f}), arm / copy_last {m['arm'] / c['arm']:.2f} (step 8: "
-              f"{m['arm8'] / c['arm8']:.2f}), object / copy_last {m['obj'] / c['obj']:.2f}")
+        print(f"{name}: {wp.summary(mean, name)}")
     if args.strip:
         wp.write_strip(args.strip, rows)
 

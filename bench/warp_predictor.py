@@ -303,14 +303,12 @@ def backward_flow(target, source, upscale):
     return torch.from_numpy(flow.transpose(2, 0, 1).copy())
 
 
-def episode_flows(episodes, upscale=4):
-    """Per episode [T - 1, 2, S, S]: the backward flow of each step t -> t+1 on frame t+1."""
-    out = []
-    for frames, _, _ in episodes:
-        real = goal1.to_uint8(frames)
-        out.append(torch.stack([backward_flow(real[t + 1], real[t], upscale)
-                                for t in range(len(real) - 1)]))
-    return out
+def step_flows(frames, upscale=4):
+    """[T - 1, 2, S, S]: the backward flow of each step t -> t+1 of `frames` ([T, 3, S, S] in
+    [-1, 1]) on frame t+1."""
+    real = goal1.to_uint8(frames)
+    return torch.stack([backward_flow(real[t + 1], real[t], upscale)
+                        for t in range(len(real) - 1)])
 
 
 def edge_l1(a, b):
@@ -373,7 +371,7 @@ def critic_step(critic, opt, pairs):
 
 
 def fit(net, episodes, norm, steps, args):
-    flows = episode_flows(episodes) if args.flow_target > 0 else None
+    flows = [step_flows(f) for f, _, _ in episodes] if args.flow_target > 0 else None
     opt = torch.optim.AdamW(net.parameters(), LR, betas=(0.9, 0.9), weight_decay=0.01)
     critic = Critic() if args.gan > 0 else None
     critic_opt = (torch.optim.Adam(critic.parameters(), 2e-4, betas=(0.5, 0.999))
@@ -424,17 +422,16 @@ def flow_report(net, episodes, norm):
     and the measured flow's mean length there."""
     H, err, length = recipes.HORIZON, {"teacher_forced": [], "imagined": []}, []
     for frames, seg, acts in episodes[:recipes.ROLLOUTS]:
-        real = goal1.to_uint8(frames[:H + 1])
+        targets = step_flows(frames[:H + 1])
         a = torch.tensor(norm(acts[:H]))
         imagined = [frames[0:1], frames[0:1]]  # previous, current
-        for t in range(H):
-            target = backward_flow(real[t + 1], real[t], 4)
+        for t, target in enumerate(targets):
             arm = torch.from_numpy(seg[t + 1] == 1)
             if not arm.any():
                 continue
             length.append(float(target.norm(dim=0)[arm].mean()))
-            real_in = predict_next(net, frames[t:t + 1], frames[max(t - 1, 0):max(t - 1, 0) + 1],
-                                   a[t:t + 1], frames[0:1])
+            real_in = predict_next(net, frames[t][None], frames[max(t - 1, 0)][None], a[t:t + 1],
+                                   frames[0:1])
             own_in = predict_next(net, imagined[1], imagined[0], a[t:t + 1], frames[0:1])
             for name, out in (("teacher_forced", real_in), ("imagined", own_in)):
                 err[name].append(float((out[1][0] - target).norm(dim=0)[arm].mean()))
@@ -478,8 +475,12 @@ def score(net, episodes, norm, imagine_fn=None):
             found[name].append(scores(real, p, seg[1:H + 1]))
         if k < 3:
             rows += [np.concatenate(list(r), 1) for r in (real, preds["model"], preds["reversed"])]
-    mean = {n: {m: float(np.nanmean([s[m] for s in v])) for m in v[0]} for n, v in found.items()}
-    return mean, rows
+    return means(found), rows
+
+
+def means(found):
+    """{rollout: [scores() per episode]} -> {rollout: {metric: mean over episodes}}."""
+    return {n: {m: float(np.nanmean([s[m] for s in v])) for m in v[0]} for n, v in found.items()}
 
 
 def main():
@@ -559,12 +560,15 @@ def setup(args):
     return train, val, actions, norm
 
 
-def summary(r):
-    """score()'s means as the docs' columns: PSNR and SSIM beside copy_last's, controllability,
-    arm and object MSE over copy_last's."""
-    m, c = r["model"], r["copy_last"]
+def summary(r, name="model"):
+    """score()'s means as the docs' columns for rollout `name`: PSNR and SSIM beside
+    copy_last's, controllability (when r has the "reversed" rollout), arm and object MSE over
+    copy_last's."""
+    m, c = r[name], r["copy_last"]
+    control = (f"PSNR - reversed actions' {m['psnr'] - r['reversed']['psnr']:+.2f}, "
+               if "reversed" in r else "")
     return (f"PSNR {m['psnr']:.2f} (copy_last {c['psnr']:.2f}), SSIM {m['ssim']:.3f} "
-            f"({c['ssim']:.3f}),\n  PSNR - reversed actions' {m['psnr'] - r['reversed']['psnr']:+.2f}, "
+            f"({c['ssim']:.3f}),\n  {control}"
             f"arm / copy_last {m['arm'] / c['arm']:.2f} (step 8: {m['arm8'] / c['arm8']:.2f}), "
             f"object / copy_last {m['obj'] / c['obj']:.2f}")
 
