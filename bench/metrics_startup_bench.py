@@ -24,7 +24,6 @@ import tempfile
 import time
 
 import cv2
-import numpy as np
 
 from metrics_bench import make_pairs  # the same astronaut crops as the throughput benchmark
 

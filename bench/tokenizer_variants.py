@@ -9,7 +9,6 @@ Not the C++ trainer (no checkpoints, plain uniform frame sampling), so the table
 a few minutes and extended with variants the C++ does not have, such as no quantiser.
 """
 import argparse
-import json
 import math
 import os
 import sys
@@ -17,7 +16,6 @@ import time
 
 import numpy as np
 import torch
-import torch.nn.functional as F
 from skimage.metrics import structural_similarity
 
 sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "tests",
