@@ -18,7 +18,9 @@ namespace {
 namespace fs = std::filesystem;
 using Clock = std::chrono::steady_clock;
 
-double Seconds(Clock::time_point a) { return std::chrono::duration<double>(Clock::now() - a).count(); }
+double Seconds(Clock::time_point a) {
+  return std::chrono::duration<double>(Clock::now() - a).count();
+}
 
 // Decodes every frame once with `threads` workers; returns seconds.
 double DecodeAll(const std::vector<std::string>& frames, int threads) {
@@ -26,7 +28,8 @@ double DecodeAll(const std::vector<std::string>& frames, int threads) {
   std::atomic<size_t> next{0};
   auto work = [&] {
     for (size_t i = next++; i < frames.size(); i = next++) {
-      cv::Mat buf(1, static_cast<int>(frames[i].size()), CV_8U, const_cast<char*>(frames[i].data()));
+      cv::Mat buf(1, static_cast<int>(frames[i].size()), CV_8U,
+                  const_cast<char*>(frames[i].data()));
       if (cv::imdecode(buf, cv::IMREAD_UNCHANGED).empty()) std::abort();
     }
   };
@@ -61,7 +64,8 @@ int main(int argc, char** argv) {
   wm::InitLogging("warn");
 
   wm::ingest::RldsSource source(input, split, "", wm::DefaultConfigsDir());
-  std::vector<std::string> frames;  // every encoded stream (camera, depth, labels), as ingest checks them
+  // Every encoded stream (camera, depth, labels), as ingest checks them.
+  std::vector<std::string> frames;
   for (const auto& ref : source.ListEpisodes(nullptr)) {
     wm::Episode e = source.Load(ref);
     for (auto& [name, f] : e.images) frames.insert(frames.end(), f.frames.begin(), f.frames.end());
@@ -88,8 +92,8 @@ int main(int argc, char** argv) {
               input_mb / decode, n / decode);
   std::printf("%-34s %9.3f %10.1f %12.0f\n", "wm-ingest (decode-check every frame)", full,
               input_mb / full, n / full);
-  std::printf("%-34s %9.3f %10.1f %12.0f\n", "wm-ingest --header-check-only", pass,
-              input_mb / pass, n / pass);
+  std::printf("%-34s %9.3f %10.1f %12.0f\n", "wm-ingest --header-check-only", pass, input_mb / pass,
+              n / pass);
   std::printf("ratio full ingest / decode bound: %.2f (goal >= 0.80)\n", decode / full);
   std::printf("pass-through speed-up over full: %.1fx\n", full / pass);
   return 0;

@@ -2,8 +2,8 @@
 // Crash-safe writes: bytes go to a hidden temp file beside the target, which is fsynced and
 // renamed over the target only on Commit(). A killed process leaves at most a `.NAME.tmp`
 // file that readers never open; the target is either absent or complete.
-#include <cstdio>
 #include <cstdint>
+#include <cstdio>
 #include <string>
 #include <string_view>
 

@@ -10,8 +10,8 @@
 namespace wm {
 
 struct ChildLimits {
-  uint64_t memory_mb = 0;     // address space the child may add to what it inherits; 0 = none
-  uint32_t cpu_seconds = 0;   // CPU time the child may use; 0 = none
+  uint64_t memory_mb = 0;    // address space the child may add to what it inherits; 0 = none
+  uint32_t cpu_seconds = 0;  // CPU time the child may use; 0 = none
 };
 
 struct ChildOutcome {

@@ -8,7 +8,9 @@ namespace wm {
 
 // CRC32C of `n` bytes, continuing from a previous `crc` (0 to start).
 uint32_t Crc32c(const void* data, size_t n, uint32_t crc = 0);
-inline uint32_t Crc32c(std::string_view s, uint32_t crc = 0) { return Crc32c(s.data(), s.size(), crc); }
+inline uint32_t Crc32c(std::string_view s, uint32_t crc = 0) {
+  return Crc32c(s.data(), s.size(), crc);
+}
 
 // TFRecord's masked CRC: rotate right by 15 and add a constant, so that CRCs of data that
 // itself contains CRCs stay well distributed.

@@ -9,10 +9,10 @@
 namespace wm {
 
 struct ErrorContext {
-  std::string file;                // the file being read or written, if any
-  std::optional<int64_t> record;   // record / episode / step index within the file
-  std::string record_label;        // what `record` counts ("record", "episode", "demo"...)
-  std::string key;                 // feature key, JSON field or section name
+  std::string file;               // the file being read or written, if any
+  std::optional<int64_t> record;  // record / episode / step index within the file
+  std::string record_label;       // what `record` counts ("record", "episode", "demo"...)
+  std::string key;                // feature key, JSON field or section name
 };
 
 class Error : public std::runtime_error {

@@ -48,9 +48,8 @@ nlohmann::json MakeProvenance(const std::string& tool, const nlohmann::json& con
                               const nlohmann::json& extra_libraries) {
   nlohmann::json libs = CoreLibraryVersions();
   libs.update(extra_libraries);
-  return {{"tool", tool},           {"wmkit_version", kWmkitVersion},
-          {"git_commit", kGitCommit}, {"config", config},
-          {"config_hash", ConfigHash(config)}, {"libraries", libs}};
+  return {{"tool", tool},     {"wmkit_version", kWmkitVersion},    {"git_commit", kGitCommit},
+          {"config", config}, {"config_hash", ConfigHash(config)}, {"libraries", libs}};
 }
 
 std::string VersionString(const std::string& tool) {

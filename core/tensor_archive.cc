@@ -158,8 +158,7 @@ TensorArchiveReader::TensorArchiveReader(std::string path) : path_(std::move(pat
   } catch (const nlohmann::json::exception& ex) {
     throw Error(std::string("header is not valid JSON: ") + ex.what(), at_file);
   }
-  Check(header.is_object() && header.contains("format") &&
-            header["format"] == kTensorArchiveFormat,
+  Check(header.is_object() && header.contains("format") && header["format"] == kTensorArchiveFormat,
         "header 'format' is not \"wmkit-tensors\"", {.file = path_, .key = "format"});
   Check(header.contains("version") && header["version"].is_number_integer(),
         "header lacks an integer 'version'", {.file = path_, .key = "version"});

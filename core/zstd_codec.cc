@@ -37,10 +37,10 @@ std::string ZstdDecompress(std::string_view compressed, size_t raw_length) {
     if (in.pos == in.size && o.pos < o.size) break;  // all input used, nothing left to flush
   }
   Check(pending == 0 || compressed.empty(), "corrupt zstd data: truncated frame");
-  Check(out.size() == raw_length,
-        "zstd data decompressed to " + std::string(out.size() > raw_length ? "more than " : "") +
-            std::to_string(std::min(out.size(), raw_length)) + " bytes, expected " +
-            std::to_string(raw_length));
+  Check(out.size() == raw_length, "zstd data decompressed to " +
+                                      std::string(out.size() > raw_length ? "more than " : "") +
+                                      std::to_string(std::min(out.size(), raw_length)) +
+                                      " bytes, expected " + std::to_string(raw_length));
   return out;
 }
 

@@ -9,7 +9,8 @@
 
 namespace wm::evaluate {
 
-// Writes DIR/episode_K.mp4 (H.264, 4 fps; docs/videos.md). `rollouts`: name -> clip with real's frame count.
+// Writes DIR/episode_K.mp4 (H.264, 4 fps; docs/videos.md). `rollouts`: name -> clip with real's
+// frame count.
 void WriteClipVideo(const std::string& dir, int64_t episode, const Clip& real,
                     const std::map<std::string, Clip>& rollouts);
 

@@ -256,8 +256,7 @@ void WriteReport(const EvalOptions& o, const std::string& name, const std::strin
     WriteFileAtomically((fs::path(dir) / "uncertainty.csv").string(),
                         AddUncertaintyScores(t, name, records));
   }
-  WriteStripOverview((fs::path(dir) / "strips").string(), t.episodes, o.strips,
-                     tok.image_size());
+  WriteStripOverview((fs::path(dir) / "strips").string(), t.episodes, o.strips, tok.image_size());
   WriteScoreCsvs(dir, name, t, o.resamples, o.rollout.seed);
   WriteFileAtomically((fs::path(dir) / "values.csv").string(), values);
   WriteFileAtomically((fs::path(dir) / "contexts.csv").string(),

@@ -18,11 +18,11 @@ struct EvalOptions {
   // wm-train (token dynamics) or wm-motion (motion model, plain rollout only) run directories or
   // checkpoint.wmt files
   std::vector<std::string> checkpoints;
-  std::vector<std::string> names;        // report names, default: the run directory names
-  std::string tokenizer;                 // the tokenizer that wrote `tokens_dir`
-  std::string data_dir;                  // the held-out shard dataset (real frames, rewards)
-  std::string tokens_dir;                // the same episodes as a token dataset
-  std::string out_dir;                   // REPORT_DIR
+  std::vector<std::string> names;  // report names, default: the run directory names
+  std::string tokenizer;           // the tokenizer that wrote `tokens_dir`
+  std::string data_dir;            // the held-out shard dataset (real frames, rewards)
+  std::string tokens_dir;          // the same episodes as a token dataset
+  std::string out_dir;             // REPORT_DIR
   std::vector<RolloutMode> modes = {RolloutMode::kPlain, RolloutMode::kRetrace};
   // `modes` came from --rollout auto (the data's action space), not the user: a motion checkpoint,
   // which has no retrace rollout, then drops retrace without a warning.

@@ -55,7 +55,8 @@ void CheckFrames(EncodedFrames& frames, bool full) {
       std::string enc = SniffEncoding(f);
       Check(!enc.empty(), "image is neither JPEG nor PNG");
       if (frames.encoding.empty()) frames.encoding = enc;
-      Check(enc == frames.encoding, "frame is " + enc + " but earlier frames are " + frames.encoding);
+      Check(enc == frames.encoding,
+            "frame is " + enc + " but earlier frames are " + frames.encoding);
       if (!full && t > 0) continue;
       ImageInfo info = DecodeInfo(f);
       if (t == 0 && frames.height == 0) {
@@ -77,7 +78,8 @@ void CheckFrames(EncodedFrames& frames, bool full) {
 void ResizeFrames(EncodedFrames& frames, int width, int height, bool nearest) {
   for (auto& f : frames.frames) {
     cv::Mat img = Decode(f), out;
-    cv::resize(img, out, cv::Size(width, height), 0, 0, nearest ? cv::INTER_NEAREST : cv::INTER_AREA);
+    cv::resize(img, out, cv::Size(width, height), 0, 0,
+               nearest ? cv::INTER_NEAREST : cv::INTER_AREA);
     f = Encode(out, frames.encoding);
   }
   frames.width = width;

@@ -13,7 +13,8 @@ namespace wm::ingest {
 namespace fs = std::filesystem;
 using nlohmann::json;
 
-shard::DatasetIndex MergeDatasets(const std::vector<std::string>& parts, const std::string& output) {
+shard::DatasetIndex MergeDatasets(const std::vector<std::string>& parts,
+                                  const std::string& output) {
   Check(!parts.empty(), "merge needs at least one part directory");
   Check(!fs::exists(fs::path(output) / shard::kIndexFileName),
         "output already holds a dataset; merge writes a new directory", {.file = output});
@@ -32,7 +33,8 @@ shard::DatasetIndex MergeDatasets(const std::vector<std::string>& parts, const s
           "part differs from the first part in dataset, split or streams", {.file = dir});
     for (size_t s = 0; s < x.shards.size(); ++s) {
       shard::ShardInfo info = x.shards[s];
-      std::string to = (fs::path(output) / shard::ShardFileName(int(merged.shards.size()))).string();
+      std::string to =
+          (fs::path(output) / shard::ShardFileName(int(merged.shards.size()))).string();
       // Copy via the atomic writer: a killed merge never leaves a partial shard under its name.
       WriteFileAtomically(to, ReadFile((fs::path(dir) / info.file).string()));
       Check(Sha256File(to) == info.sha256, "copied shard does not match its hash", {.file = to});

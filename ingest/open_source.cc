@@ -11,8 +11,8 @@ namespace wm::ingest {
 
 std::unique_ptr<EpisodeSource> OpenSource(const IngestOptions& o) {
   if (o.format == "rlds") {
-    return std::make_unique<RldsSource>(o.input, o.split, o.mapping,
-                                        o.configs_dir.empty() ? DefaultConfigsDir() : o.configs_dir);
+    return std::make_unique<RldsSource>(
+        o.input, o.split, o.mapping, o.configs_dir.empty() ? DefaultConfigsDir() : o.configs_dir);
   }
   if (o.format == "hdf5") {
     return std::make_unique<Hdf5Source>(o.input, o.camera, o.hdf5_depth,

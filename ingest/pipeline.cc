@@ -4,9 +4,9 @@
 #include <spdlog/spdlog.h>
 
 #include <atomic>
+#include <chrono>
 #include <csignal>
 #include <cstdlib>
-#include <chrono>
 #include <filesystem>
 #include <opencv2/core/version.hpp>
 #include <variant>
@@ -91,13 +91,19 @@ void IngestOptions::Check() const {
 }
 
 json IngestOptions::ToConfig() const {
-  return {{"format", format},         {"dataset", dataset},
-          {"split", split},           {"camera", camera}, {"hdf5_depth", hdf5_depth},
+  return {{"format", format},
+          {"dataset", dataset},
+          {"split", split},
+          {"camera", camera},
+          {"hdf5_depth", hdf5_depth},
           {"resize", {resize_width, resize_height}},
           {"shard_size_mb", shard_size_mb},
-          {"shard_index", shard_index}, {"num_shards", num_shards},
-          {"max_episodes", max_episodes}, {"on_error", on_error},
-          {"full_image_check", full_image_check}, {"zstd_level", zstd_level},
+          {"shard_index", shard_index},
+          {"num_shards", num_shards},
+          {"max_episodes", max_episodes},
+          {"on_error", on_error},
+          {"full_image_check", full_image_check},
+          {"zstd_level", zstd_level},
           {"shard_format_version", 1}};
 }
 
@@ -135,10 +141,11 @@ IngestSummary RunIngest(const IngestOptions& o) {
   spdlog::info("ingest {} -> {}: {} episodes (job {}/{})", o.input, o.output, refs.size(),
                o.shard_index, o.num_shards);
 
-  shard::DatasetWriter writer({.dir = o.output,
-                               .shard_size_bytes = static_cast<uint64_t>(o.shard_size_mb * 1048576.0),
-                               .zstd_level = o.zstd_level,
-                               .config_hash = config_hash});
+  shard::DatasetWriter writer(
+      {.dir = o.output,
+       .shard_size_bytes = static_cast<uint64_t>(o.shard_size_mb * 1048576.0),
+       .zstd_level = o.zstd_level,
+       .config_hash = config_hash});
   summary.resumed_from = writer.resume_position();
   if (summary.resumed_from > 0) {
     spdlog::info("resuming after {} episodes in {} finished shards", summary.resumed_from,

@@ -9,10 +9,10 @@
 namespace wm::motion {
 
 struct ModelConfig {
-  int image_size = 64;     // frames are resized (INTER_AREA) to image_size x image_size
-  int channels = 32;       // U-Net width (three stride-2 levels down to image_size / 8)
-  double flow_scale = 4;   // pixels of flow per unit of the head's output
-  double gate_bias = -3;   // correction gate logit offset: sigmoid(-3) = 0.05 at the start
+  int image_size = 64;    // frames are resized (INTER_AREA) to image_size x image_size
+  int channels = 32;      // U-Net width (three stride-2 levels down to image_size / 8)
+  double flow_scale = 4;  // pixels of flow per unit of the head's output
+  double gate_bias = -3;  // correction gate logit offset: sigmoid(-3) = 0.05 at the start
   // Flow = bias + sum_i J_i * a_i with a per-pixel J predicted from the frames: the action acts
   // multiplicatively (docs/motion.md, "Why the flow is linear in the action"). false = the
   // action is only added to the bottleneck features.
@@ -32,10 +32,10 @@ struct TrainConfig {
   int threads = 1;  // LibTorch intra-op threads; fixed so CPU runs are reproducible
   int64_t checkpoint_every = 500;
   int64_t log_every = 10;
-  int64_t val_every = 0;   // val.csv period in steps with --val-data (0: only at the end)
-  int unroll = 1;          // imagined steps per training window (loss averaged over them)
-  int val_episodes = 8;    // validation rollouts: the first episodes of the val data
-  int val_horizon = 8;     // imagined frames per validation rollout
+  int64_t val_every = 0;  // val.csv period in steps with --val-data (0: only at the end)
+  int unroll = 1;         // imagined steps per training window (loss averaged over them)
+  int val_episodes = 8;   // validation rollouts: the first episodes of the val data
+  int val_horizon = 8;    // imagined frames per validation rollout
 };
 
 struct DataConfig {

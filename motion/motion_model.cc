@@ -2,7 +2,6 @@
 
 #include <torch/torch.h>
 
-
 #include "core/error.h"
 #include "core/paths.h"
 #include "core/tensor_archive.h"

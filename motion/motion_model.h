@@ -31,9 +31,8 @@ class MotionModel {
   // `raw_actions`: [batch, horizon, action_dim()] as logged (normalised inside with the training
   // data's statistics). Returns the imagined frames [batch, horizon, 3, S, S] in [-1, 1].
   // Deterministic on CPU; a row depends only on its own inputs.
-  std::vector<float> Imagine(const std::vector<float>& first,
-                             const std::vector<float>& raw_actions, int64_t batch,
-                             int64_t horizon) const;
+  std::vector<float> Imagine(const std::vector<float>& first, const std::vector<float>& raw_actions,
+                             int64_t batch, int64_t horizon) const;
 
   // One step of Imagine, for a caller that picks each action after seeing the last frame (a
   // policy in closed loop): the frame after `current`, `previous` being the frame before it

@@ -100,7 +100,8 @@ TrainState MakeTrainState(const TrainOptions& o, const torch::Device& device) {
   s.model = WarpNet(c.model, s.sampler->action_dim());
   s.model->to(device);
   std::vector<std::pair<std::string, torch::Tensor>> params;
-  for (const auto& item : s.model->named_parameters()) params.emplace_back(item.key(), item.value());
+  for (const auto& item : s.model->named_parameters())
+    params.emplace_back(item.key(), item.value());
   const TrainConfig& t = c.train;
   s.optimizer = std::make_unique<AdamW>(
       std::move(params),
@@ -180,14 +181,15 @@ class Validation {
 // thread while this one trains.
 class MotionStage : public trainkit::TrainingStage {
  public:
-  MotionStage(const TrainOptions& o, const RunDir& run, const torch::Device& device,
-              TrainState& s, std::optional<Validation>& val, TrainSummary& summary)
+  MotionStage(const TrainOptions& o, const RunDir& run, const torch::Device& device, TrainState& s,
+              std::optional<Validation>& val, TrainSummary& summary)
       : o_(o), cfg_(o.config), run_(run), device_(device), s_(s), val_(val), summary_(summary) {}
 
   void Train(int64_t step, int64_t stop) override {
     const int64_t B = cfg_.train.batch_size, U = cfg_.train.unroll, S = cfg_.model.image_size;
     const int64_t D = s_.sampler->action_dim();
-    if (!pending_.valid()) pending_ = std::async(std::launch::async, &MotionStage::Load, this, step);
+    if (!pending_.valid())
+      pending_ = std::async(std::launch::async, &MotionStage::Load, this, step);
     Batch batch = pending_.get();
     if (step + 1 < stop)
       pending_ = std::async(std::launch::async, &MotionStage::Load, this, step + 1);

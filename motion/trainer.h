@@ -28,9 +28,9 @@ struct TrainOptions {
 // One validation: means over the val episodes of the per-frame PSNR (dB, on [0, 255] values)
 // of `horizon` imagined frames from each episode's first frame.
 struct RolloutScore {
-  double psnr = 0;             // the logged actions
-  double copy_last_psnr = 0;   // the first frame repeated
-  double reversed_psnr = 0;    // the logged actions in reverse order (controllability)
+  double psnr = 0;            // the logged actions
+  double copy_last_psnr = 0;  // the first frame repeated
+  double reversed_psnr = 0;   // the logged actions in reverse order (controllability)
   double delta_tpsnr() const { return psnr - reversed_psnr; }
 };
 

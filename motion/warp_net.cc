@@ -6,14 +6,12 @@ namespace {
 namespace nn = torch::nn;
 
 nn::Sequential Down(int64_t in, int64_t out) {  // halves the resolution
-  return nn::Sequential(nn::Conv2d(nn::Conv2dOptions(in, out, 4).stride(2).padding(1)),
-                        nn::ReLU());
+  return nn::Sequential(nn::Conv2d(nn::Conv2dOptions(in, out, 4).stride(2).padding(1)), nn::ReLU());
 }
 
 nn::Sequential Up(int64_t in, int64_t out) {  // doubles it
   return nn::Sequential(
-      nn::ConvTranspose2d(nn::ConvTranspose2dOptions(in, out, 4).stride(2).padding(1)),
-      nn::ReLU());
+      nn::ConvTranspose2d(nn::ConvTranspose2dOptions(in, out, 4).stride(2).padding(1)), nn::ReLU());
 }
 
 nn::Conv2d Conv3x3(int64_t in, int64_t out) {
@@ -33,8 +31,8 @@ WarpNetImpl::WarpNetImpl(const ModelConfig& config, int64_t action_dim)
   down2 = register_module("down2", Down(c, c));  // S/4
   down3 = register_module("down3", Down(c, c));  // S/8
   action_in = register_module("action_in", nn::Linear(action_dim, c));
-  middle = register_module("middle", nn::Sequential(Conv3x3(c, c), nn::ReLU(), Conv3x3(c, c),
-                                                     nn::ReLU()));
+  middle = register_module("middle",
+                           nn::Sequential(Conv3x3(c, c), nn::ReLU(), Conv3x3(c, c), nn::ReLU()));
   up3 = register_module("up3", Up(c, c));
   up2 = register_module("up2", Up(2 * c, c));
   up1 = register_module("up1", Up(2 * c, c));

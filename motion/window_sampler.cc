@@ -39,16 +39,15 @@ std::vector<WindowRef> WindowSampler::Draw(uint64_t seed, int64_t step, int batc
   std::vector<WindowRef> refs;
   for (int b = 0; b < batch; ++b) {
     const uint64_t w = rng() % window_prefix_.back();  // bias < 2^-40 at these counts
-    const size_t e = std::upper_bound(window_prefix_.begin(), window_prefix_.end(), w) -
-                     window_prefix_.begin();
+    const size_t e =
+        std::upper_bound(window_prefix_.begin(), window_prefix_.end(), w) - window_prefix_.begin();
     const uint64_t first = e ? window_prefix_[e - 1] : 0;
     refs.push_back({episodes_[e], static_cast<int64_t>(w - first)});
   }
   return refs;
 }
 
-void WindowSampler::Load(const std::vector<WindowRef>& refs, float* frames,
-                         float* actions) const {
+void WindowSampler::Load(const std::vector<WindowRef>& refs, float* frames, float* actions) const {
   const size_t frame_floats = 3ull * size_ * size_;
   const int64_t D = action_dim(), U = unroll_;
   for (size_t b = 0; b < refs.size(); ++b) {
@@ -74,8 +73,8 @@ std::vector<EpisodeClip> WindowSampler::Episodes(int count, int64_t max_frames) 
     clip.frames = std::min(episode.num_steps, max_frames);
     clip.pixels.resize(clip.frames * frame_floats);
     for (int64_t t = 0; t < clip.frames; ++t) {
-      trainkit::DecodeFrame(episode.images.at(image_key_).frames.at(static_cast<size_t>(t)),
-                            size_, clip.pixels.data() + t * frame_floats);
+      trainkit::DecodeFrame(episode.images.at(image_key_).frames.at(static_cast<size_t>(t)), size_,
+                            clip.pixels.data() + t * frame_floats);
     }
     clip.actions.assign(episode.actions.begin(), episode.actions.begin() + clip.frames * D);
   }

@@ -56,7 +56,7 @@ class WindowSampler {
   std::string image_key_, action_space_;
   int size_, unroll_;
   trainkit::ActionNorm norm_;
-  std::vector<int64_t> episodes_;       // episodes with more than `unroll` steps
+  std::vector<int64_t> episodes_;        // episodes with more than `unroll` steps
   std::vector<uint64_t> window_prefix_;  // cumulative window counts over `episodes_`
 };
 

@@ -20,8 +20,8 @@ using Clock = std::chrono::steady_clock;
 constexpr size_t kStderrTailBytes = 1000;
 
 Clock::time_point DeadlineIn(double seconds) {
-  return Clock::now() + std::chrono::duration_cast<Clock::duration>(
-                            std::chrono::duration<double>(seconds));
+  return Clock::now() +
+         std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(seconds));
 }
 
 int MillisecondsLeft(Clock::time_point deadline) {
@@ -118,8 +118,8 @@ PolicyProcess::~PolicyProcess() {
 
 void PolicyProcess::Reset(int64_t episode, uint64_t seed, const std::string& instruction) {
   const Where where{episode, -1};
-  const Reply r = Exchange(ResetHeader(episode, seed, instruction), nullptr, 0,
-                           options_.step_timeout_s, where);
+  const Reply r =
+      Exchange(ResetHeader(episode, seed, instruction), nullptr, 0, options_.step_timeout_s, where);
   if (r.type != "ready") Fail("answered '" + r.type + "' to reset, expected 'ready'", where);
 }
 

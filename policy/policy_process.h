@@ -19,9 +19,9 @@
 namespace wm::policy {
 
 struct PolicyProcessOptions {
-  std::string name;     // shown in every error: the policy's name in reports ("colour_noise0")
-  std::string command;  // run by /bin/sh -c in the caller's working directory
-  int action_dim = 7;   // values every action must have (the dataset's action width)
+  std::string name;      // shown in every error: the policy's name in reports ("colour_noise0")
+  std::string command;   // run by /bin/sh -c in the caller's working directory
+  int action_dim = 7;    // values every action must have (the dataset's action width)
   int image_height = 0;  // every observation's size, pixels (RGB, 3 channels, 8 bits)
   int image_width = 0;
   double start_timeout_s = 60;  // for the hello answer: a large policy may load weights first

@@ -8,7 +8,7 @@
 namespace wm::policy {
 
 struct SuccessRate {
-  double rate = 0;          // successes / trials (0 when there are none)
+  double rate = 0;           // successes / trials (0 when there are none)
   double low = 0, high = 0;  // Wilson score interval at the requested level
 };
 

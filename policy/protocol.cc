@@ -57,17 +57,17 @@ int64_t OptionalInt(const json& j, const char* key) {
 }  // namespace
 
 std::string HelloHeader(int action_dim, int height, int width) {
-  return Line({{"type", "hello"},
-               {"protocol", kProtocolName},
-               {"version", kProtocolVersion},
-               {"action_dim", action_dim},
-               {"image", {{"height", height}, {"width", width}, {"channels", 3},
-                          {"encoding", "rgb8"}}}});
+  return Line(
+      {{"type", "hello"},
+       {"protocol", kProtocolName},
+       {"version", kProtocolVersion},
+       {"action_dim", action_dim},
+       {"image", {{"height", height}, {"width", width}, {"channels", 3}, {"encoding", "rgb8"}}}});
 }
 
 std::string ResetHeader(int64_t episode, uint64_t seed, const std::string& instruction) {
-  return Line({{"type", "reset"}, {"episode", episode}, {"seed", seed},
-               {"instruction", instruction}});
+  return Line(
+      {{"type", "reset"}, {"episode", episode}, {"seed", seed}, {"instruction", instruction}});
 }
 
 std::string StepHeader(const Observation& o) {
@@ -76,8 +76,12 @@ std::string StepHeader(const Observation& o) {
                {"episode", o.episode},
                {"step", o.step},
                {"instruction", o.instruction},
-               {"image", {{"height", o.height}, {"width", o.width}, {"channels", 3},
-                          {"encoding", "rgb8"}, {"bytes", bytes}}}});
+               {"image",
+                {{"height", o.height},
+                 {"width", o.width},
+                 {"channels", 3},
+                 {"encoding", "rgb8"},
+                 {"bytes", bytes}}}});
 }
 
 std::string CloseHeader() { return Line({{"type", "close"}}); }
@@ -103,7 +107,8 @@ Reply ParseReply(std::string_view line) {
     } else if (r.type == "hello") {
       r.protocol = j.value("protocol", std::string());
       r.version = OptionalInt(j, "version");
-      r.self_description = json{{"name", j.value("name", json())}, {"info", j.value("info", json())}}.dump();
+      r.self_description =
+          json{{"name", j.value("name", json())}, {"info", j.value("info", json())}}.dump();
     } else if (r.type == "action") {
       const auto it = j.find("action");
       if (it == j.end() || !it->is_array()) throw Error("an action reply needs an 'action' array");
@@ -129,7 +134,10 @@ std::vector<float> CheckedAction(const Reply& reply, int action_dim) {
   for (size_t i = 0; i < reply.action.size(); ++i) {
     const double v = reply.action[i];
     const bool fits = std::isfinite(v) && std::abs(v) <= std::numeric_limits<float>::max();
-    Check(fits, "answered a non-finite action value " + std::string(std::isnan(v) ? "NaN" : v > 0 ? "+inf" : "-inf") +
+    Check(fits, "answered a non-finite action value " +
+                    std::string(std::isnan(v) ? "NaN"
+                                : v > 0       ? "+inf"
+                                              : "-inf") +
                     " at index " + std::to_string(i));
     out.push_back(static_cast<float>(v));
   }

@@ -9,23 +9,23 @@
 namespace wm::tokenize {
 
 struct ModelConfig {
-  int image_size = 64;        // frames are resized (INTER_AREA) to image_size x image_size
-  int patch_size = 8;         // total encoder downsampling (power of 2); tokens per side =
-                              // image_size / patch_size
-  int stem_factor = 1;        // pixel-unshuffle factor before the first conv (power of 2
-                              // dividing patch_size; 1 = a full-resolution conv stem)
-  int encoder_channels = 64;  // conv width of the encoder (Table 4 "Encoder d_model")
-  int encoder_layers = 1;     // residual blocks at token resolution (Table 4 "num_layers")
-  int decoder_channels = 64;  // conv width of the decoder (Table 4 "Decoder d_model")
-  int decoder_layers = 1;     // residual blocks at token resolution in the decoder
-  int min_channels = 0;       // width halves per level above token resolution, down to this
-                              // (0: constant width); cheap full-resolution layers on CPU
-  int latent_dim = 32;        // code vector size
-  int num_codes = 1024;       // codebook size
-  bool l2_normalize = true;   // nearest code by cosine: latents and codes are L2-normalised
-  double beta = 0.25;         // commitment weight
-  int dead_code_steps = 100;  // a code unused for this many steps is re-seeded (0 = never)
-  double detail_weight = 0;   // extra L1 weight on pixels far from their blurred frame (0: none)
+  int image_size = 64;          // frames are resized (INTER_AREA) to image_size x image_size
+  int patch_size = 8;           // total encoder downsampling (power of 2); tokens per side =
+                                // image_size / patch_size
+  int stem_factor = 1;          // pixel-unshuffle factor before the first conv (power of 2
+                                // dividing patch_size; 1 = a full-resolution conv stem)
+  int encoder_channels = 64;    // conv width of the encoder (Table 4 "Encoder d_model")
+  int encoder_layers = 1;       // residual blocks at token resolution (Table 4 "num_layers")
+  int decoder_channels = 64;    // conv width of the decoder (Table 4 "Decoder d_model")
+  int decoder_layers = 1;       // residual blocks at token resolution in the decoder
+  int min_channels = 0;         // width halves per level above token resolution, down to this
+                                // (0: constant width); cheap full-resolution layers on CPU
+  int latent_dim = 32;          // code vector size
+  int num_codes = 1024;         // codebook size
+  bool l2_normalize = true;     // nearest code by cosine: latents and codes are L2-normalised
+  double beta = 0.25;           // commitment weight
+  int dead_code_steps = 100;    // a code unused for this many steps is re-seeded (0 = never)
+  double detail_weight = 0;     // extra L1 weight on pixels far from their blurred frame (0: none)
   bool anchor_decoder = false;  // the decoder also sees an anchor: an earlier real frame of the
                                 // episode (docs/tokenizer.md, "Anchor decoder")
 };

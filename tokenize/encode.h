@@ -13,7 +13,7 @@ struct EncodeOptions {
   int shard_index = 0;     // this job's part: source episodes PartEpisodeRange(.., i, n)
   int num_shards = 1;
   std::string device = "cpu";
-  int threads = 1;  // LibTorch intra-op threads
+  int threads = 1;        // LibTorch intra-op threads
   double hysteresis = 0;  // code hysteresis margin (Tokenizer::EncodeEpisode); 0 = none
   bool show_progress = true;
 };

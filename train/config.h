@@ -23,8 +23,8 @@ struct ModelConfig {
   // true: token logits use the input embedding's rows (weight tying), so copying a code from the
   // previous frame needs no learned output map; false: a separate Linear head.
   bool tied_token_head = false;
-  double mask_frame_prob = 0.5;     // chance that a frame j >= 1 is a masked target in training;
-                                    // the others stay clean context (1 = every frame, as Genie)
+  double mask_frame_prob = 0.5;  // chance that a frame j >= 1 is a masked target in training;
+                                 // the others stay clean context (1 = every frame, as Genie)
   // "masked": MaskGIT (position j holds frame j partly masked + a_{j-1}, predicts its masked
   // tokens). "next_frame": teacher-forced and shifted (position j holds clean frame j + a_j and
   // predicts every token of frame j+1, as IRIS/STORM), decoded in one pass per frame.

@@ -32,8 +32,8 @@ struct SegmentRef {
 // A batch of segments in host memory, row-major.
 struct SegmentData {
   int64_t batch = 0;
-  std::vector<int64_t> tokens;   // [B, T, N]
-  std::vector<float> actions;    // [B, T, D] normalised, zero-padded to the sampler's D
+  std::vector<int64_t> tokens;  // [B, T, N]
+  std::vector<float> actions;   // [B, T, D] normalised, zero-padded to the sampler's D
   // [B, D] 1/0: which values of a row are real (not padding); empty when every dataset has D.
   std::vector<float> action_mask;
   std::vector<float> rewards;    // [B, T]

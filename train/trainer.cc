@@ -327,8 +327,7 @@ TrainSummary TrainDynamics(const TrainOptions& options) {
                                                        o.show_progress ? "dynamics train" : "");
   loop.writer = writer;
   const auto run_start = std::chrono::steady_clock::now();
-  summary.end_step =
-      trainkit::RunTrainingLoop(loop, stage, metrics ? &*metrics : nullptr);
+  summary.end_step = trainkit::RunTrainingLoop(loop, stage, metrics ? &*metrics : nullptr);
   const double secs =
       std::chrono::duration<double>(std::chrono::steady_clock::now() - run_start).count();
   if (secs > 0) {

@@ -44,26 +44,29 @@ ActionStats StatsFromJson(const json& j) {
 json IndexToJson(const DatasetIndex& x) {
   json shards = json::array();
   for (const auto& s : x.shards) {
-    shards.push_back({{"file", s.file}, {"bytes", s.bytes}, {"sha256", s.sha256},
-                      {"num_episodes", s.num_episodes}, {"num_steps", s.num_steps}});
+    shards.push_back({{"file", s.file},
+                      {"bytes", s.bytes},
+                      {"sha256", s.sha256},
+                      {"num_episodes", s.num_episodes},
+                      {"num_steps", s.num_steps}});
   }
   json skipped = json::array();
   for (const auto& s : x.skipped) {
     skipped.push_back({{"file", s.file}, {"record", s.record}, {"reason", s.reason}});
   }
-  return {{"format", kFormatName},
-          {"format_version", IsCanonicalAction(x.features) ? kFormatVersion
-                                                           : kIndexVersionAnyAction},
-          {"dataset", x.dataset},
-          {"split", x.split},
-          {"source", x.source},
-          {"features", x.features},
-          {"shards", shards},
-          {"num_episodes", x.num_episodes},
-          {"num_steps", x.num_steps},
-          {"action_stats", StatsToJson(x.action_stats)},
-          {"skipped", {{"count", x.skipped.size()}, {"episodes", skipped}}},
-          {"provenance", x.provenance}};
+  return {
+      {"format", kFormatName},
+      {"format_version", IsCanonicalAction(x.features) ? kFormatVersion : kIndexVersionAnyAction},
+      {"dataset", x.dataset},
+      {"split", x.split},
+      {"source", x.source},
+      {"features", x.features},
+      {"shards", shards},
+      {"num_episodes", x.num_episodes},
+      {"num_steps", x.num_steps},
+      {"action_stats", StatsToJson(x.action_stats)},
+      {"skipped", {{"count", x.skipped.size()}, {"episodes", skipped}}},
+      {"provenance", x.provenance}};
 }
 
 DatasetIndex IndexFromJson(const json& j, const std::string& file) {
@@ -73,7 +76,7 @@ DatasetIndex IndexFromJson(const json& j, const std::string& file) {
         {.file = file, .key = "format"});
   const json& version = j.contains("format_version") ? j["format_version"] : json();
   if (!version.is_number_unsigned() || (version.get<uint32_t>() != kFormatVersion &&
-                                         version.get<uint32_t>() != kIndexVersionAnyAction)) {
+                                        version.get<uint32_t>() != kIndexVersionAnyAction)) {
     throw Error("unknown format_version " + version.dump() + " (this build reads versions " +
                     std::to_string(kFormatVersion) + " and " +
                     std::to_string(kIndexVersionAnyAction) + ")",
@@ -121,9 +124,10 @@ DatasetIndex IndexFromJson(const json& j, const std::string& file) {
 DatasetIndex ReadIndex(const std::string& dir) {
   std::string path = (std::filesystem::path(dir) / kIndexFileName).string();
   if (!std::filesystem::exists(path)) {
-    throw Error("not a wmkit dataset: index.json is missing (an interrupted wm-ingest? run it "
-                "again with the same options to resume)",
-                {.file = path});
+    throw Error(
+        "not a wmkit dataset: index.json is missing (an interrupted wm-ingest? run it "
+        "again with the same options to resume)",
+        {.file = path});
   }
   json j = json::parse(ReadFile(path), nullptr, /*allow_exceptions=*/false);
   Check(!j.is_discarded(), "index.json is not valid JSON", {.file = path});

@@ -27,8 +27,8 @@ struct SkippedEpisode {
 // Per action dimension, over every step of every episode; computed in float64.
 struct ActionStats {
   using Vec = std::vector<double>;  // features.action.dim entries (default: 7 zeros)
-  Vec mean = Vec(kActionDim), std = Vec(kActionDim), min = Vec(kActionDim),
-      max = Vec(kActionDim), q01 = Vec(kActionDim), q99 = Vec(kActionDim);
+  Vec mean = Vec(kActionDim), std = Vec(kActionDim), min = Vec(kActionDim), max = Vec(kActionDim),
+      q01 = Vec(kActionDim), q99 = Vec(kActionDim);
 };
 
 struct DatasetIndex {

@@ -24,8 +24,9 @@ DatasetReader::DatasetReader(const std::string& dir) : dir_(dir), index_(ReadInd
 }
 
 std::pair<size_t, size_t> DatasetReader::Locate(size_t k) const {
-  Check(k < index_.num_episodes, "episode " + std::to_string(k) + " out of range (dataset has " +
-                                     std::to_string(index_.num_episodes) + ")",
+  Check(k < index_.num_episodes,
+        "episode " + std::to_string(k) + " out of range (dataset has " +
+            std::to_string(index_.num_episodes) + ")",
         {.file = dir_});
   auto it = std::upper_bound(first_episode_.begin(), first_episode_.end(), k);
   size_t shard = static_cast<size_t>(it - first_episode_.begin()) - 1;
@@ -44,8 +45,8 @@ VerifyReport VerifyDataset(const std::string& dir) {
     std::string path = (fs::path(dir) / s.file).string();
     Check(fs::exists(path), "shard listed in index.json is missing", {.file = path});
     uint64_t bytes = fs::file_size(path);
-    Check(bytes == s.bytes, "size " + std::to_string(bytes) + " differs from index.json's " +
-                                std::to_string(s.bytes),
+    Check(bytes == s.bytes,
+          "size " + std::to_string(bytes) + " differs from index.json's " + std::to_string(s.bytes),
           {.file = path});
     Check(Sha256File(path) == s.sha256, "SHA-256 differs from index.json's (corrupt shard)",
           {.file = path});

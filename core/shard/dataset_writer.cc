@@ -35,7 +35,8 @@ DatasetWriter::DatasetWriter(DatasetWriterOptions options) : options_(std::move(
     }
     shards_.push_back(info);
   }
-  for (const auto& s : state.at("skipped")) skipped_.push_back({s.at("file"), s.at("record"), s.at("reason")});
+  for (const auto& s : state.at("skipped"))
+    skipped_.push_back({s.at("file"), s.at("record"), s.at("reason")});
   features_ = state.at("features");
   consumed_ = next_position_ = JsonInt<uint64_t>(state.at("consumed"));
   resumed_shards_ = shards_.size();
@@ -86,14 +87,20 @@ void DatasetWriter::CloseShard() {
 void DatasetWriter::SaveState() const {
   json shards = json::array(), skipped = json::array();
   for (const auto& s : shards_) {
-    shards.push_back({{"file", s.file}, {"bytes", s.bytes}, {"sha256", s.sha256},
-                      {"num_episodes", s.num_episodes}, {"num_steps", s.num_steps}});
+    shards.push_back({{"file", s.file},
+                      {"bytes", s.bytes},
+                      {"sha256", s.sha256},
+                      {"num_episodes", s.num_episodes},
+                      {"num_steps", s.num_steps}});
   }
   for (const auto& s : skipped_) {
     skipped.push_back({{"file", s.file}, {"record", s.record}, {"reason", s.reason}});
   }
-  json state = {{"config_hash", options_.config_hash}, {"consumed", consumed_},
-                {"shards", shards}, {"skipped", skipped}, {"features", features_}};
+  json state = {{"config_hash", options_.config_hash},
+                {"consumed", consumed_},
+                {"shards", shards},
+                {"skipped", skipped},
+                {"features", features_}};
   WriteFileAtomically(PathOf(kStateFileName), state.dump(2));
 }
 

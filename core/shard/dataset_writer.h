@@ -12,10 +12,10 @@
 namespace wm::shard {
 
 struct DatasetWriterOptions {
-  std::string dir;                          // created if missing
+  std::string dir;                           // created if missing
   uint64_t shard_size_bytes = 256ull << 20;  // a shard is closed once it reaches this size
   int zstd_level = 3;
-  std::string config_hash;                  // a resume only continues the same config
+  std::string config_hash;  // a resume only continues the same config
 };
 
 class DatasetWriter {

@@ -14,9 +14,13 @@ using nlohmann::json;
 template <typename T>
 const char* DtypeName();
 template <>
-const char* DtypeName<float>() { return "float32"; }
+const char* DtypeName<float>() {
+  return "float32";
+}
 template <>
-const char* DtypeName<uint8_t>() { return "uint8"; }
+const char* DtypeName<uint8_t>() {
+  return "uint8";
+}
 
 template <typename T>
 json AppendArray(std::string& body, const std::string& name, const std::vector<T>& values,
@@ -24,9 +28,14 @@ json AppendArray(std::string& body, const std::string& name, const std::vector<T
   std::string_view raw(reinterpret_cast<const char*>(values.data()), values.size() * sizeof(T));
   std::string packed = ZstdCompress(raw, level);
   json shape = cols > 0 ? json::array({rows, cols}) : json::array({rows});
-  json s = {{"name", name},          {"kind", "array"},      {"dtype", DtypeName<T>()},
-            {"shape", shape},        {"codec", "zstd"},      {"offset", body.size()},
-            {"length", packed.size()}, {"raw_length", raw.size()}};
+  json s = {{"name", name},
+            {"kind", "array"},
+            {"dtype", DtypeName<T>()},
+            {"shape", shape},
+            {"codec", "zstd"},
+            {"offset", body.size()},
+            {"length", packed.size()},
+            {"raw_length", raw.size()}};
   body += packed;
   return s;
 }
@@ -83,8 +92,8 @@ int64_t ActionWidth(const json& s) {
 
 EncodedFrames ReadBlobs(const json& s, std::string_view body, int64_t count) {
   Check(s.at("kind") == "blobs", "expected a blobs section");
-  Check(JsonInt<int64_t>(s.at("count")) == count, "blob count " + s.at("count").dump() +
-                                                  " != num_steps " + std::to_string(count));
+  Check(JsonInt<int64_t>(s.at("count")) == count,
+        "blob count " + s.at("count").dump() + " != num_steps " + std::to_string(count));
   std::string_view bytes = SectionBytes(s, body);
   Check(count >= 0 && static_cast<uint64_t>(count) <= bytes.size() / 8,
         "blob length table truncated");
@@ -153,13 +162,18 @@ Episode DecodeEpisode(std::string_view meta_text, std::string_view body, bool wi
       if (current_key == "action") {
         e.action_dim = ActionWidth(s);
         e.actions = ReadArray<float>(s, body, t, e.action_dim);
-      }
-      else if (current_key == "reward") e.rewards = ReadArray<float>(s, body, t, 0);
-      else if (current_key == "discount") e.discounts = ReadArray<float>(s, body, t, 0);
-      else if (current_key == "is_first") e.is_first = ReadArray<uint8_t>(s, body, t, 0);
-      else if (current_key == "is_last") e.is_last = ReadArray<uint8_t>(s, body, t, 0);
-      else if (current_key == "is_terminal") e.is_terminal = ReadArray<uint8_t>(s, body, t, 0);
-      else if (s.at("kind") == "blobs" && with_images) e.images[current_key] = ReadBlobs(s, body, t);
+      } else if (current_key == "reward")
+        e.rewards = ReadArray<float>(s, body, t, 0);
+      else if (current_key == "discount")
+        e.discounts = ReadArray<float>(s, body, t, 0);
+      else if (current_key == "is_first")
+        e.is_first = ReadArray<uint8_t>(s, body, t, 0);
+      else if (current_key == "is_last")
+        e.is_last = ReadArray<uint8_t>(s, body, t, 0);
+      else if (current_key == "is_terminal")
+        e.is_terminal = ReadArray<uint8_t>(s, body, t, 0);
+      else if (s.at("kind") == "blobs" && with_images)
+        e.images[current_key] = ReadBlobs(s, body, t);
     }
   } catch (const json::exception& ex) {
     throw Error(std::string("malformed episode meta: ") + ex.what(), {.key = current_key});
@@ -167,8 +181,9 @@ Episode DecodeEpisode(std::string_view meta_text, std::string_view body, bool wi
     throw ex.WithKey(current_key);
   }
   const auto t = static_cast<size_t>(e.num_steps);
-  Check(e.actions.size() == t * static_cast<size_t>(e.action_dim) && e.rewards.size() == t && e.discounts.size() == t &&
-            e.is_first.size() == t && e.is_last.size() == t && e.is_terminal.size() == t,
+  Check(e.actions.size() == t * static_cast<size_t>(e.action_dim) && e.rewards.size() == t &&
+            e.discounts.size() == t && e.is_first.size() == t && e.is_last.size() == t &&
+            e.is_terminal.size() == t,
         "record lacks one of the sections action, reward, discount, is_first, is_last, "
         "is_terminal");
   Check(!with_images || e.images.count("image") == 1, "record has no image section");

@@ -52,15 +52,17 @@ ShardReader::ShardReader(const std::string& path) : file_(std::make_unique<Mappe
     const uint8_t* e = idx + i * kIndexEntrySize;
     entries_[i] = {GetU64(e), GetU64(e + 8), GetU32(e + 16)};
     if (entries_[i].offset < kFileHeaderSize || entries_[i].length < kRecordHeaderSize ||
-        entries_[i].offset > index_offset || entries_[i].length > index_offset - entries_[i].offset) {
+        entries_[i].offset > index_offset ||
+        entries_[i].length > index_offset - entries_[i].offset) {
       fail("footer index", "entry " + std::to_string(i) + " points outside the record area");
     }
   }
 }
 
 std::string_view ShardReader::RecordBytes(size_t k) const {
-  Check(k < entries_.size(), "episode " + std::to_string(k) + " out of range (shard holds " +
-                                 std::to_string(entries_.size()) + ")",
+  Check(k < entries_.size(),
+        "episode " + std::to_string(k) + " out of range (shard holds " +
+            std::to_string(entries_.size()) + ")",
         {.file = path()});
   const IndexEntry& e = entries_[k];
   const uint8_t* r = file_->data() + e.offset;
@@ -70,8 +72,7 @@ std::string_view ShardReader::RecordBytes(size_t k) const {
   Check(meta_len <= e.length && body_len <= e.length &&
             kRecordHeaderSize + meta_len + body_len == e.length,
         "record lengths disagree with the footer index", where);
-  Check(Crc32c(r + 8, e.length - 8) == GetU32(r + 4), "record CRC mismatch (corrupt data)",
-        where);
+  Check(Crc32c(r + 8, e.length - 8) == GetU32(r + 4), "record CRC mismatch (corrupt data)", where);
   return {reinterpret_cast<const char*>(r), e.length};
 }
 

@@ -34,8 +34,8 @@ struct TokenizerInfo {
   std::string checkpoint_sha256;  // of the tokenizer's checkpoint.wmt
   std::string config_hash;        // of the tokenizer config
   int64_t num_codes = 0;
-  int grid_h = 0, grid_w = 0;     // tokens per frame = grid_h * grid_w
-  int image_size = 0;             // frames were resized to image_size x image_size
+  int grid_h = 0, grid_w = 0;  // tokens per frame = grid_h * grid_w
+  int image_size = 0;          // frames were resized to image_size x image_size
   std::string image_key = "image";
 };
 
@@ -70,7 +70,7 @@ struct PartInfo {
 struct TokenIndex {
   std::string dataset, split;
   TokenizerInfo tokenizer;
-  std::string token_dtype = "uint16";  // "uint32" only when num_codes > 65536
+  std::string token_dtype = "uint16";                // "uint32" only when num_codes > 65536
   nlohmann::json source = nlohmann::json::object();  // source shard dataset: name, hashes
   shard::ActionStats action_stats;                   // copied from the source index (D each)
   // The action's width D and space, copied from the source shard index (features.action);

@@ -15,9 +15,12 @@ using nlohmann::json;
 namespace fs = std::filesystem;
 
 json TokenizerToJson(const TokenizerInfo& t) {
-  return {{"checkpoint_sha256", t.checkpoint_sha256}, {"config_hash", t.config_hash},
-          {"num_codes", t.num_codes}, {"grid", {t.grid_h, t.grid_w}},
-          {"image_size", t.image_size}, {"image_key", t.image_key}};
+  return {{"checkpoint_sha256", t.checkpoint_sha256},
+          {"config_hash", t.config_hash},
+          {"num_codes", t.num_codes},
+          {"grid", {t.grid_h, t.grid_w}},
+          {"image_size", t.image_size},
+          {"image_key", t.image_key}};
 }
 
 TokenizerInfo TokenizerFromJson(const json& j) {
@@ -35,8 +38,8 @@ TokenizerInfo TokenizerFromJson(const json& j) {
 json PartToJson(const PartInfo& p) {
   json sections = json::object();
   for (const auto& [name, s] : p.sections) {
-    sections[name] = {{"offset", s.offset}, {"dtype", s.dtype}, {"shape", s.shape},
-                      {"crc32c", s.crc32c}};
+    sections[name] = {
+        {"offset", s.offset}, {"dtype", s.dtype}, {"shape", s.shape}, {"crc32c", s.crc32c}};
   }
   return {{"file", p.file},
           {"bytes", p.bytes},
@@ -55,8 +58,7 @@ PartInfo PartFromJson(const json& j) {
   p.num_frames = JsonInt<int64_t>(j.at("num_frames"));
   for (const auto& [name, s] : j.at("sections").items()) {
     p.sections[name] = {JsonInt<uint64_t>(s.at("offset")), s.at("dtype").get<std::string>(),
-                        JsonInts<int64_t>(s.at("shape")),
-                        JsonInt<uint32_t>(s.at("crc32c"))};
+                        JsonInts<int64_t>(s.at("shape")), JsonInt<uint32_t>(s.at("crc32c"))};
   }
   return p;
 }

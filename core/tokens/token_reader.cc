@@ -98,8 +98,8 @@ TokenDataset::TokenDataset(const std::string& dir) : state_(std::make_unique<Sta
     const int64_t part_frames = s.index.parts[e.part].num_frames;  // >= 0: its sections fit
     Check(e.frame_offset >= 0 && e.num_frames > 0 && e.frame_offset <= part_frames &&
               e.num_frames <= part_frames - e.frame_offset,
-          "episode frames lie outside its part", {.file = path, .record = int64_t(k),
-                                                  .record_label = "episode"});
+          "episode frames lie outside its part",
+          {.file = path, .record = int64_t(k), .record_label = "episode"});
   }
 }
 

@@ -68,8 +68,8 @@ struct TokenPartWriter::State {
     Write(zeros.data(), zeros.size());
   }
   Section AppendSection(const void* data, size_t bytes, const StepSectionSpec& spec) {
-    uint64_t offset = (file.bytes_written() + kSectionAlignment - 1) / kSectionAlignment *
-                      kSectionAlignment;
+    uint64_t offset =
+        (file.bytes_written() + kSectionAlignment - 1) / kSectionAlignment * kSectionAlignment;
     PadTo(offset);
     Write(data, bytes);
     return {offset, spec.dtype, StepSectionShape(spec, frames, action_dim), Crc32c(data, bytes)};
@@ -139,8 +139,10 @@ PartInfo TokenPartWriter::Finish() {
   info.file = PartFileName(s.part);
   info.num_episodes = static_cast<int64_t>(s.episodes.size());
   info.num_frames = s.frames;
-  info.sections["tokens"] = {kPartHeaderSize, s.token_bytes == 2 ? "<u2" : "<u4",
-                             {s.frames, s.tokenizer.grid_h, s.tokenizer.grid_w}, s.token_crc};
+  info.sections["tokens"] = {kPartHeaderSize,
+                             s.token_bytes == 2 ? "<u2" : "<u4",
+                             {s.frames, s.tokenizer.grid_h, s.tokenizer.grid_w},
+                             s.token_crc};
   const void* data[] = {s.actions.data(),  s.rewards.data(), s.discounts.data(),
                         s.is_first.data(), s.is_last.data(), s.is_terminal.data()};
   for (size_t i = 0; i < std::size(kStepSections); ++i) {
@@ -159,12 +161,10 @@ PartInfo TokenPartWriter::Finish() {
   one.parts = {info};
   one.episodes = s.episodes;
   nlohmann::json j = TokenIndexToJson(one);
-  nlohmann::json part_json = {{"part_index", s.part},
-                              {"num_parts", s.num_parts},
-                              {"run_key", s.run_key},
-                              {"tokenizer_sha256", s.tokenizer.checkpoint_sha256},
-                              {"part", j["parts"][0]},
-                              {"episodes", j["episodes"]}};
+  nlohmann::json part_json = {
+      {"part_index", s.part},  {"num_parts", s.num_parts},
+      {"run_key", s.run_key},  {"tokenizer_sha256", s.tokenizer.checkpoint_sha256},
+      {"part", j["parts"][0]}, {"episodes", j["episodes"]}};
   WriteFileAtomically((std::filesystem::path(s.dir) / PartJsonName(s.part)).string(),
                       part_json.dump(2) + "\n");
   return info;

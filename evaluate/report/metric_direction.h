@@ -11,9 +11,9 @@ enum class Direction { kHigherIsBetter, kLowerIsBetter };
 
 // Higher: psnr, ssim, ms_ssim, pearson, spearman, kendall, ranking_accuracy,
 // uncertainty_error_corr and the uncertainty signals' <signal>_error_pearson,
-// <signal>_error_spearman and <signal>_auroc (wm-eval --retrace-ks). Lower: mse and every mse_<region>, lpips_style, fvd_style, value_gap,
-// return_error. nullopt for anything else (e.g. the per-episode `uncertainty`, which has no
-// better direction).
+// <signal>_error_spearman and <signal>_auroc (wm-eval --retrace-ks). Lower: mse and every
+// mse_<region>, lpips_style, fvd_style, value_gap, return_error. nullopt for anything else (e.g.
+// the per-episode `uncertainty`, which has no better direction).
 std::optional<Direction> MetricDirection(const std::string& metric);
 
 // The default columns of `wm-report compare`, in output order (those no report has are dropped).

@@ -187,8 +187,8 @@ void ReadImages(const DemoReader& r, const std::string& camera, bool read_depth,
       !ImageSide(depth.dims[1]) || !ImageSide(depth.dims[2])) {
     throw r.Fail(depth_key,
                  "expected uint16 [T, H, W] or [T, H, W, 1], T = " + std::to_string(raw.num_steps) +
-                     ", 1 <= H, W <= " + std::to_string(kMaxImageSide) +
-                     ", got " + depth.Describe() + "; pass --hdf5-no-depth to ignore depth");
+                     ", 1 <= H, W <= " + std::to_string(kMaxImageSide) + ", got " +
+                     depth.Describe() + "; pass --hdf5-no-depth to ignore depth");
   }
   raw.depth_height = static_cast<int>(depth.dims[1]);
   raw.depth_width = static_cast<int>(depth.dims[2]);
@@ -308,9 +308,9 @@ std::vector<EpisodeRef> Hdf5Source::ListEpisodes(std::vector<shard::SkippedEpiso
 }
 
 Episode Hdf5Source::Load(const EpisodeRef& ref) const {
-  RawDemo raw = UnpackRawDemo(ReadIsolated(
-      isolation_, [&] { return PackRawDemo(ReadDemo(ref, camera_, depth_)); },
-      {.file = ref.path, .record = ref.record, .record_label = "demo"}));
+  RawDemo raw = UnpackRawDemo(
+      ReadIsolated(isolation_, [&] { return PackRawDemo(ReadDemo(ref, camera_, depth_)); },
+                   {.file = ref.path, .record = ref.record, .record_label = "demo"}));
   const size_t T = static_cast<size_t>(raw.num_steps);
   Episode ep;
   StartEpisode(ep, ref);

@@ -4,8 +4,8 @@
 
 #include <filesystem>
 
-#include "core/error.h"
 #include "core/episode.h"
+#include "core/error.h"
 #include "core/sectioned_yaml.h"
 
 namespace wm::rlds {
@@ -19,17 +19,28 @@ int ActionPart::Width(int feature_size) const {
 nlohmann::json DatasetMapping::ToJson() const {
   nlohmann::json parts = nlohmann::json::array();
   for (const auto& p : action) {
-    parts.push_back({{"key", p.key}, {"select", p.select}, {"zeros", p.zeros},
-                     {"scale", p.scale}, {"offset", p.offset}});
+    parts.push_back({{"key", p.key},
+                     {"select", p.select},
+                     {"zeros", p.zeros},
+                     {"scale", p.scale},
+                     {"offset", p.offset}});
   }
   auto opt = [](const std::optional<std::string>& s) {
     return s ? nlohmann::json(*s) : nlohmann::json(nullptr);
   };
-  return {{"dataset", dataset}, {"image", image}, {"depth", opt(depth)},
-          {"segmentation", opt(segmentation)}, {"action", parts}, {"reward", opt(reward)},
-          {"discount", opt(discount)}, {"is_first", is_first}, {"is_last", is_last},
-          {"is_terminal", is_terminal}, {"language_instruction", opt(language_instruction)},
-          {"policy_id", opt(policy_id)}, {"episode_seed", opt(episode_seed)}};
+  return {{"dataset", dataset},
+          {"image", image},
+          {"depth", opt(depth)},
+          {"segmentation", opt(segmentation)},
+          {"action", parts},
+          {"reward", opt(reward)},
+          {"discount", opt(discount)},
+          {"is_first", is_first},
+          {"is_last", is_last},
+          {"is_terminal", is_terminal},
+          {"language_instruction", opt(language_instruction)},
+          {"policy_id", opt(policy_id)},
+          {"episode_seed", opt(episode_seed)}};
 }
 
 DatasetMapping LoadDatasetMapping(const std::string& file) {
@@ -38,11 +49,11 @@ DatasetMapping LoadDatasetMapping(const std::string& file) {
   std::string key;
   try {
     YAML::Node y = YAML::LoadFile(file);
-    CheckKnownYamlKeys(y,
-                       {"dataset", "image", "depth", "segmentation", "action", "reward",
-                        "discount", "is_first", "is_last", "is_terminal", "language_instruction",
-                        "policy_id", "episode_seed"},
-                       file);
+    CheckKnownYamlKeys(
+        y,
+        {"dataset", "image", "depth", "segmentation", "action", "reward", "discount", "is_first",
+         "is_last", "is_terminal", "language_instruction", "policy_id", "episode_seed"},
+        file);
     auto optional = [&](const char* k) -> std::optional<std::string> {
       key = k;
       if (!y[k] || y[k].IsNull()) return std::nullopt;
@@ -65,8 +76,9 @@ DatasetMapping LoadDatasetMapping(const std::string& file) {
     int index = 0;
     for (const auto& p : y[key]) {
       const std::string where = "action[" + std::to_string(index++) + "]";
-      CheckKnownYamlKeys(p, p["zeros"] ? std::set<std::string>{"zeros"}
-                                       : std::set<std::string>{"key", "select", "scale", "offset"},
+      CheckKnownYamlKeys(p,
+                         p["zeros"] ? std::set<std::string>{"zeros"}
+                                    : std::set<std::string>{"key", "select", "scale", "offset"},
                          file, where);
       ActionPart part;
       if (p["zeros"]) {

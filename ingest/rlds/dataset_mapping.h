@@ -10,9 +10,9 @@
 namespace wm::rlds {
 
 struct ActionPart {
-  std::string key;              // per-step tensor feature; empty for a zero fill
-  std::vector<int> select;      // indices taken from the feature's per-step vector (all if empty)
-  int zeros = 0;                // when `key` is empty: this many zero dimensions
+  std::string key;          // per-step tensor feature; empty for a zero fill
+  std::vector<int> select;  // indices taken from the feature's per-step vector (all if empty)
+  int zeros = 0;            // when `key` is empty: this many zero dimensions
   double scale = 1.0, offset = 0.0;  // value * scale + offset (e.g. open -> closed: -1, +1)
   int Width(int feature_size) const;
 };
@@ -20,7 +20,7 @@ struct ActionPart {
 struct DatasetMapping {
   std::string file;  // where it was loaded from
   std::string dataset;
-  std::string image;                            // required
+  std::string image;  // required
   std::optional<std::string> depth, segmentation;
   std::vector<ActionPart> action;               // widths sum to 7
   std::optional<std::string> reward, discount;  // zeros / ones when absent

@@ -60,10 +60,14 @@ std::string Example::KindOf(const std::string& key) const {
   auto it = map.find(key);
   if (it == map.end()) return "missing";
   switch (it->second.kind_case()) {
-    case wm::tf::Feature::kBytesList: return "bytes";
-    case wm::tf::Feature::kFloatList: return "float";
-    case wm::tf::Feature::kInt64List: return "int64";
-    default: return "empty";
+    case wm::tf::Feature::kBytesList:
+      return "bytes";
+    case wm::tf::Feature::kFloatList:
+      return "float";
+    case wm::tf::Feature::kInt64List:
+      return "int64";
+    default:
+      return "empty";
   }
 }
 

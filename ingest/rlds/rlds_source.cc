@@ -90,8 +90,9 @@ RldsSource::RldsSource(const std::string& path, const std::string& split,
     }
     width += part.Width(size);
   }
-  Check(width == kActionDim, "action parts add up to " + std::to_string(width) +
-                                 " dimensions, expected 7 (Δxyz, Δrpy, gripper)",
+  Check(width == kActionDim,
+        "action parts add up to " + std::to_string(width) +
+            " dimensions, expected 7 (Δxyz, Δrpy, gripper)",
         {.file = mapping_.file, .key = "action"});
 }
 
@@ -160,7 +161,8 @@ Episode RldsSource::MapExample(const std::string& bytes) const {
     const int64_t size = dataset_.features.at(part.key).ElementSize();
     std::vector<float> v = StepValues(ex, part.key, t, size);
     std::vector<int> select = part.select;
-    if (select.empty()) for (int i = 0; i < size; ++i) select.push_back(i);
+    if (select.empty())
+      for (int i = 0; i < size; ++i) select.push_back(i);
     for (int64_t s = 0; s < t; ++s) {
       for (size_t j = 0; j < select.size(); ++j) {
         double x = v[static_cast<size_t>(s * size + select[j])] * part.scale + part.offset;
@@ -169,7 +171,8 @@ Episode RldsSource::MapExample(const std::string& bytes) const {
     }
     dim += static_cast<int>(select.size());
   }
-  e.rewards = mapping_.reward ? StepValues(ex, *mapping_.reward, t, 1) : std::vector<float>(t, 0.0f);
+  e.rewards =
+      mapping_.reward ? StepValues(ex, *mapping_.reward, t, 1) : std::vector<float>(t, 0.0f);
   e.discounts =
       mapping_.discount ? StepValues(ex, *mapping_.discount, t, 1) : std::vector<float>(t, 1.0f);
   e.is_first = Flags(ex, mapping_.is_first, t);
@@ -187,8 +190,11 @@ Episode RldsSource::MapExample(const std::string& bytes) const {
 }
 
 nlohmann::json RldsSource::Describe() const {
-  return {{"format", "rlds"}, {"dataset", dataset_.name}, {"version", dataset_.version},
-          {"split", split_}, {"mapping", mapping_.ToJson()}};
+  return {{"format", "rlds"},
+          {"dataset", dataset_.name},
+          {"version", dataset_.version},
+          {"split", split_},
+          {"mapping", mapping_.ToJson()}};
 }
 
 }  // namespace wm::ingest

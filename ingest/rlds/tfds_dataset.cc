@@ -49,7 +49,9 @@ void Flatten(const json& node, const std::string& prefix, bool per_step,
   FeatureSpec spec;
   spec.tfds_class = ClassName(node);
   spec.per_step = per_step;
-  const json* t = node.contains("tensor") ? &node["tensor"] : node.contains("image") ? &node["image"] : nullptr;
+  const json* t = node.contains("tensor")  ? &node["tensor"]
+                  : node.contains("image") ? &node["image"]
+                                           : nullptr;
   if (t != nullptr) {
     spec.dtype = t->value("dtype", "");
     if (t->contains("shape") && (*t)["shape"].contains("dimensions")) {
@@ -70,7 +72,8 @@ fs::path ResolveVersionDir(const fs::path& path) {
   Check(fs::is_directory(path), "RLDS input is not a directory", {.file = path.string()});
   std::vector<fs::path> versions;
   for (const auto& e : fs::directory_iterator(path)) {
-    if (e.is_directory() && fs::exists(e.path() / "dataset_info.json")) versions.push_back(e.path());
+    if (e.is_directory() && fs::exists(e.path() / "dataset_info.json"))
+      versions.push_back(e.path());
   }
   Check(!versions.empty(),
         "no dataset_info.json here or in a version subdirectory (expected <name>/<version>/)",
@@ -107,8 +110,8 @@ std::vector<std::string> TfdsDataset::SplitFiles(const std::string& split) const
     if (e.is_regular_file() && f.rfind(prefix, 0) == 0) files.push_back(e.path().string());
   }
   std::sort(files.begin(), files.end());
-  Check(!files.empty(), "no TFRecord files for split '" + split + "' (expected " + prefix +
-                            "NNNNN-of-MMMMM)",
+  Check(!files.empty(),
+        "no TFRecord files for split '" + split + "' (expected " + prefix + "NNNNN-of-MMMMM)",
         {.file = dir});
   return files;
 }

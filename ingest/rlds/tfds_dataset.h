@@ -10,11 +10,11 @@
 namespace wm::rlds {
 
 struct FeatureSpec {
-  std::string tfds_class;      // "Tensor", "Image", "Text", "Scalar"
-  std::string dtype;           // "float32", "int64", "bool", "uint8", "string"...
-  std::vector<int64_t> shape;  // per element (per step for step features); [] for scalars
-  std::string encoding;        // images: "jpeg" / "png"
-  bool per_step = false;       // under the `steps` sequence
+  std::string tfds_class;       // "Tensor", "Image", "Text", "Scalar"
+  std::string dtype;            // "float32", "int64", "bool", "uint8", "string"...
+  std::vector<int64_t> shape;   // per element (per step for step features); [] for scalars
+  std::string encoding;         // images: "jpeg" / "png"
+  bool per_step = false;        // under the `steps` sequence
   int64_t ElementSize() const;  // product of shape (1 for scalars)
 };
 
@@ -22,7 +22,7 @@ struct TfdsDataset {
   std::string dir;   // the version directory
   std::string name;  // dataset_info.json "name"
   std::string version;
-  std::map<std::string, FeatureSpec> features;  // flattened key -> spec
+  std::map<std::string, FeatureSpec> features;                          // flattened key -> spec
   std::vector<std::string> SplitFiles(const std::string& split) const;  // sorted paths
 };
 

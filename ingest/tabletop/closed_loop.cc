@@ -10,8 +10,7 @@
 namespace wm::tabletop {
 
 std::vector<uint8_t> DecodeJpegRgb(const std::string& jpeg, int size) {
-  const cv::Mat bytes(1, static_cast<int>(jpeg.size()), CV_8UC1,
-                      const_cast<char*>(jpeg.data()));
+  const cv::Mat bytes(1, static_cast<int>(jpeg.size()), CV_8UC1, const_cast<char*>(jpeg.data()));
   const cv::Mat bgr = cv::imdecode(bytes, cv::IMREAD_COLOR);
   Check(bgr.rows == size && bgr.cols == size && bgr.type() == CV_8UC3,
         "a rendered frame's JPEG does not decode to " + std::to_string(size) + "x" +

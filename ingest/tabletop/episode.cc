@@ -95,8 +95,8 @@ std::string EncodeEpisode(const Rollout& rollout, int size) {
   return EncodeEpisode(rollout, frames, size, PolicyName(rollout.policy));
 }
 
-std::string EncodeEpisode(const Rollout& rollout, const std::vector<EncodedFrame>& frames,
-                          int size, const std::string& policy_id) {
+std::string EncodeEpisode(const Rollout& rollout, const std::vector<EncodedFrame>& frames, int size,
+                          const std::string& policy_id) {
   Check(frames.size() == rollout.steps.size(), "one encoded frame per step is needed");
   std::vector<std::string> images, depths, labels, instructions;
   std::vector<float> actions, rewards, discounts;

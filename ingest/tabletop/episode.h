@@ -74,7 +74,7 @@ EncodedFrame RenderEncodedFrame(const Scene& scene, int size);
 std::string EncodeEpisode(const Rollout& rollout, int size);
 // The tf.train.Example of an episode whose frames are already encoded (one per step), with
 // `policy_id` as its episode_metadata/policy_id.
-std::string EncodeEpisode(const Rollout& rollout, const std::vector<EncodedFrame>& frames,
-                          int size, const std::string& policy_id);
+std::string EncodeEpisode(const Rollout& rollout, const std::vector<EncodedFrame>& frames, int size,
+                          const std::string& policy_id);
 
 }  // namespace wm::tabletop

@@ -101,8 +101,11 @@ PolicyTruth Summarize(const policy::PolicySpec& spec, const std::vector<EpisodeR
 }
 
 json OptionsJson(const SimPolicyOptions& o) {
-  return {{"episodes", o.episodes}, {"max_steps", o.max_steps}, {"size", o.size},
-          {"seed", o.seed}, {"split", o.split},
+  return {{"episodes", o.episodes},
+          {"max_steps", o.max_steps},
+          {"size", o.size},
+          {"seed", o.seed},
+          {"split", o.split},
           {"look", o.look == LookVariation::kPlain ? "plain" : "varied"},
           {"dataset", o.write_dataset ? json(o.name + "/" + o.version) : json(nullptr)}};
 }
@@ -114,29 +117,34 @@ void WriteSummaries(const SimPolicyOptions& o, const std::vector<PolicyTruth>& t
       "policy,in_distribution,episodes,successes,true_value,ci_low,ci_high,mean_return,"
       "mean_steps,command\n";
   for (const PolicyTruth& t : truths) {
-    policies.push_back({{"policy", t.spec.name}, {"command", t.spec.command},
+    policies.push_back({{"policy", t.spec.name},
+                        {"command", t.spec.command},
                         {"in_distribution", t.spec.in_distribution},
-                        {"description", t.spec.description}, {"episodes", t.episodes},
-                        {"successes", t.successes}, {"true_value", t.true_value},
-                        {"ci_low", t.ci_low}, {"ci_high", t.ci_high},
-                        {"mean_return", t.mean_return}, {"mean_steps", t.mean_steps}});
+                        {"description", t.spec.description},
+                        {"episodes", t.episodes},
+                        {"successes", t.successes},
+                        {"true_value", t.true_value},
+                        {"ci_low", t.ci_low},
+                        {"ci_high", t.ci_high},
+                        {"mean_return", t.mean_return},
+                        {"mean_steps", t.mean_steps}});
     csv += t.spec.name + "," + (t.spec.in_distribution ? "true" : "false") + "," +
            std::to_string(t.episodes) + "," + std::to_string(t.successes) + "," +
            Number(t.true_value) + "," + Number(t.ci_low) + "," + Number(t.ci_high) + "," +
            Number(t.mean_return) + "," + Number(t.mean_steps) + "," + CsvField(t.spec.command) +
            "\n";
   }
-  const json summary = {
-      {"format", "wmkit-policy-values"},
-      {"format_version", 1},
-      {"environment", "tabletop"},
-      {"value", "success rate: fraction of episodes whose block reached the goal within "
-                "max_steps (equal to the mean return: reward 1 on that step, else 0)"},
-      {"interval", "wilson"},
-      {"level", 0.95},
-      {"options", OptionsJson(o)},
-      {"policies", policies},
-      {"provenance", MakeProvenance("wm-sim-policy", OptionsJson(o))}};
+  const json summary = {{"format", "wmkit-policy-values"},
+                        {"format_version", 1},
+                        {"environment", "tabletop"},
+                        {"value",
+                         "success rate: fraction of episodes whose block reached the goal within "
+                         "max_steps (equal to the mean return: reward 1 on that step, else 0)"},
+                        {"interval", "wilson"},
+                        {"level", 0.95},
+                        {"options", OptionsJson(o)},
+                        {"policies", policies},
+                        {"provenance", MakeProvenance("wm-sim-policy", OptionsJson(o))}};
   const fs::path out(o.out_dir);
   WriteFileAtomically((out / kEpisodesCsv).string(), episodes_csv);
   WriteFileAtomically((out / kValuesCsv).string(), csv);
@@ -146,8 +154,9 @@ void WriteSummaries(const SimPolicyOptions& o, const std::vector<PolicyTruth>& t
 // An earlier run's finished outputs must not outlive a run that fails.
 void RemoveFinishedMarkers(const SimPolicyOptions& o, const fs::path& dataset_dir) {
   std::error_code ec;
-  for (const fs::path& p : {fs::path(o.out_dir) / kValuesJson, fs::path(o.out_dir) / kValuesCsv,
-                            fs::path(o.out_dir) / kEpisodesCsv, dataset_dir / "dataset_info.json"}) {
+  for (const fs::path& p :
+       {fs::path(o.out_dir) / kValuesJson, fs::path(o.out_dir) / kValuesCsv,
+        fs::path(o.out_dir) / kEpisodesCsv, dataset_dir / "dataset_info.json"}) {
     fs::remove(p, ec);
     if (ec) throw Error("cannot remove an earlier run's output: " + ec.message(), {.file = p});
   }
@@ -210,7 +219,8 @@ std::vector<PolicyTruth> RunSimPolicies(const SimPolicyOptions& o) {
     RemoveStaleShards(dataset_dir.string(), o.name, written);
     const std::string description =
         "Closed-loop episodes of policies in the wmkit tabletop world (wm-sim-policy, seed " +
-        std::to_string(o.seed) + ", split " + o.split + ", one split per policy). Steps as in "
+        std::to_string(o.seed) + ", split " + o.split +
+        ", one split per policy). Steps as in "
         "wm-gen-tabletop's datasets.";
     WriteFileAtomically((dataset_dir / "features.json").string(), TabletopFeaturesJson(o.size));
     WriteFileAtomically((dataset_dir / "dataset_info.json").string(),

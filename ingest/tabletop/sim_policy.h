@@ -20,7 +20,7 @@
 namespace wm::tabletop {
 
 struct SimPolicyOptions {
-  std::string out_dir;                     // required
+  std::string out_dir;                       // required
   std::vector<policy::PolicySpec> policies;  // at least one; names are the splits
   int episodes = 50;          // episodes per policy: indices 0..episodes-1 of `split`
   int max_steps = 40;         // horizon (steps per episode at most), 1..1000
@@ -28,12 +28,12 @@ struct SimPolicyOptions {
   uint64_t seed = 0;          // wm-gen-tabletop's --seed: with `split`, fixes every episode
   std::string split = "val";  // whose episode seeds (layouts, looks, instructions) to use
   LookVariation look = LookVariation::kVaried;  // wm-gen-tabletop's --look
-  std::string name = "wm_tabletop_sim";          // the RLDS dataset's TFDS name
-  std::string version = "1.0.0";                 // its TFDS version
-  bool write_dataset = true;  // false: summaries only (faster)
-  double step_timeout_s = 30;   // per policy answer
-  double start_timeout_s = 60;  // for the policy's hello
-  void Check() const;  // throws wm::Error naming the offending flag
+  std::string name = "wm_tabletop_sim";         // the RLDS dataset's TFDS name
+  std::string version = "1.0.0";                // its TFDS version
+  bool write_dataset = true;                    // false: summaries only (faster)
+  double step_timeout_s = 30;                   // per policy answer
+  double start_timeout_s = 60;                  // for the policy's hello
+  void Check() const;                           // throws wm::Error naming the offending flag
 };
 
 struct PolicyTruth {

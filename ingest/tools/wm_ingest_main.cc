@@ -1,4 +1,5 @@
-// wm-ingest: raw robot episodes (RLDS / HDF5 / image folders / LeRobot) -> a checksummed shard dataset.
+// wm-ingest: raw robot episodes (RLDS / HDF5 / image folders / LeRobot) -> a checksummed shard
+// dataset.
 #include <spdlog/spdlog.h>
 
 #include <CLI/CLI.hpp>
@@ -61,9 +62,10 @@ int main(int argc, char** argv) {
                  "mapping (default: configs/lerobot/<dir name>.yaml, else default.yaml)");
   app.add_option("--configs", o.configs_dir,
                  "Configs directory (default: $WMKIT_CONFIGS or the repo's configs/)");
-  app.add_option("--camera", o.camera,
-                 "HDF5: camera key under obs/ (default: first RGB camera); LeRobot: video "
-                 "feature, e.g. observation.images.top (default: the mapping's, else the only one)");
+  app.add_option(
+      "--camera", o.camera,
+      "HDF5: camera key under obs/ (default: first RGB camera); LeRobot: video "
+      "feature, e.g. observation.images.top (default: the mapping's, else the only one)");
   bool no_depth = false;
   app.add_flag("--hdf5-no-depth", no_depth, "HDF5: ignore obs/<camera>_depth (e.g. float depth)");
   app.add_option("--hdf5-memory-limit-mb", o.hdf5_limits.memory_mb,

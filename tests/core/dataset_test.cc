@@ -113,7 +113,8 @@ TEST(Dataset, RejectsUnknownIndexVersion) {
     ReadIndex(dir.path());
     FAIL();
   } catch (const Error& e) {
-    EXPECT_NE(std::string(e.what()).find("unknown format_version 7"), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find("unknown format_version 7"), std::string::npos)
+        << e.what();
     EXPECT_NE(std::string(e.what()).find("index.json"), std::string::npos);
   }
 }
@@ -138,7 +139,8 @@ TEST(Dataset, ResumeAfterKillGivesIdenticalBytes) {
     test::TempDir killed;
     {
       DatasetWriter w(SmallShards(killed.path()));
-      for (int i = 0; i < kill_after; ++i) w.Add(MakeEpisode(4 + i % 3, i, "ep" + std::to_string(i)), i);
+      for (int i = 0; i < kill_after; ++i)
+        w.Add(MakeEpisode(4 + i % 3, i, "ep" + std::to_string(i)), i);
       // destroyed without Finish: the in-progress shard is lost, finished shards and state stay
     }
     DatasetWriter w(SmallShards(killed.path()));

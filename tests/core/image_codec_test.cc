@@ -39,9 +39,8 @@ TEST(ImageCodec, SniffsByMagicBytes) {
 TEST(ImageCodec, DamagedOrForeignBytesAreErrorsNamingTheSource) {
   const std::vector<uint8_t> pixels = Ramp(8, 8, 3);
   const std::string png = EncodePng(pixels.data(), 8, 8, 3);
-  const std::string truncated = test::ErrorText([&] {
-    DecodePngOrJpeg(png.substr(0, png.size() / 2), "shards/val#episode 3/image[5]");
-  });
+  const std::string truncated = test::ErrorText(
+      [&] { DecodePngOrJpeg(png.substr(0, png.size() / 2), "shards/val#episode 3/image[5]"); });
   EXPECT_NE(truncated.find("shards/val#episode 3/image[5]"), std::string::npos) << truncated;
   EXPECT_NE(truncated.find("cannot decode PNG"), std::string::npos) << truncated;
   const std::string jpeg = test::ErrorText(

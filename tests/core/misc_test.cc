@@ -60,8 +60,9 @@ TEST(Zstd, RoundTripAndCorruption) {
   packed[packed.size() / 2] ^= 0x55;
   EXPECT_THROW(ZstdDecompress(packed.substr(0, packed.size() / 2), raw.size()), Error);
   // A damaged raw_length of 1 PB is an error about the size, not an allocation of 1 PB.
-  EXPECT_NE(test::ErrorText([&] { ZstdDecompress(ZstdCompress(raw), uint64_t{1} << 50); })
-                .find("decompressed to 10000 bytes"),
+  EXPECT_NE(test::ErrorText([&] {
+              ZstdDecompress(ZstdCompress(raw), uint64_t{1} << 50);
+            }).find("decompressed to 10000 bytes"),
             std::string::npos);
 }
 
@@ -89,7 +90,8 @@ TEST(Provenance, ConfigHashIgnoresKeyOrderButNotValues) {
 }
 
 TEST(Provenance, ResumeConfigCheckNamesWhatChanged) {
-  const nlohmann::json stored = {{"model", {{"d", 8}, {"norm", "layer"}}}, {"train", {{"steps", 2}}}};
+  const nlohmann::json stored = {{"model", {{"d", 8}, {"norm", "layer"}}},
+                                 {"train", {{"steps", 2}}}};
   EXPECT_NO_THROW(CheckResumeConfig("", stored, stored));
   nlohmann::json current = stored;
   current["train"]["steps"] = 6;

@@ -134,7 +134,7 @@ TEST(ShardWriter, UnfinishedShardIsNeverVisible) {
     ShardWriter w(path);
     w.Append(MakeEpisode(3, 1));
     EXPECT_FALSE(fs::exists(path));  // only the hidden temp file exists until Finish
-  }  // destroyed without Finish, as on a crash or exception
+  }                                  // destroyed without Finish, as on a crash or exception
   EXPECT_FALSE(fs::exists(path));
   EXPECT_FALSE(fs::exists(TempPathFor(path)));
 }

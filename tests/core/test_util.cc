@@ -1,5 +1,7 @@
 #include "tests/core/test_util.h"
 
+#include <unistd.h>
+
 #include <algorithm>
 #include <cmath>
 #include <cstdlib>
@@ -9,7 +11,6 @@
 #include "core/error.h"
 #include "core/shard/dataset_writer.h"
 #include "core/tensor_archive.h"
-#include <unistd.h>
 
 namespace wm::test {
 namespace fs = std::filesystem;
@@ -29,7 +30,9 @@ TempDir::~TempDir() {
 
 Episode MakeEpisode(int steps, uint64_t seed, const std::string& key) {
   std::mt19937_64 rng(seed);
-  auto uniform = [&] { return static_cast<float>(static_cast<double>(rng() >> 11) * 0x1.0p-53) - 0.5f; };
+  auto uniform = [&] {
+    return static_cast<float>(static_cast<double>(rng() >> 11) * 0x1.0p-53) - 0.5f;
+  };
   Episode e;
   e.episode_key = key;
   e.source_file = key + ".tfrecord";
@@ -50,7 +53,8 @@ Episode MakeEpisode(int steps, uint64_t seed, const std::string& key) {
   f.encoding = "jpeg";
   f.height = 4, f.width = 4, f.channels = 3;
   for (int t = 0; t < steps; ++t) {
-    f.frames.push_back(std::string("\xFF\xD8\xFF", 3) + std::string(10 + t, static_cast<char>('a' + t % 26)));
+    f.frames.push_back(std::string("\xFF\xD8\xFF", 3) +
+                       std::string(10 + t, static_cast<char>('a' + t % 26)));
   }
   return e;
 }
@@ -77,8 +81,12 @@ std::vector<std::vector<uint32_t>> MakeTokenDataset(const std::string& dir, int 
   tokens::TokenIndex base;
   base.dataset = "unit";
   base.split = "train";
-  base.tokenizer = {.checkpoint_sha256 = "ckpt", .config_hash = "cfg", .num_codes = num_codes,
-                    .grid_h = grid_h, .grid_w = grid_w, .image_size = 8 * grid_h};
+  base.tokenizer = {.checkpoint_sha256 = "ckpt",
+                    .config_hash = "cfg",
+                    .num_codes = num_codes,
+                    .grid_h = grid_h,
+                    .grid_w = grid_w,
+                    .image_size = 8 * grid_h};
   base.token_dtype = num_codes > 65536 ? "uint32" : "uint16";
   if (action_dim != kActionDim) {
     base.action_dim = action_dim;
@@ -101,8 +109,10 @@ std::vector<std::vector<uint32_t>> MakeTokenDataset(const std::string& dir, int 
       }
       std::vector<uint32_t> t(static_cast<size_t>(e.num_steps * grid_h * grid_w));
       for (auto& v : t) v = static_cast<uint32_t>(rng() % static_cast<uint64_t>(num_codes));
-      writer.AddEpisode({.num_frames = e.num_steps, .source_episode = k,
-                         .episode_key = e.episode_key, .policy_id = e.policy_id,
+      writer.AddEpisode({.num_frames = e.num_steps,
+                         .source_episode = k,
+                         .episode_key = e.episode_key,
+                         .policy_id = e.policy_id,
                          .language_instruction = e.language_instruction,
                          .episode_seed = e.episode_seed},
                         t, e);

@@ -1,12 +1,13 @@
 // Token datasets: write parts, assemble index.json, read back through the memory map, and
 // refuse corrupt, truncated or mixed-up files with an error naming the file and section.
+#include "core/tokens/token_dataset.h"
+
 #include <gtest/gtest.h>
 
 #include <filesystem>
 
 #include "core/atomic_file.h"
 #include "core/error.h"
-#include "core/tokens/token_dataset.h"
 #include "tests/core/test_util.h"
 
 namespace wm::tokens {
@@ -71,8 +72,9 @@ TEST(TokenDataset, IndexAppearsOnlyWhenAllPartsExist) {
   MakeTokenDataset(dir.path().string(), 4, 2, 2, 2, 16, 1);
   base.tokenizer.checkpoint_sha256 = "other";
   base.tokenizer.num_codes = 16;
-  EXPECT_NE(ErrorText([&] { AssembleIndexIfComplete(dir.path().string(), 2, base); })
-                .find("another tokenizer checkpoint"),
+  EXPECT_NE(ErrorText([&] {
+              AssembleIndexIfComplete(dir.path().string(), 2, base);
+            }).find("another tokenizer checkpoint"),
             std::string::npos);
 }
 

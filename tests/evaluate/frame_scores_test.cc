@@ -1,10 +1,11 @@
 // wm-eval's per-frame scores: MS-SSIM appears exactly when the frames are large enough for its
 // five scales, and is the metrics library's value on the same uint8 frames.
+#include "evaluate/frame_scores.h"
+
 #include <gtest/gtest.h>
 
 #include <cmath>
 
-#include "evaluate/frame_scores.h"
 #include "metrics/image.h"
 #include "metrics/pixel_metrics.h"
 #include "tests/core/test_util.h"

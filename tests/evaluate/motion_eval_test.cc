@@ -163,7 +163,8 @@ TEST_F(MotionEvalTest, RefusesThePolicyLoopWithoutASuccessModelAndAnotherImageSi
   EXPECT_NE(error.find("needs --success-model"), std::string::npos) << error;
   EXPECT_EQ(error.find('\n'), std::string::npos) << error;
 
-  motion::TrainOptions m{.config = motion::test::TestConfig(), .data_dir = *dir_ / "train",
+  motion::TrainOptions m{.config = motion::test::TestConfig(),
+                         .data_dir = *dir_ / "train",
                          .out_dir = *dir_ / "motion64"};
   m.config.model.image_size = 64;
   m.config.train.steps = 1;

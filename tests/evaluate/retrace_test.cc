@@ -35,7 +35,7 @@ void ExpectSameSlots(const std::vector<ContextSlot>& a, const std::vector<Contex
 TEST(Retrace, ActionSumsDeltasAndKeepsTheLastGripper) {
   auto a = Ramp(4);
   Action r = RetraceAction(a.data(), kActionDim, 3);  // actions 1, 2, 3 (1-based values)
-  EXPECT_EQ(r, (Action{6, 60, 0, 0, 0, -6, 0}));  // gripper of action index 2 = 2 % 2 = 0
+  EXPECT_EQ(r, (Action{6, 60, 0, 0, 0, -6, 0}));      // gripper of action index 2 = 2 % 2 = 0
   EXPECT_EQ(RetraceAction(a.data(), kActionDim, 4)[6], 1.f);
   EXPECT_EQ(RetraceAction(a.data(), kActionDim, 1), (Action{1, 10, 0, 0, 0, -1, 0}));
   EXPECT_NE(test::ErrorText([&] { RetraceAction(a.data(), kActionDim, 0); }), "(no error)");

@@ -21,7 +21,8 @@ std::string FractalDir() { return SourceDir() + "/tests/data/rlds/fractal2022081
 std::string ConfigsDir() { return SourceDir() + "/configs"; }
 
 nlohmann::json Expected() {
-  return nlohmann::json::parse(ReadFile(SourceDir() + "/tests/data/rlds/fractal20220817_data.expected.json"));
+  return nlohmann::json::parse(
+      ReadFile(SourceDir() + "/tests/data/rlds/fractal20220817_data.expected.json"));
 }
 
 using test::ErrorText;
@@ -128,8 +129,9 @@ TEST(RldsSource, RecoversEveryFractalEpisodeExactly) {
 TEST(RldsSource, MappingErrorsAreClear) {
   test::TempDir dir;
   std::string mapping = dir / "bad.yaml";
-  WriteFileAtomically(mapping, "dataset: fractal20220817_data\nimage: steps/observation/image\n"
-                               "action:\n  - key: steps/action/world_vector\n");
+  WriteFileAtomically(mapping,
+                      "dataset: fractal20220817_data\nimage: steps/observation/image\n"
+                      "action:\n  - key: steps/action/world_vector\n");
   std::string msg = ErrorText([&] { RldsSource s(FractalDir(), "train", mapping, ConfigsDir()); });
   EXPECT_NE(msg.find("expected 7"), std::string::npos) << msg;
   EXPECT_NE(msg.find("bad.yaml"), std::string::npos) << msg;
@@ -138,20 +140,23 @@ TEST(RldsSource, MappingErrorsAreClear) {
   msg = ErrorText([&] { RldsSource s(FractalDir(), "train", mapping, ConfigsDir()); });
   EXPECT_NE(msg.find("steps/observation/nope"), std::string::npos) << msg;
 
-  WriteFileAtomically(mapping, "dataset: x\nimage: steps/observation/image\naction:\n"
-                               "  - {key: steps/action/world_vector, select: [0, 1, 5]}\n"
-                               "  - {zeros: 4}\n");
+  WriteFileAtomically(mapping,
+                      "dataset: x\nimage: steps/observation/image\naction:\n"
+                      "  - {key: steps/action/world_vector, select: [0, 1, 5]}\n"
+                      "  - {zeros: 4}\n");
   msg = ErrorText([&] { RldsSource s(FractalDir(), "train", mapping, ConfigsDir()); });
   EXPECT_NE(msg.find("select index 5 is outside"), std::string::npos) << msg;
 
   // A misspelt key must not fall back to a default (here: no language instructions).
-  WriteFileAtomically(mapping, "dataset: x\nimage: steps/observation/image\naction: []\n"
-                               "language_instuction: steps/language_instruction\n");
+  WriteFileAtomically(mapping,
+                      "dataset: x\nimage: steps/observation/image\naction: []\n"
+                      "language_instuction: steps/language_instruction\n");
   msg = ErrorText([&] { RldsSource s(FractalDir(), "train", mapping, ConfigsDir()); });
   EXPECT_NE(msg.find("key 'language_instuction'"), std::string::npos) << msg;
   EXPECT_NE(msg.find("unknown key"), std::string::npos) << msg;
-  WriteFileAtomically(mapping, "dataset: x\nimage: steps/observation/image\naction:\n"
-                               "  - {key: steps/action/world_vector, scal: 2}\n");
+  WriteFileAtomically(mapping,
+                      "dataset: x\nimage: steps/observation/image\naction:\n"
+                      "  - {key: steps/action/world_vector, scal: 2}\n");
   msg = ErrorText([&] { RldsSource s(FractalDir(), "train", mapping, ConfigsDir()); });
   EXPECT_NE(msg.find("key 'action[0].scal'"), std::string::npos) << msg;
 

@@ -41,7 +41,8 @@ TEST(ClosedLoopTest, ShowsTheDatasetsFramesFromTheGeneratorsEpisodes) {
       });
   const Rollout generated = RollOut(seed, PolicyKind::kExpert, 3, LookVariation::kPlain);
   ASSERT_EQ(e.frames.size(), 3u);
-  EXPECT_EQ(e.frames[0].jpeg, RenderEncodedFrame({generated.steps[0].state, generated.look}, 64).jpeg);
+  EXPECT_EQ(e.frames[0].jpeg,
+            RenderEncodedFrame({generated.steps[0].state, generated.look}, 64).jpeg);
   EXPECT_EQ(e.rollout.look.instruction, generated.look.instruction);
   ASSERT_EQ(seen.size(), 3u);
   for (size_t t = 0; t < seen.size(); ++t) EXPECT_EQ(seen[t], DecodeJpegRgb(e.frames[t].jpeg, 64));
@@ -84,13 +85,14 @@ TEST(SimPolicyTest, FailingPolicyLeavesNothingThatLooksFinished) {
   o.policies = {{"good", Script("scripts/wmpolicy.py"), false, ""}};
   RunSimPolicies(o);  // an earlier, finished run
   ASSERT_TRUE(fs::exists(dir / "policy_values.json"));
-  o.policies.push_back({"crashing", Script("tests/policy/echo_policy.py --bad crash --at 3"),
-                        false, ""});
+  o.policies.push_back(
+      {"crashing", Script("tests/policy/echo_policy.py --bad crash --at 3"), false, ""});
   EXPECT_THAT(test::ErrorText([&] { RunSimPolicies(o); }),
               ::testing::HasSubstr("policy 'crashing', episode 0, step 3: exited with status 3"));
-  for (const char* file : {"policy_values.json", "policy_values.csv", "policy_episodes.csv",
-                           "wm_tabletop_sim/1.0.0/dataset_info.json",
-                           "wm_tabletop_sim/1.0.0/wm_tabletop_sim-crashing.tfrecord-00000-of-00001"}) {
+  for (const char* file :
+       {"policy_values.json", "policy_values.csv", "policy_episodes.csv",
+        "wm_tabletop_sim/1.0.0/dataset_info.json",
+        "wm_tabletop_sim/1.0.0/wm_tabletop_sim-crashing.tfrecord-00000-of-00001"}) {
     EXPECT_FALSE(fs::exists(dir / file)) << file;
   }
 }

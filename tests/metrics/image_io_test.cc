@@ -117,9 +117,12 @@ TEST(ImageCodec, DecodesExactlyAsOpenCv) {
   cv::randu(grey, 0, 256);
   cv::randu(wide, 0, 65536);
   cv::randu(alpha, 0, 256);
-  for (const auto& [ext, mat] : std::vector<std::pair<std::string, cv::Mat>>{
-           {".png", colour}, {".png", grey}, {".png", wide}, {".png", alpha}, {".jpg", colour},
-           {".jpg", grey}}) {
+  for (const auto& [ext, mat] : std::vector<std::pair<std::string, cv::Mat>>{{".png", colour},
+                                                                             {".png", grey},
+                                                                             {".png", wide},
+                                                                             {".png", alpha},
+                                                                             {".jpg", colour},
+                                                                             {".jpg", grey}}) {
     std::vector<uchar> buf;
     ASSERT_TRUE(cv::imencode(ext, mat, buf));
     const std::string bytes(buf.begin(), buf.end());

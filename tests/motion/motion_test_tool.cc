@@ -37,8 +37,10 @@ void WriteReference(const std::string& path, uint64_t seed, bool jacobian, int a
   const torch::Tensor imagined = Imagine(net, current, actions);
   wm::TensorArchiveWriter w;
   wm::trainkit::AddModule(w, "model/", *net);
-  for (const auto& [name, t] : {std::pair{"input/current", current}, {"input/previous", previous},
-                                {"input/action", action}, {"input/actions", actions},
+  for (const auto& [name, t] : {std::pair{"input/current", current},
+                                {"input/previous", previous},
+                                {"input/action", action},
+                                {"input/actions", actions},
                                 {"output/next", out.next.detach()},
                                 {"output/flow", out.flow.detach()},
                                 {"output/gate", out.gate.detach()},

@@ -88,14 +88,17 @@ TEST_F(MotionTrainTest, KilledRunResumesBitIdentically) {
 }
 
 TEST_F(MotionTrainTest, ConfigErrorsNameTheKey) {
-  EXPECT_NE(wm::test::ErrorText([] { ParseMotionConfig("model:\n  channels: 0\n", "m.yaml"); })
-                .find("model.channels"),
+  EXPECT_NE(wm::test::ErrorText([] {
+              ParseMotionConfig("model:\n  channels: 0\n", "m.yaml");
+            }).find("model.channels"),
             std::string::npos);
-  EXPECT_NE(wm::test::ErrorText([] { ParseMotionConfig("model:\n  chanels: 4\n", "m.yaml"); })
-                .find("chanels"),
+  EXPECT_NE(wm::test::ErrorText([] {
+              ParseMotionConfig("model:\n  chanels: 4\n", "m.yaml");
+            }).find("chanels"),
             std::string::npos);
-  EXPECT_NE(wm::test::ErrorText([] { ParseMotionConfig("model:\n  image_size: 36\n", "m.yaml"); })
-                .find("model.image_size"),
+  EXPECT_NE(wm::test::ErrorText([] {
+              ParseMotionConfig("model:\n  image_size: 36\n", "m.yaml");
+            }).find("model.image_size"),
             std::string::npos);
 }
 
@@ -108,7 +111,8 @@ TEST_F(MotionTrainTest, LearnsMotionThatFollowsTheActions) {
   o.val_dir = dir_ / "val";
   const TrainSummary s = TrainMotion(o);
   ASSERT_TRUE(s.val.has_value());
-  EXPECT_GT(s.val->psnr, s.val->copy_last_psnr + 1) << s.val->psnr << " vs " << s.val->copy_last_psnr;
+  EXPECT_GT(s.val->psnr, s.val->copy_last_psnr + 1)
+      << s.val->psnr << " vs " << s.val->copy_last_psnr;
   EXPECT_GT(s.val->delta_tpsnr(), 1) << s.val->psnr << " vs reversed " << s.val->reversed_psnr;
 
   const auto model = MotionModel::Load(dir_ / "learn");

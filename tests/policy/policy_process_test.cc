@@ -72,8 +72,9 @@ TEST(PolicyProcessTest, RoundTripEchoesEveryField) {
       for (uint8_t v : rgb) sum += v;
       const std::vector<float> a = policy.Act(Obs(rgb, episode, step));
       const std::vector<float> expected = {
-          static_cast<float>(step), static_cast<float>(episode), static_cast<float>(rgb[0]),
-          static_cast<float>(rgb[rgb.size() - 1]), static_cast<float>(sum % 9973), 18,
+          static_cast<float>(step),       static_cast<float>(episode),
+          static_cast<float>(rgb[0]),     static_cast<float>(rgb[rgb.size() - 1]),
+          static_cast<float>(sum % 9973), 18,
           episode == 0 ? 1.0f : 2.0f};
       EXPECT_EQ(a, expected) << "episode " << episode << " step " << step;
     }
@@ -88,9 +89,9 @@ TEST(PolicyProcessTest, CrashNamesPolicyEpisodeStepAndStatus) {
 }
 
 TEST(PolicyProcessTest, KilledBySignal) {
-  EXPECT_THAT(RunUntilError(Options("--bad segv --at 2")),
-              ::testing::AllOf(HasSubstr("policy 'echo', episode 4, step 2: "),
-                               HasSubstr("SIGSEGV")));
+  EXPECT_THAT(
+      RunUntilError(Options("--bad segv --at 2")),
+      ::testing::AllOf(HasSubstr("policy 'echo', episode 4, step 2: "), HasSubstr("SIGSEGV")));
 }
 
 TEST(PolicyProcessTest, HangPastTimeoutIsKilled) {
@@ -103,7 +104,8 @@ TEST(PolicyProcessTest, HangPastTimeoutIsKilled) {
 TEST(PolicyProcessTest, HangAtStartUp) {
   PolicyProcessOptions o = Options("--bad hang_start");
   o.start_timeout_s = 0.5;
-  EXPECT_THAT(RunUntilError(o), HasSubstr("policy 'echo', at start-up: did not answer within 0.5 s"));
+  EXPECT_THAT(RunUntilError(o),
+              HasSubstr("policy 'echo', at start-up: did not answer within 0.5 s"));
 }
 
 // Each misbehaviour of echo_policy.py and the error it must give.
@@ -124,8 +126,9 @@ INSTANTIATE_TEST_SUITE_P(
         BadPolicyCase{"--bad malformed --at 0",
                       "policy 'echo', episode 4, step 0: answered a line that is not JSON: "
                       "'{this is not json'"},
-        BadPolicyCase{"--bad wide --at 2",
-                      "policy 'echo', episode 4, step 2: answered an action of width 6, expected 7"},
+        BadPolicyCase{
+            "--bad wide --at 2",
+            "policy 'echo', episode 4, step 2: answered an action of width 6, expected 7"},
         BadPolicyCase{"--bad nan --at 1",
                       "policy 'echo', episode 4, step 1: answered a non-finite action value NaN "
                       "at index 2"},

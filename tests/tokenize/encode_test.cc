@@ -1,6 +1,8 @@
 // Pre-tokenizing and decoding: a trained tokenizer's codes survive the token dataset exactly,
 // sharded encoding equals one job, decode writes what it says, and the tiny model can overfit
 // a handful of frames to a high PSNR.
+#include "tokenize/encode.h"
+
 #include <gtest/gtest.h>
 
 #include <filesystem>
@@ -12,7 +14,6 @@
 #include "tests/core/test_util.h"
 #include "tests/tokenize/shapes_fixture.h"
 #include "tokenize/decode.h"
-#include "tokenize/encode.h"
 #include "tokenize/frame_sampler.h"
 #include "tokenize/tokenizer.h"
 #include "tokenize/trainer.h"
@@ -35,8 +36,12 @@ class EncodeTest : public ::testing::Test {
   static std::string data() { return *dir_ / "data"; }
   static std::string run() { return *dir_ / "run"; }
   static EncodeSummary Encode(const std::string& out, int part = 0, int parts = 1) {
-    return EncodeDataset({.checkpoint = run(), .data_dir = data(), .out_dir = out,
-                          .shard_index = part, .num_shards = parts, .show_progress = false});
+    return EncodeDataset({.checkpoint = run(),
+                          .data_dir = data(),
+                          .out_dir = out,
+                          .shard_index = part,
+                          .num_shards = parts,
+                          .show_progress = false});
   }
   static std::vector<int64_t> AllTokens(const tokens::TokenDataset& d) {
     std::vector<int64_t> all;
@@ -104,8 +109,12 @@ TEST_F(EncodeTest, DecodeWritesContactSheetAndRefusesOtherTokenizers) {
   const std::string out = *dir_ / "tokens-decode";
   Encode(out);
   const std::string png = *dir_ / "sheet.png";
-  EXPECT_EQ(DecodeEpisode({.checkpoint = run(), .tokens_dir = out, .episode = 1, .out = png,
-                           .originals_dir = data(), .columns = 4}),
+  EXPECT_EQ(DecodeEpisode({.checkpoint = run(),
+                           .tokens_dir = out,
+                           .episode = 1,
+                           .out = png,
+                           .originals_dir = data(),
+                           .columns = 4}),
             6);
   const DecodedImage sheet = DecodePngOrJpeg(ReadFile(png), png);
   EXPECT_EQ(sheet.width, 4 * 32);

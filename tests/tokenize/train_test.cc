@@ -124,8 +124,9 @@ TEST_F(TrainTest, RefusesToOverwriteOrResumeWithAnotherConfig) {
             std::string::npos);
   TrainOptions changed = Options("run", 6);
   changed.resume = true;
-  EXPECT_NE(test::ErrorText([&] { TrainTokenizer(changed); })
-                .find("different config (train.steps: 5 -> 6)"),
+  EXPECT_NE(test::ErrorText([&] {
+              TrainTokenizer(changed);
+            }).find("different config (train.steps: 5 -> 6)"),
             std::string::npos);
 }
 

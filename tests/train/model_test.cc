@@ -40,27 +40,27 @@ void ExpectPrefixEqual(const torch::Tensor& a, const torch::Tensor& b, int64_t f
 // With "next_frame" position j predicts frame j+1, so this also checks that it cannot see it.
 TEST(DynamicsCausality, FutureFrameDoesNotChangeEarlierPredictions) {
   for (bool policy : {true, false})
-  for (const char* objective : {"masked", "next_frame"}) {
-    DynamicsConfig c = test::TinyConfig(policy);
-    c.model.objective = objective;
-    c.model.copy_prior = c.model.objective == "next_frame";
-    torch::manual_seed(1);
-    WorldModel m(c);
-    Inputs in = RandomInputs(c, 2, 2);
-    for (int64_t j = 1; j < c.model.context_frames; ++j) {
-      torch::Tensor changed = in.tokens.clone();
-      changed.select(1, j).random_(c.model.num_codes);
-      DynamicsOutput a = RunModel(m, in.tokens, in.actions), b = RunModel(m, changed, in.actions);
-      ExpectPrefixEqual(a.logits, b.logits, j, "logits");
-      ExpectPrefixEqual(a.reward, b.reward, j, "reward");
-      ExpectPrefixEqual(a.terminal_logit, b.terminal_logit, j, "terminal");
-      if (policy) {
-        torch::NoGradGuard no_grad;
-        ExpectPrefixEqual(m->policy->Prior(in.tokens, in.actions),
-                          m->policy->Prior(changed, in.actions), j, "prior");
+    for (const char* objective : {"masked", "next_frame"}) {
+      DynamicsConfig c = test::TinyConfig(policy);
+      c.model.objective = objective;
+      c.model.copy_prior = c.model.objective == "next_frame";
+      torch::manual_seed(1);
+      WorldModel m(c);
+      Inputs in = RandomInputs(c, 2, 2);
+      for (int64_t j = 1; j < c.model.context_frames; ++j) {
+        torch::Tensor changed = in.tokens.clone();
+        changed.select(1, j).random_(c.model.num_codes);
+        DynamicsOutput a = RunModel(m, in.tokens, in.actions), b = RunModel(m, changed, in.actions);
+        ExpectPrefixEqual(a.logits, b.logits, j, "logits");
+        ExpectPrefixEqual(a.reward, b.reward, j, "reward");
+        ExpectPrefixEqual(a.terminal_logit, b.terminal_logit, j, "terminal");
+        if (policy) {
+          torch::NoGradGuard no_grad;
+          ExpectPrefixEqual(m->policy->Prior(in.tokens, in.actions),
+                            m->policy->Prior(changed, in.actions), j, "prior");
+        }
       }
     }
-  }
 }
 
 TEST(DynamicsCausality, FutureActionDoesNotChangePredictionsUpToItsFrame) {
@@ -250,8 +250,8 @@ TEST(MaskGit, DecodingIsDeterministicGivenSeedAndFillsEveryToken) {
   EXPECT_TRUE(torch::equal(a, b));
   EXPECT_EQ(a.sizes(), (std::vector<int64_t>{2, 6}));
   // A row's frame depends on its own seed and context only, not on the rest of the batch.
-  torch::Tensor row1 = DecodeNextFrame(m, ctx.slice(0, 1, 2), act.slice(0, 1, 2),
-                                       z.slice(0, 1, 2), 4, 1.0, {124});
+  torch::Tensor row1 =
+      DecodeNextFrame(m, ctx.slice(0, 1, 2), act.slice(0, 1, 2), z.slice(0, 1, 2), 4, 1.0, {124});
   EXPECT_TRUE(torch::equal(row1[0], a[1]));
   EXPECT_FALSE(torch::equal(DecodeNextFrame(m, ctx, act, z, 4, 1.0, {123, 999}), a));
   EXPECT_TRUE((a >= 0).all().item<bool>() && (a < c.model.num_codes).all().item<bool>());
@@ -302,33 +302,33 @@ TEST(MaskGit, TokenEntropyIsTheOneOfTheRoundThatFixedTheToken) {
 // untrained model's argmax is unrelated to the last frame.
 TEST(CopyPrior, UntrainedModelPredictsTheLastFrame) {
   for (const char* objective : {"masked", "next_frame"})
-  for (auto [gh, gw] : {std::pair{2, 3}, std::pair{5, 4}})
-  for (bool copy_prior : {true, false}) {
-    DynamicsConfig c = test::TinyConfig(true);
-    c.model.objective = objective;
-    c.model.grid_h = gh;
-    c.model.grid_w = gw;
-    c.model.num_codes = 64;
-    c.model.tied_token_head = true;
-    c.model.copy_prior = copy_prior;
-    torch::manual_seed(20);
-    WorldModel m(c);
-    Inputs in = RandomInputs(c, 3, 21);
-    torch::Tensor ctx = in.tokens.slice(1, 0, 3), act = in.actions.slice(1, 0, 3);
-    torch::NoGradGuard no_grad;
-    torch::Tensor logp =
-        torch::log_softmax(m->NextFrameLogits(ctx, act, m->DynamicsZ(ctx, act)), -1);
-    torch::Tensor last = ctx.select(1, 2);  // [B, N]
-    const double copied = (logp.argmax(-1) == last).to(torch::kDouble).mean().item<double>();
-    const double p_copy = logp.gather(-1, last.unsqueeze(-1)).exp().mean().item<double>();
-    if (copy_prior) {
-      EXPECT_EQ(copied, 1.0) << objective << " " << gh << "x" << gw;
-      EXPECT_GT(p_copy, 0.4) << objective;  // ~ K / (K + K - 1): bias log(K) over ~0 logits
-      EXPECT_LT(p_copy, 0.6) << objective;
-    } else {
-      EXPECT_LT(copied, 0.3) << objective;
-    }
-  }
+    for (auto [gh, gw] : {std::pair{2, 3}, std::pair{5, 4}})
+      for (bool copy_prior : {true, false}) {
+        DynamicsConfig c = test::TinyConfig(true);
+        c.model.objective = objective;
+        c.model.grid_h = gh;
+        c.model.grid_w = gw;
+        c.model.num_codes = 64;
+        c.model.tied_token_head = true;
+        c.model.copy_prior = copy_prior;
+        torch::manual_seed(20);
+        WorldModel m(c);
+        Inputs in = RandomInputs(c, 3, 21);
+        torch::Tensor ctx = in.tokens.slice(1, 0, 3), act = in.actions.slice(1, 0, 3);
+        torch::NoGradGuard no_grad;
+        torch::Tensor logp =
+            torch::log_softmax(m->NextFrameLogits(ctx, act, m->DynamicsZ(ctx, act)), -1);
+        torch::Tensor last = ctx.select(1, 2);  // [B, N]
+        const double copied = (logp.argmax(-1) == last).to(torch::kDouble).mean().item<double>();
+        const double p_copy = logp.gather(-1, last.unsqueeze(-1)).exp().mean().item<double>();
+        if (copy_prior) {
+          EXPECT_EQ(copied, 1.0) << objective << " " << gh << "x" << gw;
+          EXPECT_GT(p_copy, 0.4) << objective;  // ~ K / (K + K - 1): bias log(K) over ~0 logits
+          EXPECT_LT(p_copy, 0.6) << objective;
+        } else {
+          EXPECT_LT(copied, 0.3) << objective;
+        }
+      }
 }
 
 TEST(NextFrame, DecodingIsOnePassOverTheContext) {

@@ -45,7 +45,8 @@ void AddTrain(CLI::App& app, TrainArgs& a) {
   train->add_option("--out", a.options.out_dir, "Run directory (RUN_DIR)")->required();
   train
       ->add_option("--val-data", a.options.val_dirs,
-                   "Validation shard datasets: reconstruction PSNR/SSIM and token flicker to RUN_DIR/val.csv")
+                   "Validation shard datasets: reconstruction PSNR/SSIM and token flicker to "
+                   "RUN_DIR/val.csv")
       ->check(CLI::ExistingDirectory);
   train
       ->add_option("--mixture", a.options.mixture_file,
@@ -90,8 +91,7 @@ int RunTrain(TrainArgs& a) {
     spdlog::info(
         "validation reconstruction: PSNR {:.2f} dB, SSIM {:.4f}; token flicker {:.3f} (share of "
         "token changes in cells whose pixels did not change), token change rate {:.3f}",
-        summary.val->psnr, summary.val->ssim, summary.val->flicker,
-        summary.val->token_change_rate);
+        summary.val->psnr, summary.val->ssim, summary.val->flicker, summary.val->token_change_rate);
   }
   return 0;
 }
