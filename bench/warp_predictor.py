@@ -13,7 +13,8 @@ over steps, and at step 8).
       [--steps 600] [--unroll 1] [--channels 48] [--no-jacobian] [--strip OUT.png] \
       [--self-condition P] [--post-refine C] [--edge-loss W] [--flow-l1 W] [--seed S] \
       [--background-memory] [--retrace both|only [--pyramid-loss W]] [--gan W] [--splat]
-      [--max-lr LR] [--flow-target W] [--flow-report]
+      [--max-lr LR] [--flow-target W] [--flow-report] [--photometric W] [--detach-flow] \
+      [--gate-bias B] [--peek]
 
 The last options are variants tried against the smear (docs/motion.md, "How the recipe was
 chosen"); none is in wm-motion: --self-condition P feeds the net, with probability P per batch,
@@ -35,6 +36,13 @@ flow measured on the real pair, enlarged 4x (bench/warp_oracle.py: warping by th
 reaches the arm goal; DIS at 64 px does not).
 --flow-report prints the flow's error on arm pixels against that DIS flow, with real and with
 imagined frames as input.
+--photometric W weighs the frames' L1 (0 with --flow-target: pure flow regression); --peek, a
+diagnostic, gives the net the real next frame where it reads the previous one, so --flow-report
+measures how well this U-Net outputs a flow it can see (its rollout scores mean nothing).
+--detach-flow stops the frames' L1 at the flow: with --flow-target the flow learns from DIS's
+alone and the photometric loss trains only the gate and the painted colour (and the trunk).
+--gate-bias -20 shuts the gate (sigmoid(-20) ~ 2e-9, so it gets no gradient either): nothing
+is painted, every frame is a pure warp of the last.
 --splat moves the current frame's pixels forward (softmax splatting, SplatWarpNet) instead of
 sampling it backward: the flow then belongs to the pixels that move.
 """
@@ -390,9 +398,14 @@ def fit(net, episodes, norm, steps, args):
             imagined = imagined.clamp(-1, 1)
             current = torch.where(later.view(-1, 1, 1, 1), imagined, current)
         for u in range(unroll):
-            predicted, flow, _ = predict_next(net, current, previous, actions[:, u + 1], first,
-                                              retraces[:, u + 1])
-            loss = loss + (predicted - clips[:, u + 3]).abs().mean() / unroll
+            if args.peek:  # the answer in place of the previous frame (a diagnostic)
+                previous = clips[:, u + 3]
+            predicted, flow, gate = predict_next(net, current, previous, actions[:, u + 1],
+                                                 first, retraces[:, u + 1])
+            if args.detach_flow:  # same frame, no photometric gradient into the flow
+                predicted = predicted - (1 - gate) * (warp_twin.warp(current, flow) -
+                                                      warp_twin.warp(current, flow.detach()))
+            loss = loss + args.photometric * (predicted - clips[:, u + 3]).abs().mean() / unroll
             if args.flow_l1 > 0:
                 loss = loss + args.flow_l1 * flow.norm(dim=1).mean() / unroll
             if args.flow_target > 0:  # the measured flow of step t+u -> t+u+1
@@ -415,11 +428,12 @@ def fit(net, episodes, norm, steps, args):
 
 
 @torch.no_grad()
-def flow_report(net, episodes, norm):
+def flow_report(net, episodes, norm, peek=False):
     """Mean end-point error (px) of the net's flow against DIS's (4x) of the real step, on the
     next frame's arm pixels, over val episodes 0..ROLLOUTS-1 and steps 0..HORIZON-1: with the
     real frames as input (teacher-forced) and along the open-loop rollout (imagined input);
-    and the measured flow's mean length there."""
+    and the measured flow's mean length there. `peek`: the net was trained with the real next
+    frame as its previous frame (--peek), so it gets it here too, teacher-forced only."""
     H, err, length = recipes.HORIZON, {"teacher_forced": [], "imagined": []}, []
     for frames, seg, acts in episodes[:recipes.ROLLOUTS]:
         targets = step_flows(frames[:H + 1])
@@ -430,13 +444,16 @@ def flow_report(net, episodes, norm):
             if not arm.any():
                 continue
             length.append(float(target.norm(dim=0)[arm].mean()))
-            real_in = predict_next(net, frames[t][None], frames[max(t - 1, 0)][None], a[t:t + 1],
-                                   frames[0:1])
+            given = frames[t + 1] if peek else frames[max(t - 1, 0)]
+            real_in = predict_next(net, frames[t][None], given[None], a[t:t + 1], frames[0:1])
+            if peek:
+                err["teacher_forced"].append(float((real_in[1][0] - target).norm(dim=0)[arm].mean()))
+                continue
             own_in = predict_next(net, imagined[1], imagined[0], a[t:t + 1], frames[0:1])
             for name, out in (("teacher_forced", real_in), ("imagined", own_in)):
                 err[name].append(float((out[1][0] - target).norm(dim=0)[arm].mean()))
             imagined = [imagined[1], own_in[0].clamp(-1, 1)]
-    return ", ".join(f"{n} {np.mean(v):.2f} px" for n, v in err.items()) + \
+    return ", ".join(f"{n} {np.mean(v):.2f} px" for n, v in err.items() if v) + \
         f" (measured flow {np.mean(length):.2f} px)"
 
 
@@ -494,6 +511,16 @@ def main():
                     help="the flow's error on arm pixels against DIS's, real and imagined input")
     ap.add_argument("--flow-target", type=float, default=0, metavar="W",
                     help="W times the L1 (px) between the flow and DIS's on 4x enlarged frames")
+    ap.add_argument("--photometric", type=float, default=1, metavar="W",
+                    help="weight of the L1 between imagined and real frames (0: flow target only)")
+    ap.add_argument("--detach-flow", action="store_true",
+                    help="the flow learns from --flow-target only; the frames' L1 trains the "
+                    "gate and painted colour (twin's WarpNet only)")
+    ap.add_argument("--gate-bias", type=float, default=-3.0, metavar="B",
+                    help="the gate's logit offset (-20: nothing painted, a pure warp)")
+    ap.add_argument("--peek", action="store_true",
+                    help="diagnostic: the real next frame replaces the previous one as input, so "
+                    "--flow-report measures how well the net can output a flow it is shown")
     ap.add_argument("--background-memory", action="store_true",
                     help="a third source: the real frame 0, chosen per pixel (BackgroundMemoryNet)")
     ap.add_argument("--retrace", choices=("both", "only"),
@@ -506,7 +533,7 @@ def main():
                     help="W times a PatchGAN critic's hinge loss on the imagined frames (Critic)")
     args = ap.parse_args()
     train, val, actions, norm = setup(args)
-    model = {"channels": args.channels, "flow_scale": 4.0, "gate_bias": -3.0,
+    model = {"channels": args.channels, "flow_scale": 4.0, "gate_bias": args.gate_bias,
              "action_jacobian": not args.no_jacobian}
     if args.retrace:
         net = RetraceWarpNet(model, actions.shape[1], args.retrace)
@@ -528,7 +555,8 @@ def main():
     if args.strip:
         write_strip(args.strip, rows)
     if args.flow_report:
-        print("flow error on arm pixels against DIS (4x):", flow_report(net, val, norm))
+        print("flow error on arm pixels against DIS (4x):",
+              flow_report(net, val, norm, args.peek))
 
 
 def arguments(doc, steps, unroll, channels):
