@@ -10,9 +10,12 @@ warp cannot fill, and resampling. Scored as bench/warp_predictor.py scores (val 
   from_first each imagined frame = the real frame 0 warped once by the real flow 0 -> t+1
              (no accumulated resampling)
 
-  bench/warp_oracle.py --val data/demo/shards/val [--upscale 4] [--strip OUT.png]
+  bench/warp_oracle.py --val data/demo/shards/val [--upscale 4] [--strip OUT.png] [--spread U ..]
 
 --upscale computes the flow on frames enlarged by that factor (DIS is coarse at 64 px).
+--spread also prints how far DIS's flow at each other enlargement U lies from it on the next
+frame's arm pixels (the reference's own uncertainty, for reading warp_predictor.py
+--flow-report's errors against it).
 """
 import argparse
 import os
@@ -44,16 +47,32 @@ def rollouts(frames, horizon, upscale):
     return {"recursive": torch.stack(recursive), "from_first": torch.stack(from_first)}
 
 
+def spread(episodes, upscale, others):
+    """Mean end-point error (px) on the next frame's arm pixels between DIS's per-step flow at
+    `upscale` and at each of `others`, over the episodes' first HORIZON steps."""
+    H, err = recipes.HORIZON, {u: [] for u in others}
+    for frames, seg, _ in episodes:
+        ref = wp.step_flows(frames[:H + 1], upscale)
+        arm = torch.from_numpy(seg[1:H + 1] == 1)
+        for u in others:
+            distance = (wp.step_flows(frames[:H + 1], u) - ref).norm(dim=1)
+            err[u] += [float(d[a].mean()) for d, a in zip(distance, arm) if a.any()]
+    return ", ".join(f"DIS at {u}x {np.mean(v):.2f} px" for u, v in err.items())
+
+
 def main():
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("--val", required=True)
     ap.add_argument("--upscale", type=int, default=4)
     ap.add_argument("--strip", help="PNG: real, recursive, from_first rows, val episodes 0-2")
+    ap.add_argument("--spread", type=int, nargs="+", metavar="U",
+                    help="DIS's flow at these enlargements against --upscale's, on arm pixels")
     args = ap.parse_args()
     cv2.setNumThreads(1)
     H = recipes.HORIZON
     found, rows = {}, []
-    for k, (frames, seg, _) in enumerate(recipes.load(args.val)[:recipes.ROLLOUTS]):
+    episodes = recipes.load(args.val)[:recipes.ROLLOUTS]
+    for k, (frames, seg, _) in enumerate(episodes):
         real = goal1.to_uint8(frames[1:H + 1])
         preds = {n: goal1.to_uint8(x) for n, x in rollouts(frames, H, args.upscale).items()}
         preds["copy_last"] = np.repeat(goal1.to_uint8(frames[:1]), H, 0)
@@ -67,6 +86,9 @@ def main():
         print(f"{name}: {wp.summary(mean, name)}")
     if args.strip:
         wp.write_strip(args.strip, rows)
+    if args.spread:
+        print(f"DIS's flow against DIS at {args.upscale}x on arm pixels:",
+              spread(episodes, args.upscale, args.spread))
 
 
 if __name__ == "__main__":
