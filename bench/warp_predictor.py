@@ -435,6 +435,9 @@ def flow_report(net, episodes, norm, peek=False):
     and the measured flow's mean length there. `peek`: the net was trained with the real next
     frame as its previous frame (--peek), so it gets it here too, teacher-forced only."""
     H, err, length = recipes.HORIZON, {"teacher_forced": [], "imagined": []}, []
+
+    def end_point_error(out, target, arm):
+        return float((out[1][0] - target).norm(dim=0)[arm].mean())
     for frames, seg, acts in episodes[:recipes.ROLLOUTS]:
         targets = step_flows(frames[:H + 1])
         a = torch.tensor(norm(acts[:H]))
@@ -446,12 +449,11 @@ def flow_report(net, episodes, norm, peek=False):
             length.append(float(target.norm(dim=0)[arm].mean()))
             given = frames[t + 1] if peek else frames[max(t - 1, 0)]
             real_in = predict_next(net, frames[t][None], given[None], a[t:t + 1], frames[0:1])
+            err["teacher_forced"].append(end_point_error(real_in, target, arm))
             if peek:
-                err["teacher_forced"].append(float((real_in[1][0] - target).norm(dim=0)[arm].mean()))
                 continue
             own_in = predict_next(net, imagined[1], imagined[0], a[t:t + 1], frames[0:1])
-            for name, out in (("teacher_forced", real_in), ("imagined", own_in)):
-                err[name].append(float((out[1][0] - target).norm(dim=0)[arm].mean()))
+            err["imagined"].append(end_point_error(own_in, target, arm))
             imagined = [imagined[1], own_in[0].clamp(-1, 1)]
     return ", ".join(f"{n} {np.mean(v):.2f} px" for n, v in err.items() if v) + \
         f" (measured flow {np.mean(length):.2f} px)"
@@ -532,6 +534,9 @@ def main():
     ap.add_argument("--gan", type=float, default=0, metavar="W",
                     help="W times a PatchGAN critic's hinge loss on the imagined frames (Critic)")
     args = ap.parse_args()
+    if args.detach_flow and (args.retrace or args.background_memory or args.splat or
+                             args.post_refine):
+        ap.error("--detach-flow rewrites the twin's composite: the plain WarpNet only")
     train, val, actions, norm = setup(args)
     model = {"channels": args.channels, "flow_scale": 4.0, "gate_bias": args.gate_bias,
              "action_jacobian": not args.no_jacobian}
