@@ -12,7 +12,7 @@ over steps, and at step 8).
   bench/warp_predictor.py --train data/demo/shards/train --val data/demo/shards/val \
       [--steps 600] [--unroll 1] [--channels 48] [--no-jacobian] [--strip OUT.png] \
       [--self-condition P] [--post-refine C] [--edge-loss W] [--flow-l1 W] [--seed S] \
-      [--background-memory] [--retrace both|only [--pyramid-loss W]] [--gan W] [--splat]
+      [--background-memory] [--retrace both|only [--pyramid-loss W]] [--gan W] [--splat] \
       [--max-lr LR] [--flow-target W] [--flow-report] [--photometric W] [--detach-flow] \
       [--gate-bias B] [--peek]
 
@@ -504,7 +504,8 @@ def means(found):
 
 def main():
     ap = arguments(__doc__, steps=600, unroll=1, channels=48)
-    ap.add_argument("--no-jacobian", action="store_true", help="action added at the bottleneck only")
+    ap.add_argument("--no-jacobian", action="store_true",
+                    help="action added at the bottleneck only")
     ap.add_argument("--self-condition", type=float, default=0, metavar="P")
     ap.add_argument("--post-refine", type=int, default=0, metavar="C")
     ap.add_argument("--edge-loss", type=float, default=0, metavar="W")
