@@ -1,5 +1,5 @@
 // The motion model in closed loop (wm-eval --policy with a motion checkpoint and
-// --success-model): each imagined frame comes from the last two under the policy's action, and
+// --success-model): each imagined frame is the model's next under the policy's action, and
 // the success classifier's P(success | frame) is the step's success score (docs/reports.md,
 // "Policy evaluation in the world model").
 #include <memory>
@@ -17,25 +17,21 @@ class MotionWorld : public ImaginedWorld {
               const ClosedLoopStart& start)
       : model_(model),
         success_(success),
-        current_(start.first_frame.pixels),
-        previous_(start.first_frame.pixels),
+        rollout_(model.StartRollout(start.first_frame.pixels, 1)),
         size_(start.first_frame.size) {}
 
   ImaginedStep Next(const std::vector<float>& actions, int64_t t) override {
     const int64_t D = model_.action_dim();
     const std::vector<float> action(actions.begin() + t * D, actions.begin() + (t + 1) * D);
-    std::vector<float> next = model_.ImagineNext(current_, previous_, action, 1);
-    previous_ = std::move(current_);
-    current_ = std::move(next);
-    return {.frame = {1, size_, current_},
-            .reward = success_.Probabilities(current_, 1).at(0),
-            .terminal_prob = 0};
+    std::vector<float> next = rollout_->Next(action);
+    const float reward = success_.Probabilities(next, 1).at(0);
+    return {.frame = {1, size_, std::move(next)}, .reward = reward, .terminal_prob = 0};
   }
 
  private:
   const motion::MotionModel& model_;
   const success::SuccessModel& success_;
-  std::vector<float> current_, previous_;  // [3, S, S]: imagined frames t + 1 and t
+  std::unique_ptr<motion::MotionModel::Rollout> rollout_;
   int size_;
 };
 

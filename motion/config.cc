@@ -13,17 +13,22 @@ namespace {
 template <class Config, class F>
 void VisitFields(Config& c, F&& f) {
   auto& m = c.model;
+  f("model", "kind", m.kind);
   f("model", "image_size", m.image_size);
   f("model", "channels", m.channels);
   f("model", "flow_scale", m.flow_scale);
   f("model", "gate_bias", m.gate_bias);
   f("model", "action_jacobian", m.action_jacobian);
+  f("model", "layers", m.layers);
   auto& t = c.train;
   trainkit::VisitOptimizerFields(t, f);
   trainkit::VisitRunFields(t, f);
   f("train", "unroll", t.unroll);
   f("train", "val_episodes", t.val_episodes);
   f("train", "val_horizon", t.val_horizon);
+  f("train", "mask_l1", t.mask_l1);
+  f("train", "mask_noise", t.mask_noise);
+  f("train", "mask_noise_ramp", t.mask_noise_ramp);
   f("data", "image_key", c.data.image_key);
 }
 
@@ -56,6 +61,10 @@ void ValidateConfig(const MotionConfig& c, const std::string& file) {
           "must be a positive multiple of 8 (three stride-2 levels)");
   require(m.channels > 0, "model.channels", "must be > 0");
   require(m.flow_scale > 0, "model.flow_scale", "must be > 0");
+  require(m.kind == "warp" || m.kind == "layers", "model.kind", "must be warp or layers");
+  require(m.layers >= 1, "model.layers", "must be >= 1");
+  require(m.kind != "layers" || m.image_size % 16 == 0, "model.image_size",
+          "must be a multiple of 16 with model.kind layers (the motion CNN halves it four times)");
   const TrainConfig& t = c.train;
   trainkit::ValidateOptimizerFields(t, file);
   trainkit::ValidateRunFields(t, file);
@@ -63,6 +72,10 @@ void ValidateConfig(const MotionConfig& c, const std::string& file) {
   require(t.unroll >= 1, "train.unroll", "must be >= 1");
   require(t.val_episodes >= 1, "train.val_episodes", "must be >= 1");
   require(t.val_horizon >= 1, "train.val_horizon", "must be >= 1");
+  require(t.mask_l1 >= 0, "train.mask_l1", "must be >= 0");
+  require(t.mask_noise >= 0, "train.mask_noise", "must be >= 0");
+  require(t.mask_noise_ramp >= 0 && t.mask_noise_ramp <= 1, "train.mask_noise_ramp",
+          "must be in [0, 1]");
   require(!c.data.image_key.empty(), "data.image_key", "must not be empty");
 }
 

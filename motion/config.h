@@ -9,6 +9,10 @@
 namespace wm::motion {
 
 struct ModelConfig {
+  // "warp": a per-pixel flow resamples the last frame (warp_net.h); "layers": the start frame's
+  // layers move as wholes (layer_net.h). The default is the kind checkpoints written before
+  // this key existed hold; configs/motion/tiny.yaml picks layers.
+  std::string kind = "warp";
   int image_size = 64;    // frames are resized (INTER_AREA) to image_size x image_size
   int channels = 32;      // U-Net width (three stride-2 levels down to image_size / 8)
   double flow_scale = 4;  // pixels of flow per unit of the head's output
@@ -17,6 +21,7 @@ struct ModelConfig {
   // multiplicatively (docs/motion.md, "Why the flow is linear in the action"). false = the
   // action is only added to the bottleneck features.
   bool action_jacobian = true;
+  int layers = 3;  // kind layers: moving layers over the static background
 };
 
 struct TrainConfig {
@@ -36,6 +41,13 @@ struct TrainConfig {
   int unroll = 1;         // imagined steps per training window (loss averaged over them)
   int val_episodes = 8;   // validation rollouts: the first episodes of the val data
   int val_horizon = 8;    // imagined frames per validation rollout
+  // kind layers: the loss adds mask_l1 x the layers' mean mask (what need not move stays in the
+  // background), and the mask logits get Gaussian noise of std mask_noise (masks saturate to 0
+  // or 1), growing linearly from 0 over the first mask_noise_ramp of the steps (masks find
+  // their objects while soft, then harden).
+  double mask_l1 = 0.01;
+  double mask_noise = 2.0;
+  double mask_noise_ramp = 0.5;
 };
 
 struct DataConfig {

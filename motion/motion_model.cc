@@ -5,7 +5,7 @@
 #include "core/error.h"
 #include "core/paths.h"
 #include "core/tensor_archive.h"
-#include "motion/warp_net.h"
+#include "motion/motion_net.h"
 #include "trainkit/action_norm.h"
 #include "trainkit/checkpoint_kind.h"
 #include "trainkit/module_archive.h"
@@ -15,7 +15,7 @@ namespace wm::motion {
 
 struct MotionModel::State {
   MotionConfig config;
-  WarpNet net{nullptr};
+  std::unique_ptr<MotionNet> net;
   trainkit::ActionNorm norm;
   torch::Device device{torch::kCPU};
   int64_t step = 0;
@@ -51,12 +51,12 @@ std::unique_ptr<MotionModel> MotionModel::Load(const std::string& path, const st
                   std::to_string(action_dim),
               {.key = "action_norms"});
         s.step = meta.at("step").get<int64_t>();
-        s.net = WarpNet(s.config.model, action_dim);
-        trainkit::LoadModule(reader, "model/", *s.net);
+        s.net = std::make_unique<MotionNet>(s.config.model, action_dim);
+        trainkit::LoadModule(reader, "model/", s.net->module());
       });
   s.device = torch::Device(device);
-  s.net->to(s.device);
-  s.net->eval();
+  s.net->module().to(s.device);
+  s.net->module().eval();
   return model;
 }
 
@@ -68,7 +68,7 @@ const std::string& MotionModel::checkpoint_file() const { return state_->file; }
 
 namespace {
 
-// Throws wm::Error naming `file` unless `values` holds `count` x `what`'s shape.
+// Throws wm::Error naming `file` unless `values` holds `count` values, `shape` in words.
 void CheckSize(const std::vector<float>& values, int64_t count, const std::string& what,
                const std::string& shape, const std::string& file) {
   Check(static_cast<int64_t>(values.size()) == count,
@@ -77,33 +77,47 @@ void CheckSize(const std::vector<float>& values, int64_t count, const std::strin
         {.file = file});
 }
 
+std::string FramesShape(int64_t batch, int64_t size) {
+  return std::to_string(batch) + " x 3 x " + std::to_string(size) + " x " + std::to_string(size);
+}
+
+std::vector<float> ToVector(const torch::Tensor& t) {
+  const torch::Tensor cpu = t.to(torch::kCPU).contiguous();
+  return {cpu.data_ptr<float>(), cpu.data_ptr<float>() + cpu.numel()};
+}
+
 }  // namespace
 
-std::vector<float> MotionModel::ImagineNext(const std::vector<float>& current,
-                                            const std::vector<float>& previous,
-                                            const std::vector<float>& raw_actions,
-                                            int64_t batch) const {
+struct MotionModel::Rollout::State {
+  MotionModel::State& model;
+  int64_t batch;
+  motion::Rollout rollout;
+};
+
+MotionModel::Rollout::Rollout(std::unique_ptr<State> state) : state_(std::move(state)) {}
+MotionModel::Rollout::~Rollout() = default;
+
+std::unique_ptr<MotionModel::Rollout> MotionModel::StartRollout(const std::vector<float>& first,
+                                                                int64_t batch) const {
   State& s = *state_;  // the net's forward is not const
-  const int64_t S = image_size(), D = action_dim();
-  const std::string frames =
-      std::to_string(batch) + " x 3 x " + std::to_string(S) + " x " + std::to_string(S);
-  CheckSize(current, batch * 3 * S * S, "current frames", frames, s.file);
-  CheckSize(previous, batch * 3 * S * S, "previous frames", frames, s.file);
-  CheckSize(raw_actions, batch * D, "actions", std::to_string(batch) + " x " + std::to_string(D),
-            s.file);
-  std::vector<float> normed(raw_actions.size());
-  s.norm.Apply(raw_actions.data(), normed.data(), batch);
-  const auto planar = [&](const std::vector<float>& v) {
-    return torch::from_blob(const_cast<float*>(v.data()), {batch, 3, S, S}).to(s.device);
-  };
+  const int64_t S = image_size();
+  CheckSize(first, batch * 3 * S * S, "first frames", FramesShape(batch, S), s.file);
   torch::NoGradGuard no_grad;
-  const torch::Tensor next = s.net
-                                 ->forward(planar(current), planar(previous),
-                                           torch::from_blob(normed.data(), {batch, D}).to(s.device))
-                                 .next.clamp(-1, 1)
-                                 .to(torch::kCPU)
-                                 .contiguous();
-  return {next.data_ptr<float>(), next.data_ptr<float>() + next.numel()};
+  const torch::Tensor frames =
+      torch::from_blob(const_cast<float*>(first.data()), {batch, 3, S, S}).to(s.device);
+  return std::unique_ptr<Rollout>(new Rollout(std::make_unique<Rollout::State>(
+      Rollout::State{s, batch, motion::Rollout(*s.net, frames.clone())})));
+}
+
+std::vector<float> MotionModel::Rollout::Next(const std::vector<float>& raw_actions) {
+  State& r = *state_;
+  const int64_t D = r.model.net->action_dim();
+  CheckSize(raw_actions, r.batch * D, "actions",
+            std::to_string(r.batch) + " x " + std::to_string(D), r.model.file);
+  std::vector<float> normed(raw_actions.size());
+  r.model.norm.Apply(raw_actions.data(), normed.data(), r.batch);
+  torch::NoGradGuard no_grad;
+  return ToVector(r.rollout.Next(torch::from_blob(normed.data(), {r.batch, D}).to(r.model.device)));
 }
 
 std::vector<float> MotionModel::Imagine(const std::vector<float>& first,
@@ -111,10 +125,7 @@ std::vector<float> MotionModel::Imagine(const std::vector<float>& first,
                                         int64_t horizon) const {
   State& s = *state_;  // the net's forward is not const
   const int64_t S = image_size(), D = action_dim();
-  Check(static_cast<int64_t>(first.size()) == batch * 3 * S * S,
-        "first frames: expected " + std::to_string(batch) + " x 3 x " + std::to_string(S) + " x " +
-            std::to_string(S) + " values, got " + std::to_string(first.size()),
-        {.file = s.file});
+  CheckSize(first, batch * 3 * S * S, "first frames", FramesShape(batch, S), s.file);
   Check(static_cast<int64_t>(raw_actions.size()) == batch * horizon * D,
         "actions: the model takes " + std::to_string(D) + " values per step; expected " +
             std::to_string(batch * horizon * D) + " values, got " +
@@ -122,11 +133,9 @@ std::vector<float> MotionModel::Imagine(const std::vector<float>& first,
         {.file = s.file});
   std::vector<float> normed(raw_actions.size());
   s.norm.Apply(raw_actions.data(), normed.data(), batch * horizon);
-  const torch::Tensor frames = motion::Imagine(
-      s.net, torch::from_blob(const_cast<float*>(first.data()), {batch, 3, S, S}).to(s.device),
-      torch::from_blob(normed.data(), {batch, horizon, D}).to(s.device));
-  const torch::Tensor out = frames.to(torch::kCPU).contiguous();
-  return {out.data_ptr<float>(), out.data_ptr<float>() + out.numel()};
+  return ToVector(motion::Imagine(
+      *s.net, torch::from_blob(const_cast<float*>(first.data()), {batch, 3, S, S}).to(s.device),
+      torch::from_blob(normed.data(), {batch, horizon, D}).to(s.device)));
 }
 
 }  // namespace wm::motion

@@ -34,14 +34,22 @@ class MotionModel {
   std::vector<float> Imagine(const std::vector<float>& first, const std::vector<float>& raw_actions,
                              int64_t batch, int64_t horizon) const;
 
-  // One step of Imagine, for a caller that picks each action after seeing the last frame (a
-  // policy in closed loop): the frame after `current`, `previous` being the frame before it
-  // (`current` again at an episode's first frame), under `raw_actions` [batch, action_dim()].
-  // Frames as for Imagine; returns [batch, 3, S, S] in [-1, 1], clamped. Chained, these are
-  // Imagine's frames.
-  std::vector<float> ImagineNext(const std::vector<float>& current,
-                                 const std::vector<float>& previous,
-                                 const std::vector<float>& raw_actions, int64_t batch) const;
+  // Imagine one step at a time, for a caller that picks each action after seeing the last frame
+  // (a policy in closed loop): a rollout from `first` (as for Imagine) whose Next(raw_actions
+  // [batch, action_dim()]) returns the next frames [batch, 3, S, S] in [-1, 1]. Its frames are
+  // Imagine's. The model must outlive it.
+  class Rollout {
+   public:
+    ~Rollout();
+    std::vector<float> Next(const std::vector<float>& raw_actions);
+
+   private:
+    friend class MotionModel;
+    struct State;
+    explicit Rollout(std::unique_ptr<State> state);
+    std::unique_ptr<State> state_;
+  };
+  std::unique_ptr<Rollout> StartRollout(const std::vector<float>& first, int64_t batch) const;
 
  private:
   MotionModel();

@@ -1,7 +1,9 @@
 #include "motion/trainer.h"
 
+#include <ATen/CPUGeneratorImpl.h>
 #include <torch/torch.h>
 
+#include <algorithm>
 #include <cmath>
 #include <future>
 #include <sstream>
@@ -11,7 +13,7 @@
 #include "core/mix_bits.h"
 #include "core/provenance.h"
 #include "core/tensor_archive.h"
-#include "motion/warp_net.h"
+#include "motion/motion_net.h"
 #include "motion/window_sampler.h"
 #include "trainkit/adamw.h"
 #include "trainkit/module_archive.h"
@@ -29,11 +31,14 @@ using trainkit::RunDir;
 
 constexpr const char* kMetrics = "metrics.csv";
 constexpr const char* kValMetrics = "val.csv";
-constexpr const char* kMetricsHeader = "step,loss,flow_px,gate,lr,frames_per_s";
+// flow_px, gate: the warp net's last unrolled step; shift_px, coverage: the layers' mean
+// centroid displacement over the window and the share of the start frame they cover.
+constexpr const char* kWarpMetricsHeader = "step,loss,flow_px,gate,lr,frames_per_s";
+constexpr const char* kLayerMetricsHeader = "step,loss,shift_px,coverage,lr,frames_per_s";
 constexpr const char* kValHeader = "step,psnr,copy_last_psnr,reversed_psnr,delta_tpsnr";
 
 struct TrainState {
-  WarpNet model{nullptr};
+  std::unique_ptr<MotionNet> model;
   std::unique_ptr<AdamW> optimizer;
   std::unique_ptr<WindowSampler> sampler;
   int64_t step = 0;
@@ -56,7 +61,7 @@ nlohmann::json Manifest(const TrainOptions& o, const RunDir& run, const TrainSta
 
 void WriteCheckpoint(const TrainOptions& o, const RunDir& run, TrainState& s) {
   TensorArchiveWriter w;
-  trainkit::AddModule(w, "model/", *s.model);
+  trainkit::AddModule(w, "model/", s.model->module());
   trainkit::AddAdamW(w, *s.optimizer);
   nlohmann::json meta = {{"model_kind", "motion"},
                          {"step", s.step},
@@ -81,7 +86,7 @@ void LoadCheckpoint(const std::string& path, const nlohmann::json& config, Train
           "checkpoint was trained on other data than --data (dataset, split or shard hashes "
           "differ): resume with the same dataset, or start a new run",
           {.key = "data"});
-    trainkit::LoadModule(r, "model/", *s.model);
+    trainkit::LoadModule(r, "model/", s.model->module());
     trainkit::LoadAdamW(r, meta.at("adamw_step").get<int64_t>(), *s.optimizer);
     s.step = meta.at("step").get<int64_t>();
   } catch (const Error& e) {
@@ -97,10 +102,10 @@ TrainState MakeTrainState(const TrainOptions& o, const torch::Device& device) {
   TrainState s;
   s.sampler = std::make_unique<WindowSampler>(o.data_dir, c.data.image_key, c.model.image_size,
                                               c.train.unroll);
-  s.model = WarpNet(c.model, s.sampler->action_dim());
-  s.model->to(device);
+  s.model = std::make_unique<MotionNet>(c.model, s.sampler->action_dim());
+  s.model->module().to(device);
   std::vector<std::pair<std::string, torch::Tensor>> params;
-  for (const auto& item : s.model->named_parameters())
+  for (const auto& item : s.model->module().named_parameters())
     params.emplace_back(item.key(), item.value());
   const TrainConfig& t = c.train;
   s.optimizer = std::make_unique<AdamW>(
@@ -146,8 +151,8 @@ class Validation {
     copy_last_psnr_ /= static_cast<double>(clips_.size());  // the model does not change it
   }
 
-  RolloutScore Run(WarpNet& model, const torch::Device& device, int64_t step) {
-    model->eval();
+  RolloutScore Run(MotionNet& model, const torch::Device& device, int64_t step) {
+    model.module().eval();
     RolloutScore score;
     for (const Clip& clip : clips_) {
       const torch::Tensor first = clip.frames.select(1, 0).to(device);
@@ -156,7 +161,7 @@ class Validation {
       score.psnr += MeanPsnr(Imagine(model, first, actions), real);
       score.reversed_psnr += MeanPsnr(Imagine(model, first, actions.flip({1})), real);
     }
-    model->train();
+    model.module().train();
     const double n = static_cast<double>(clips_.size());
     score.psnr /= n, score.reversed_psnr /= n;
     score.copy_last_psnr = copy_last_psnr_;
@@ -200,20 +205,65 @@ class MotionStage : public trainkit::TrainingStage {
     lr_ = trainkit::LearningRateAt(trainkit::ScheduleOf(cfg_.train), step);
     s_.optimizer->set_lr(lr_);
     s_.optimizer->ZeroGrad();
-    torch::Tensor previous = frames.select(1, 0), current = frames.select(1, 1);
-    loss_ = torch::zeros({}, frames.options());
-    for (int64_t u = 0; u < U; ++u) {  // the model's own prediction feeds the next step
-      last_ = s_.model->forward(current, previous, actions.select(1, u));
-      loss_ = loss_ + (last_.next - frames.select(1, u + 2)).abs().mean() / static_cast<double>(U);
-      previous = current;
-      current = last_.next;
-    }
+    loss_ = s_.model->layered() ? LayerLoss(frames, actions, step) : WarpLoss(frames, actions);
     loss_.backward();
     if (cfg_.train.grad_clip > 0) {
-      torch::nn::utils::clip_grad_norm_(s_.model->parameters(), cfg_.train.grad_clip);
+      torch::nn::utils::clip_grad_norm_(s_.model->module().parameters(), cfg_.train.grad_clip);
     }
     s_.optimizer->Step();
     s_.step = step + 1;
+  }
+
+  // frames [B, U + 2, ...] (t-1, t, ..., t+U), actions [B, U, D]: the mean L1 of U steps, each
+  // predicted from the last prediction.
+  torch::Tensor WarpLoss(const torch::Tensor& frames, const torch::Tensor& actions) {
+    const int64_t U = actions.size(1);
+    torch::Tensor previous = frames.select(1, 0), current = frames.select(1, 1);
+    torch::Tensor loss = torch::zeros({}, frames.options());
+    WarpStep last;
+    for (int64_t u = 0; u < U; ++u) {  // the model's own prediction feeds the next step
+      last = s_.model->warp()->forward(current, previous, actions.select(1, u));
+      loss = loss + (last.next - frames.select(1, u + 2)).abs().mean() / static_cast<double>(U);
+      previous = current;
+      current = last.next;
+    }
+    diagnostics_ = {last.flow.detach().norm(2, 1).mean(), last.gate.detach().mean()};
+    return loss;
+  }
+
+  // The layers of frame t moved through the window: the mean L1 of its U frames, plus
+  // train.mask_l1 x the layers' mean mask; the mask logits noised as the schedule says.
+  torch::Tensor LayerLoss(const torch::Tensor& frames, const torch::Tensor& actions, int64_t step) {
+    const int64_t U = actions.size(1);
+    LayerNet& net = s_.model->layers();
+    LayerRollout r = net->Start(frames.select(1, 1), MaskNoise(frames, step));
+    torch::Tensor loss = torch::zeros({}, frames.options());
+    for (int64_t u = 0; u < U; ++u) {
+      const torch::Tensor next = net->Advance(r, actions.select(1, u));
+      loss = loss + (next - frames.select(1, u + 2)).abs().mean() / static_cast<double>(U);
+    }
+    const torch::Tensor& masks = r.sprites.masks;
+    loss = loss + cfg_.train.mask_l1 * masks.mean({0, 2, 3}).sum();
+    torch::NoGradGuard no_grad;
+    diagnostics_ = {(ApplyMaps(r.maps, r.centre0) - r.centre0).norm(2, -1).mean(),
+                    1 - torch::prod(1 - masks, 1).mean()};
+    return loss;
+  }
+
+  // Gaussian noise for the mask logits of this step's batch, of std train.mask_noise grown
+  // linearly over the first train.mask_noise_ramp of the steps; drawn from a generator seeded
+  // by (seed, step), so a resumed run draws what an uninterrupted one does. Undefined when 0.
+  torch::Tensor MaskNoise(const torch::Tensor& frames, int64_t step) const {
+    const TrainConfig& t = cfg_.train;
+    const double ramp = std::max(1.0, t.mask_noise_ramp * static_cast<double>(t.steps));
+    const double sigma = t.mask_noise * std::min(1.0, static_cast<double>(step) / ramp);
+    if (sigma <= 0) return {};
+    const int64_t B = frames.size(0), S = frames.size(-1);
+    at::Generator generator =
+        at::detail::createCPUGenerator(MixBits(t.seed ^ MixBits(static_cast<uint64_t>(step))));
+    const torch::Tensor noise =
+        torch::randn({B, s_.model->layers()->layers(), S, S}, generator, torch::kFloat32);
+    return (noise * sigma).to(frames.device());
   }
 
   int64_t UnitsPerStep() const override {
@@ -228,13 +278,13 @@ class MotionStage : public trainkit::TrainingStage {
       summary_.last_loss = loss;
       if (info.log_row) {
         std::ostringstream before;
-        before << loss << ',' << last_.flow.detach().norm(2, 1).mean().item<double>() << ','
-               << last_.gate.detach().mean().item<double>() << ',' << lr_;
+        before << loss << ',' << diagnostics_.first.item<double>() << ','
+               << diagnostics_.second.item<double>() << ',' << lr_;
         row = trainkit::MetricsRow{.before = before.str()};
       }
     }
     if (val_ && trainkit::IsValidationStep(info.step, cfg_.train.steps, cfg_.train.val_every)) {
-      summary_.val = val_->Run(s_.model, device_, info.step);
+      summary_.val = val_->Run(*s_.model, device_, info.step);
     }
     return row;
   }
@@ -264,8 +314,9 @@ class MotionStage : public trainkit::TrainingStage {
   std::optional<Validation>& val_;
   TrainSummary& summary_;
   std::future<Batch> pending_;
-  WarpStep last_;  // the last unrolled step of the last batch
   torch::Tensor loss_;
+  // metrics.csv's two model columns for the last batch (kWarpMetricsHeader, kLayerMetricsHeader)
+  std::pair<torch::Tensor, torch::Tensor> diagnostics_;
   double lr_ = 0;
 };
 
@@ -278,13 +329,18 @@ TrainSummary TrainMotion(const TrainOptions& o) {
   const torch::Device device(o.device);
   const RunDir run(o.out_dir, o.resume, /*create=*/true);
   trainkit::SetUpTorch(cfg.train.threads, cfg.train.seed, device.is_cuda());
+  // Saturated masks (sigmoid of noisy logits) and their products underflow into denormals,
+  // which slowed the layered kind's CPU steps 2x by the end of a run; flushed to zero instead
+  // (this thread: train.threads 1 computes here).
+  if (cfg.model.kind == "layers") at::globalContext().setFlushDenormal(true);
   TrainState s = MakeTrainState(o, device);
   if (run.resuming()) {
     LoadCheckpoint(run.checkpoint(), ConfigToJson(cfg), s);
     LogInfo("resuming " + run.checkpoint() + " at step " + std::to_string(s.step));
     run.RefreshManifest(Manifest(o, run, s));  // may describe an older archive
   }
-  trainkit::StepLog metrics(run.File(kMetrics), kMetricsHeader, s.step);
+  trainkit::StepLog metrics(run.File(kMetrics),
+                            s.model->layered() ? kLayerMetricsHeader : kWarpMetricsHeader, s.step);
   std::optional<Validation> val;
   if (!o.val_dir.empty()) val.emplace(o, run, *s.sampler, s.step);
 

@@ -1,22 +1,11 @@
 #include "motion/warp_net.h"
 
+#include "motion/unet_blocks.h"
+
 namespace wm::motion {
 namespace {
 
 namespace nn = torch::nn;
-
-nn::Sequential Down(int64_t in, int64_t out) {  // halves the resolution
-  return nn::Sequential(nn::Conv2d(nn::Conv2dOptions(in, out, 4).stride(2).padding(1)), nn::ReLU());
-}
-
-nn::Sequential Up(int64_t in, int64_t out) {  // doubles it
-  return nn::Sequential(
-      nn::ConvTranspose2d(nn::ConvTranspose2dOptions(in, out, 4).stride(2).padding(1)), nn::ReLU());
-}
-
-nn::Conv2d Conv3x3(int64_t in, int64_t out) {
-  return nn::Conv2d(nn::Conv2dOptions(in, out, 3).padding(1));
-}
 
 // Head channels: rgb (3), gate logit (1), flow bias (2), then with model.action_jacobian the
 // flow per action value, x rows then y rows (2 * D).
@@ -79,23 +68,6 @@ torch::Tensor Warp(const torch::Tensor& image, const torch::Tensor& flow) {
                             .mode(torch::kBilinear)
                             .padding_mode(torch::kBorder)
                             .align_corners(true));
-}
-
-}  // namespace wm::motion
-
-namespace wm::motion {
-
-torch::Tensor Imagine(WarpNet& net, const torch::Tensor& first, const torch::Tensor& actions) {
-  torch::NoGradGuard no_grad;
-  torch::Tensor current = first, previous = first;
-  std::vector<torch::Tensor> frames;
-  for (int64_t h = 0; h < actions.size(1); ++h) {
-    torch::Tensor next = net->forward(current, previous, actions.select(1, h)).next.clamp(-1, 1);
-    frames.push_back(next);
-    previous = current;
-    current = next;
-  }
-  return torch::stack(frames, 1);
 }
 
 }  // namespace wm::motion

@@ -50,12 +50,3 @@ TORCH_MODULE(WarpNet);
 torch::Tensor Warp(const torch::Tensor& image, const torch::Tensor& flow);
 
 }  // namespace wm::motion
-
-namespace wm::motion {
-
-// Open-loop imagination: actions.size(1) frames after `first` ([B, 3, S, S]) under normalised
-// actions [B, H, D]. Each imagined frame is clamped to [-1, 1] and becomes the next step's
-// current frame (and the one before its previous). Returns [B, H, 3, S, S]. No gradient.
-torch::Tensor Imagine(WarpNet& net, const torch::Tensor& first, const torch::Tensor& actions);
-
-}  // namespace wm::motion

@@ -1,8 +1,8 @@
 // wm-eval of a motion checkpoint (evaluate/imagination.h): a motion model trained in seconds on
 // the moving-square data (tests/motion/moving_square.h) is scored beside the baselines of a tiny
 // tokenizer of the same frames, with its plain rollout only; it follows its actions (delta_tpsnr)
-// and beats copying; two shard jobs write the single job's report; the closed loop's one-step
-// imagination chains to the open-loop one exactly; the closed loop without a success classifier
+// and beats copying; two shard jobs write the single job's report; the closed loop's rollout,
+// stepped, is the open-loop one exactly; the closed loop without a success classifier
 // and a model of another image size are refused.
 #include <gtest/gtest.h>
 
@@ -48,6 +48,7 @@ class MotionEvalTest : public ::testing::Test {
     motion::TrainOptions m{.config = motion::test::TestConfig(),
                            .data_dir = *dir_ / "train",
                            .out_dir = *dir_ / "motion"};
+    m.config.model.kind = "layers";  // the demo's kind (the trainer's tests cover both)
     m.config.train.steps = 150;
     m.show_progress = false;
     motion::TrainMotion(m);
@@ -131,27 +132,27 @@ TEST_F(MotionEvalTest, TwoShardJobsWriteTheSingleJobsReport) {
   }
 }
 
-// The closed loop imagines with ImagineNext, one step at a time: chained from a frame under the
-// same actions, its frames are Imagine's, bit for bit (so a policy that repeats the logged actions
-// sees the open-loop rollout).
-TEST_F(MotionEvalTest, ImagineNextChainedIsImagine) {
+// The closed loop imagines with a Rollout, one step at a time: under the same actions its frames
+// are Imagine's, bit for bit (so a policy that repeats the logged actions sees the open-loop
+// rollout).
+TEST_F(MotionEvalTest, RolloutStepsAreImagine) {
   const auto model = motion::MotionModel::Load(*dir_ / "motion");
   const int64_t S = model->image_size(), D = model->action_dim(), H = 5;
   std::vector<float> first(static_cast<size_t>(3 * S * S)), actions(static_cast<size_t>(H * D));
   for (size_t i = 0; i < first.size(); ++i) first[i] = static_cast<float>((i * 37) % 200) / 100 - 1;
   for (size_t i = 0; i < actions.size(); ++i) actions[i] = (i % 3 == 0 ? 1.0f : -0.5f);
   const std::vector<float> open_loop = model->Imagine(first, actions, 1, H);
-  std::vector<float> previous = first, current = first, chained;
+  const auto rollout = model->StartRollout(first, 1);
+  std::vector<float> stepped;
   for (int64_t t = 0; t < H; ++t) {
-    const std::vector<float> a(actions.begin() + t * D, actions.begin() + (t + 1) * D);
-    std::vector<float> next = model->ImagineNext(current, previous, a, 1);
-    chained.insert(chained.end(), next.begin(), next.end());
-    previous = std::move(current);
-    current = std::move(next);
+    const std::vector<float> next =
+        rollout->Next(std::vector<float>(actions.begin() + t * D, actions.begin() + (t + 1) * D));
+    stepped.insert(stepped.end(), next.begin(), next.end());
   }
-  EXPECT_EQ(chained, open_loop);
+  EXPECT_EQ(stepped, open_loop);
   EXPECT_NE(std::vector<float>(open_loop.begin(), open_loop.begin() + 3 * S * S), first);
-  EXPECT_THROW(model->ImagineNext(first, previous, std::vector<float>(D + 1), 1), Error);
+  EXPECT_THROW(rollout->Next(std::vector<float>(D + 1)), Error);
+  EXPECT_THROW(model->StartRollout(std::vector<float>(3 * S * S - 1), 1), Error);
 }
 
 // One line each: the closed loop without --success-model (no reward head), and frames of another

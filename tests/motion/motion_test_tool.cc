@@ -1,8 +1,9 @@
 // motion_test_tool: fixtures for the Python checks of the motion model.
-//   reference --out FILE [--seed S] [--no-jacobian] [--action-dim D]
-//       a tensor archive with random weights ("model/...", the head too, so flows are several
+//   reference --out FILE [--seed S] [--no-jacobian] [--action-dim D] [--layers]
+//       a tensor archive with random weights ("model/...", the heads too, so flows are several
 //       pixels), inputs ("input/...") and the C++ outputs ("output/...") of one forward and of a
-//       3-step Imagine, for the PyTorch twin (warp_twin.py)
+//       3-step Imagine, for the PyTorch twin (warp_twin.py); --layers: the layered kind (its
+//       masks, fill and the 3-step Imagine)
 //   make-data --out DIR [--episodes N] [--steps T] [--seed S]
 //       a moving-square shard dataset (moving_square.h)
 #include <CLI/CLI.hpp>
@@ -10,43 +11,62 @@
 
 #include "core/error.h"
 #include "core/tensor_archive.h"
-#include "motion/warp_net.h"
+#include "motion/motion_net.h"
 #include "tests/motion/moving_square.h"
 #include "trainkit/module_archive.h"
 
 namespace {
 using namespace wm::motion;
 
-void WriteReference(const std::string& path, uint64_t seed, bool jacobian, int action_dim) {
+// Random weights with non-zero heads: flows of a few pixels and a visible gate (warp); masks
+// that differ per layer and layers that move by pixels per step (layers).
+void RandomizeHeads(MotionNet& net) {
+  torch::NoGradGuard no_grad;
+  auto params = net.module().named_parameters();
+  if (net.layered()) {
+    params["sprite_head.weight"].normal_(0, 0.3);
+    params["sprite_head.bias"].normal_(0, 1.0);
+    params["motion_head.weight"].normal_(0, 0.05);
+    params["motion_head.bias"].normal_(0, 0.3);
+  } else {
+    params["head.weight"].normal_(0, 0.05);
+    params["head.bias"].normal_(0, 0.3);
+  }
+}
+
+void WriteReference(const std::string& path, uint64_t seed, bool jacobian, int action_dim,
+                    bool layers) {
   MotionConfig c = test::TestConfig();
   c.model.channels = 8;
   c.model.action_jacobian = jacobian;
+  if (layers) c.model.kind = "layers";
   torch::manual_seed(seed);
-  WarpNet net(c.model, action_dim);
-  {
-    torch::NoGradGuard no_grad;  // a non-zero head: flows of a few pixels, a visible gate
-    net->named_parameters()["head.weight"].normal_(0, 0.05);
-    net->named_parameters()["head.bias"].normal_(0, 0.3);
-  }
+  MotionNet net(c.model, action_dim);
+  RandomizeHeads(net);
   const int64_t B = 2, S = c.model.image_size, H = 3;
   const torch::Tensor current = torch::rand({B, 3, S, S}) * 2 - 1;
   const torch::Tensor previous = torch::rand({B, 3, S, S}) * 2 - 1;
   const torch::Tensor action = torch::randn({B, action_dim});
   const torch::Tensor actions = torch::randn({B, H, action_dim});
-  const WarpStep out = net->forward(current, previous, action);
-  const torch::Tensor imagined = Imagine(net, current, actions);
-  wm::TensorArchiveWriter w;
-  wm::trainkit::AddModule(w, "model/", *net);
-  for (const auto& [name, t] : {std::pair{"input/current", current},
-                                {"input/previous", previous},
-                                {"input/action", action},
-                                {"input/actions", actions},
-                                {"output/next", out.next.detach()},
-                                {"output/flow", out.flow.detach()},
-                                {"output/gate", out.gate.detach()},
-                                {"output/imagined", imagined}}) {
-    wm::trainkit::AddTensor(w, name, t);
+  std::vector<std::pair<std::string, torch::Tensor>> tensors = {
+      {"input/current", current},
+      {"input/previous", previous},
+      {"input/action", action},
+      {"input/actions", actions},
+      {"output/imagined", Imagine(net, current, actions)}};
+  torch::NoGradGuard no_grad;
+  if (layers) {
+    const Sprites sprites = net.layers()->sprites(current);
+    tensors.insert(tensors.end(), {{"output/masks", sprites.masks}, {"output/fill", sprites.fill}});
+  } else {
+    const WarpStep out = net.warp()->forward(current, previous, action);
+    tensors.insert(
+        tensors.end(),
+        {{"output/next", out.next}, {"output/flow", out.flow}, {"output/gate", out.gate}});
   }
+  wm::TensorArchiveWriter w;
+  wm::trainkit::AddModule(w, "model/", net.module());
+  for (const auto& [name, t] : tensors) wm::trainkit::AddTensor(w, name, t);
   w.SetMeta({{"config", ConfigToJson(c)}, {"action_dim", action_dim}});
   w.Write(path);
 }
@@ -58,13 +78,14 @@ int main(int argc, char** argv) {
   app.require_subcommand(1);
   std::string out;
   uint64_t seed = 3;
-  bool no_jacobian = false;
+  bool no_jacobian = false, layers = false;
   int action_dim = 7, episodes = 24, steps = 12;
   CLI::App* ref = app.add_subcommand("reference", "Weights, inputs and C++ outputs");
   ref->add_option("--out", out)->required();
   ref->add_option("--seed", seed);
   ref->add_flag("--no-jacobian", no_jacobian);
   ref->add_option("--action-dim", action_dim);
+  ref->add_flag("--layers", layers);
   CLI::App* data = app.add_subcommand("make-data", "A moving-square shard dataset");
   data->add_option("--out", out)->required();
   data->add_option("--episodes", episodes);
@@ -72,7 +93,7 @@ int main(int argc, char** argv) {
   data->add_option("--seed", seed);
   CLI11_PARSE(app, argc, argv);
   try {
-    if (ref->parsed()) WriteReference(out, seed, !no_jacobian, action_dim);
+    if (ref->parsed()) WriteReference(out, seed, !no_jacobian, action_dim, layers);
     if (data->parsed()) test::WriteMovingSquares(out, episodes, steps, seed);
   } catch (const std::exception& e) {
     std::cerr << "motion_test_tool: " << e.what() << "\n";

@@ -1,8 +1,10 @@
 #!/usr/bin/python3
-"""The C++ motion model (motion/warp_net.cc) and its PyTorch twin (warp_twin.py) give the same
-flow, gate, next frame and 3-step imagination to 1e-5 on the same weights: motion_test_tool
-writes random weights (a non-zero head, so flows are pixels long), inputs and its outputs into a
-tensor archive; the twin loads the weights strictly and recomputes."""
+"""The C++ motion model and its PyTorch twins give the same outputs to 1e-5 on the same weights:
+the warp kind (motion/warp_net.cc, warp_twin.py) its flow, gate, next frame and 3-step
+imagination; the layered kind (motion/layer_net.cc, layer_twin.py) its masks, fill and 3-step
+imagination. motion_test_tool writes random weights (non-zero heads, so flows and layer moves
+are pixels long), inputs and its outputs into a tensor archive; the twin loads the weights
+strictly and recomputes."""
 import os
 import subprocess
 import sys
@@ -14,30 +16,44 @@ import torch
 HERE = os.path.dirname(os.path.abspath(__file__))
 sys.path.insert(0, HERE)
 sys.path.insert(0, os.path.join(HERE, "..", "train"))
+import layer_twin  # noqa: E402
 import warp_twin  # noqa: E402
 from dynamics_twin import read_archive  # noqa: E402
 
 TOL = 1e-5
 
 
-def check_case(tool, flags, tmp):
+def load_reference(tool, flags, tmp):
+    """(archive tensors, meta, the inputs by name) of a motion_test_tool reference."""
     path = os.path.join(tmp, "ref%s.wmt" % "".join(flags))
     subprocess.run([tool, "reference", "--out", path, "--seed", "3"] + flags, check=True)
     tensors, meta = read_archive(path)
-    net = warp_twin.WarpNet(meta["config"]["model"], meta["action_dim"])
-    state = {k[len("model/"):]: torch.from_numpy(v) for k, v in tensors.items()
-             if k.startswith("model/")}
-    net.load_state_dict(state, strict=True)
-    t = {k[len("input/"):]: torch.from_numpy(v) for k, v in tensors.items()
-         if k.startswith("input/")}
-    failures = []
+    inputs = {k[len("input/"):]: torch.from_numpy(v) for k, v in tensors.items()
+              if k.startswith("input/")}
+    return tensors, meta, inputs
 
-    def compare(name, got, want):
+
+def load_weights(net, tensors):
+    net.load_state_dict({k[len("model/"):]: torch.from_numpy(v) for k, v in tensors.items()
+                         if k.startswith("model/")}, strict=True)
+    return net
+
+
+class Comparison:
+    def __init__(self, flags):
+        self.flags, self.failures = flags, []
+
+    def __call__(self, name, got, want):
         err = float(np.max(np.abs(got.detach().numpy() - want)))
-        print("%-22s %-10s max |diff| %.2e" % (" ".join(flags) or "(default)", name, err))
+        print("%-22s %-10s max |diff| %.2e" % (" ".join(self.flags) or "(default)", name, err))
         if not err <= TOL:
-            failures.append("%s %s: %.3g" % (flags, name, err))
+            self.failures.append("%s %s: %.3g" % (self.flags, name, err))
 
+
+def check_case(tool, flags, tmp):
+    tensors, meta, t = load_reference(tool, flags, tmp)
+    net = load_weights(warp_twin.WarpNet(meta["config"]["model"], meta["action_dim"]), tensors)
+    compare = Comparison(flags)
     with torch.no_grad():
         nxt, flow, gate = net(t["current"], t["previous"], t["action"])
         compare("next", nxt, tensors["output/next"])
@@ -49,8 +65,31 @@ def check_case(tool, flags, tmp):
     # (or the action) would differ by much more than TOL.
     moved = float(np.abs(tensors["output/flow"]).mean())
     if moved < 0.5:
-        failures.append("%s: reference flows too small (%.3f px) to test the warp" % (flags, moved))
-    return failures
+        compare.failures.append("%s: reference flows too small (%.3f px) to test the warp"
+                                % (flags, moved))
+    return compare.failures
+
+
+def check_layers(tool, tmp):
+    flags = ["--layers"]
+    tensors, meta, t = load_reference(tool, flags, tmp)
+    m = meta["config"]["model"]
+    net = load_weights(layer_twin.LayerNet(meta["action_dim"], m["layers"], m["channels"],
+                                           m["flow_scale"], image_size=m["image_size"]), tensors)
+    compare = Comparison(flags)
+    with torch.no_grad():
+        masks, fill = net.eval().sprites(t["current"])
+        compare("masks", masks, tensors["output/masks"])
+        compare("fill", fill, tensors["output/fill"])
+        compare("imagined", net(t["current"], t["actions"]).clamp(-1, 1),
+                tensors["output/imagined"])
+    # Able to fail: the layers differ from pixel to pixel and the frames move away from the start.
+    spread = float(tensors["output/masks"].std())
+    change = float(np.abs(tensors["output/imagined"][:, -1] - tensors["input/current"]).mean())
+    if spread < 0.1 or change < 0.05:
+        compare.failures.append("layers: reference too tame (mask std %.3f, change %.3f)"
+                                % (spread, change))
+    return compare.failures
 
 
 def main():
@@ -60,6 +99,7 @@ def main():
     with tempfile.TemporaryDirectory() as tmp:
         for flags in ([], ["--no-jacobian"], ["--action-dim", "26"]):
             failures += check_case(tool, flags, tmp)
+        failures += check_layers(tool, tmp)
     if failures:
         print("FAIL:", "; ".join(failures))
         return 1

@@ -30,7 +30,8 @@ std::string WithoutThroughput(const std::string& csv) {
   return out;
 }
 
-class MotionTrainTest : public ::testing::Test {
+// Every test of the trainer and the API runs for both model kinds (model.kind).
+class MotionTrainTest : public ::testing::TestWithParam<std::string> {
  protected:
   void SetUp() override {
     test::WriteMovingSquares(dir_ / "train", 24, 12, 1);
@@ -40,6 +41,7 @@ class MotionTrainTest : public ::testing::Test {
   TrainOptions Options(const std::string& out, int64_t steps) const {
     TrainOptions o;
     o.config = test::TestConfig();
+    o.config.model.kind = GetParam();
     o.config.train.steps = steps;
     o.data_dir = dir_ / "train";
     o.out_dir = dir_ / out;
@@ -50,7 +52,7 @@ class MotionTrainTest : public ::testing::Test {
   wm::test::TempDir dir_;
 };
 
-TEST_F(MotionTrainTest, SameSeedGivesIdenticalCheckpoints) {
+TEST_P(MotionTrainTest, SameSeedGivesIdenticalCheckpoints) {
   TrainMotion(Options("a", 20));
   TrainMotion(Options("b", 20));
   EXPECT_EQ(Sha256File(dir_ / "a/checkpoint.wmt"), Sha256File(dir_ / "b/checkpoint.wmt"));
@@ -60,7 +62,7 @@ TEST_F(MotionTrainTest, SameSeedGivesIdenticalCheckpoints) {
   EXPECT_NE(Sha256File(dir_ / "a/checkpoint.wmt"), Sha256File(dir_ / "c/checkpoint.wmt"));
 }
 
-TEST_F(MotionTrainTest, KilledRunResumesBitIdentically) {
+TEST_P(MotionTrainTest, KilledRunResumesBitIdentically) {
   TrainMotion(Options("whole", 30));
   TrainOptions part = Options("parts", 30);
   part.max_steps_this_run = 13;  // not a checkpoint_every multiple: the stop writes one
@@ -87,7 +89,7 @@ TEST_F(MotionTrainTest, KilledRunResumesBitIdentically) {
             std::string::npos);
 }
 
-TEST_F(MotionTrainTest, ConfigErrorsNameTheKey) {
+TEST(MotionConfigTest, ErrorsNameTheKey) {
   EXPECT_NE(wm::test::ErrorText([] {
               ParseMotionConfig("model:\n  channels: 0\n", "m.yaml");
             }).find("model.channels"),
@@ -100,13 +102,25 @@ TEST_F(MotionTrainTest, ConfigErrorsNameTheKey) {
               ParseMotionConfig("model:\n  image_size: 36\n", "m.yaml");
             }).find("model.image_size"),
             std::string::npos);
+  EXPECT_NE(wm::test::ErrorText([] {
+              ParseMotionConfig("model:\n  kind: sprites\n", "m.yaml");
+            }).find("model.kind"),
+            std::string::npos);
+  // the layered kind's motion CNN halves the frame four times
+  const std::string layers_at_40 = wm::test::ErrorText(
+      [] { ParseMotionConfig("model:\n  kind: layers\n  image_size: 40\n", "m.yaml"); });
+  EXPECT_NE(layers_at_40.find("model.image_size"), std::string::npos) << layers_at_40;
+  EXPECT_NE(wm::test::ErrorText([] {
+              ParseMotionConfig("train:\n  mask_noise_ramp: 2\n", "m.yaml");
+            }).find("train.mask_noise_ramp"),
+            std::string::npos);
 }
 
 // Issue 20's motion test, small: a model trained for 300 steps (seconds) imagines 6 frames from
 // a val episode's first frame that (1) beat copying it by more than 1 dB, (2) are worse with the
 // actions reversed by more than 1 dB (the actions, not a blur, carry the gain), and (3) on the
 // pixels that really moved are closer to the true frame than to the first frame.
-TEST_F(MotionTrainTest, LearnsMotionThatFollowsTheActions) {
+TEST_P(MotionTrainTest, LearnsMotionThatFollowsTheActions) {
   TrainOptions o = Options("learn", 300);
   o.val_dir = dir_ / "val";
   const TrainSummary s = TrainMotion(o);
@@ -136,7 +150,7 @@ TEST_F(MotionTrainTest, LearnsMotionThatFollowsTheActions) {
   EXPECT_LT(to_truth, to_first) << "on moved pixels the imagined frames stay nearer the start";
 }
 
-TEST_F(MotionTrainTest, ModelApiRejectsWrongActionWidth) {
+TEST_P(MotionTrainTest, ModelApiRejectsWrongActionWidth) {
   TrainMotion(Options("api", 5));
   const auto model = MotionModel::Load(dir_ / "api");
   EXPECT_TRUE(MotionModel::IsMotionCheckpoint(dir_ / "api"));
@@ -144,6 +158,9 @@ TEST_F(MotionTrainTest, ModelApiRejectsWrongActionWidth) {
   const std::string error = wm::test::ErrorText([&] { model->Imagine(first, actions, 1, 2); });
   EXPECT_NE(error.find("7 values per step"), std::string::npos) << error;
 }
+
+INSTANTIATE_TEST_SUITE_P(Kinds, MotionTrainTest, ::testing::Values("warp", "layers"),
+                         [](const auto& info) { return info.param; });
 
 }  // namespace
 }  // namespace wm::motion

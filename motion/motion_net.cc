@@ -1,0 +1,40 @@
+#include "motion/motion_net.h"
+
+namespace wm::motion {
+
+MotionNet::MotionNet(const ModelConfig& config, int64_t action_dim) : action_dim_(action_dim) {
+  if (config.kind == "layers") {
+    layers_ = LayerNet(config, action_dim);
+  } else {
+    warp_ = WarpNet(config, action_dim);
+  }
+}
+
+torch::nn::Module& MotionNet::module() {
+  if (layered()) return *layers_;
+  return *warp_;
+}
+
+Rollout::Rollout(MotionNet& net, const torch::Tensor& first)
+    : net_(net), current_(first), previous_(first) {
+  if (net_.layered()) layers_ = net_.layers()->Start(first);
+}
+
+torch::Tensor Rollout::Next(const torch::Tensor& action) {
+  if (net_.layered()) return net_.layers()->Advance(layers_, action).clamp(-1, 1);
+  torch::Tensor next = net_.warp()->forward(current_, previous_, action).next.clamp(-1, 1);
+  previous_ = current_;
+  current_ = next;
+  return next;
+}
+
+torch::Tensor Imagine(MotionNet& net, const torch::Tensor& first, const torch::Tensor& actions) {
+  torch::NoGradGuard no_grad;
+  Rollout rollout(net, first);
+  std::vector<torch::Tensor> frames;
+  for (int64_t h = 0; h < actions.size(1); ++h)
+    frames.push_back(rollout.Next(actions.select(1, h)));
+  return torch::stack(frames, 1);
+}
+
+}  // namespace wm::motion

@@ -1,0 +1,27 @@
+#pragma once
+// The convolution blocks the motion model's nets are built of (warp_net.cc, layer_net.cc), under
+// the PyTorch twin's module layout (tests/motion/warp_twin.py: down, up). Internal.
+#include <torch/torch.h>
+
+namespace wm::motion {
+
+// A 4x4 stride-2 convolution and a ReLU: halves the resolution.
+inline torch::nn::Sequential Down(int64_t in, int64_t out) {
+  return torch::nn::Sequential(
+      torch::nn::Conv2d(torch::nn::Conv2dOptions(in, out, 4).stride(2).padding(1)),
+      torch::nn::ReLU());
+}
+
+// A 4x4 stride-2 transposed convolution and a ReLU: doubles it.
+inline torch::nn::Sequential Up(int64_t in, int64_t out) {
+  return torch::nn::Sequential(
+      torch::nn::ConvTranspose2d(
+          torch::nn::ConvTranspose2dOptions(in, out, 4).stride(2).padding(1)),
+      torch::nn::ReLU());
+}
+
+inline torch::nn::Conv2d Conv3x3(int64_t in, int64_t out) {
+  return torch::nn::Conv2d(torch::nn::Conv2dOptions(in, out, 3).padding(1));
+}
+
+}  // namespace wm::motion
