@@ -122,12 +122,7 @@ def fit(net, episodes, norm, args):
         loss = (frames - clips[:, decoded]).abs().mean()
         if args.painted_loss > 0:  # the painted colour learns the whole frame, gate open or not
             loss = loss + args.painted_loss * (painted - clips[:, decoded]).abs().mean()
-        opt.zero_grad()
-        loss.backward()
-        nn.utils.clip_grad_norm_(net.parameters(), 1.0)
-        opt.step()
-        if step % 100 == 0:
-            print(f"step {step} loss {loss.item():.4f}", flush=True)
+        wp.optimizer_step(net, opt, loss, step)
 
 
 @torch.no_grad()

@@ -68,12 +68,7 @@ def fit(net, episodes, norm, steps, args):
         loss = (pred - clips[:, 3:]).abs().mean()
         if args.mask_l1 > 0:  # what need not move stays in the background, copied exactly
             loss = loss + args.mask_l1 * net.last_masks.mean(dim=(0, 2, 3)).sum()
-        opt.zero_grad()
-        loss.backward()
-        nn.utils.clip_grad_norm_(net.parameters(), 1.0)
-        opt.step()
-        if step % 100 == 0:
-            print(f"step {step} loss {loss.item():.4f}", flush=True)
+        wp.optimizer_step(net, opt, loss, step)
 
 
 def ceiling(net, episodes, norm, iterations=300):
@@ -174,8 +169,10 @@ def main():
     net.eval()
     with torch.no_grad():
         r, rows = wp.score(net, val, norm, lambda first, a, _: net(first, a))
-    print(f"layer predictor ({args.layers} layers, {args.channels} ch), {args.steps} steps, "
-          f"unroll {args.unroll}, {seconds:.0f} s: {wp.summary(r)}")
+    trained = (args.checkpoint or args.load or
+               f"{args.layers} layers, {args.channels} ch, {args.steps} steps, unroll {args.unroll}, "
+               f"{seconds:.0f} s")
+    print(f"layer predictor ({trained}): {wp.summary(r)}")
     if args.strip:
         wp.write_strip(args.strip, rows)
     if args.save:

@@ -75,6 +75,16 @@ def learning_rate(step, steps, peak=LR):  # trainkit::LearningRateAt: warmup, co
     return MIN_LR + 0.5 * (peak - MIN_LR) * (1 + np.cos(np.pi * progress))
 
 
+def optimizer_step(net, opt, loss, step):
+    """Backward, clip the gradient norm to 1 (trainkit's default), step; the loss every 100."""
+    opt.zero_grad()
+    loss.backward()
+    nn.utils.clip_grad_norm_(net.parameters(), 1.0)
+    opt.step()
+    if step % 100 == 0:
+        print(f"step {step} loss {loss.item():.4f}", flush=True)
+
+
 def unet_features(net, inp, action, extra=0):
     """The twin's U-Net up to its head (warp_twin.WarpNet.forward's first lines): full-resolution
     features of the input frames with the action (and `extra` [B, C]) added at the bottleneck."""
