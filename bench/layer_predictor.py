@@ -34,13 +34,15 @@ from warp_twin import down
 
 
 class VariantLayerNet(LayerNet):
-    """Experiments on the motion predictor: a wider motion CNN (`motion_channels`), and the
-    layers' current centroids as MLP inputs (`where`)."""
+    """Experiments on the motion predictor: a wider motion CNN (`motion_channels`), the layers'
+    current centroids as MLP inputs (`where`), and a linear part restricted to a similarity
+    (scale and rotation) or a scale (`linear`)."""
 
-    def __init__(self, action_dim, layers, channels, motion_channels, where, **kw):
+    def __init__(self, action_dim, layers, channels, motion_channels, where, linear="affine",
+                 **kw):
         super().__init__(action_dim, layers, channels, **kw)
         c, k = motion_channels, layers
-        self.where = where
+        self.where, self.linear = where, linear
         self.motion_cnn = nn.Sequential(*[m for i in range(4) for m in down(6 if i == 0 else c, c)])
         extra = 2 * k if where else 0
         self.motion_mlp = nn.Sequential(nn.Linear(16 * c + k * AFFINE + extra, 256), nn.ReLU())
@@ -54,7 +56,11 @@ class VariantLayerNet(LayerNet):
             inputs.append((apply(maps, centroids(self.last_masks)) / (s - 1) * 2 - 1).flatten(1))
         out = self.motion_head(self.motion_mlp(torch.cat(inputs, 1))).view(b, k, AFFINE, d + 1)
         inc = out[..., 0] + (out[..., 1:] * action.view(b, 1, 1, d)).sum(-1)
-        return torch.cat([0.2 * torch.tanh(inc[..., :4]), inc[..., 4:] * self.flow_scale], -1)
+        lin = 0.2 * torch.tanh(inc[..., :4])
+        if self.linear != "affine":  # [[s, -r], [r, s]]: no shear; "scale": no rotation either
+            scale, turn = lin[..., 0], lin[..., 1] * (self.linear == "similarity")
+            lin = torch.stack([scale, -turn, turn, scale], -1)
+        return torch.cat([lin, inc[..., 4:] * self.flow_scale], -1)
 
 def fit(net, episodes, norm, steps, args):
     opt = torch.optim.AdamW(net.parameters(), wp.LR, betas=(0.9, 0.9), weight_decay=0.01)
@@ -144,6 +150,8 @@ def main():
     ap.add_argument("--masks", metavar="PNG", help="the layers of val episodes 0-2")
     ap.add_argument("--motion-channels", type=int, default=0, metavar="C",
                     help="width of the motion CNN (default: --channels)")
+    ap.add_argument("--linear", choices=("affine", "similarity", "scale"), default="affine",
+                    help="what a step may do to a layer besides moving it")
     ap.add_argument("--where", action="store_true",
                     help="the layers' current centroids as inputs of the motion MLP")
     ap.add_argument("--ceiling", action="store_true",
@@ -151,9 +159,9 @@ def main():
     args = ap.parse_args()
     train, val, actions, norm = wp.setup(args)
     torch.set_flush_denormal(True)  # as wm-motion: saturated masks underflow
-    if args.motion_channels or args.where:
+    if args.motion_channels or args.where or args.linear != "affine":
         net = VariantLayerNet(actions.shape[1], args.layers, args.channels,
-                              args.motion_channels or args.channels, args.where,
+                              args.motion_channels or args.channels, args.where, args.linear,
                               mask_bias=args.mask_bias, mask_noise=args.mask_noise)
     else:
         net = LayerNet(actions.shape[1], args.layers, args.channels, mask_bias=args.mask_bias,

@@ -3,7 +3,7 @@
 # whole pipeline: generate -> ingest (train, val) -> verify -> tokenizer -> token datasets ->
 # dynamics model (an early and a final checkpoint) -> wm-eval -> wm-report compare + plots, with
 # the pixel-space motion model (wm-motion) trained beside the tokenizer and dynamics model on the
-# other core. About 7 minutes on 2 cores; every stage is rerunnable and resumes.
+# other core. About 10 minutes on 2 cores; every stage is rerunnable and resumes.
 set -euo pipefail
 BIN=${1:-build/bin}
 OUT=${2:-data/demo}
