@@ -8,12 +8,16 @@ actions', arm / object MSE over copy_last's).
 
   bench/layer_predictor.py --train data/demo/shards/train --val data/demo/shards/val \
       [--steps 1500] [--unroll 4] [--layers 3] [--channels 32] [--seed S] [--strip OUT.png] \
-      [--mask-noise 2] [--noise-ramp 0.5] [--mask-l1 0.01] [--mask-bias 0] \
+      [--mask-noise 2] [--noise-ramp 0.5] [--mask-l1 0.01] [--l1-ramp 0] [--mask-bias 0] \
+      [--linear affine|similarity|scale] [--fill-residual] \
       [--save NET.pt | --load NET.pt | --checkpoint RUN_DIR] [--masks OUT.png] [--ceiling]
 
 --mask-noise SIGMA (Gaussian noise on the mask logits in training, grown from 0 over the first
 --noise-ramp of the steps) and --mask-l1 W (W x the layers' mean mask in the loss) are the
-recipe's (docs/motion.md says what each does; 0 turns it off). --checkpoint scores a wm-motion
+recipe's (docs/motion.md says what each does; 0 turns it off). Variants measured and not kept:
+--l1-ramp F grows the mask L1 from 0 over the first F of the steps; --linear restricts a step's
+linear part to a similarity (no shear) or a scale; --fill-residual makes the fill the given
+frame plus a correction. --checkpoint scores a wm-motion
 run of this kind through the twin instead of training (its weights and action statistics).
 --masks writes, for val episodes 0-2, the given frame, each layer's mask, the fill and the
 layers' cut-out. --ceiling (a diagnostic) also scores each rollout with its per-step maps fitted
@@ -25,42 +29,33 @@ import time
 
 import numpy as np
 import torch
-from torch import nn
 
 import warp_predictor as wp
 from dynamics_twin import read_archive
-from layer_twin import AFFINE, LayerNet, apply, centroids
-from warp_twin import down
+from layer_twin import AFFINE, LayerNet
 
 
 class VariantLayerNet(LayerNet):
-    """Experiments on the motion predictor: a wider motion CNN (`motion_channels`), the layers'
-    current centroids as MLP inputs (`where`), and a linear part restricted to a similarity
-    (scale and rotation) or a scale (`linear`)."""
+    """Variants measured against the recipe (docs/motion.md): a linear part restricted to a
+    similarity (scale and rotation) or a scale (`linear`), and the fill as a correction of the
+    given frame (`fill_residual`)."""
 
-    def __init__(self, action_dim, layers, channels, motion_channels, where, linear="affine",
-                 **kw):
+    def __init__(self, action_dim, layers, channels, linear="affine", fill_residual=False, **kw):
         super().__init__(action_dim, layers, channels, **kw)
-        c, k = motion_channels, layers
-        self.where, self.linear = where, linear
-        self.motion_cnn = nn.Sequential(*[m for i in range(4) for m in down(6 if i == 0 else c, c)])
-        extra = 2 * k if where else 0
-        self.motion_mlp = nn.Sequential(nn.Linear(16 * c + k * AFFINE + extra, 256), nn.ReLU())
+        self.linear, self.fill_residual = linear, fill_residual
+
+    def sprites(self, first):
+        masks, fill = super().sprites(first)
+        # the fill as a correction of the given frame: at the start the frame is copied
+        # whatever the masks, so nothing pushes them to 0 or 1 before the layers move
+        return masks, (first + fill if self.fill_residual else fill)
 
     def step_maps(self, current, first, maps, action):
-        b, k, d = current.shape[0], self.layers, self.action_dim
-        inputs = [self.motion_cnn(torch.cat([current, first], 1)).flatten(1),
-                  (maps[:, :, :2, :] - torch.eye(3)[:2]).flatten(1) * 0.05]
-        if self.where:
-            s = current.shape[-1]
-            inputs.append((apply(maps, centroids(self.last_masks)) / (s - 1) * 2 - 1).flatten(1))
-        out = self.motion_head(self.motion_mlp(torch.cat(inputs, 1))).view(b, k, AFFINE, d + 1)
-        inc = out[..., 0] + (out[..., 1:] * action.view(b, 1, 1, d)).sum(-1)
-        lin = 0.2 * torch.tanh(inc[..., :4])
+        inc = super().step_maps(current, first, maps, action)
         if self.linear != "affine":  # [[s, -r], [r, s]]: no shear; "scale": no rotation either
-            scale, turn = lin[..., 0], lin[..., 1] * (self.linear == "similarity")
-            lin = torch.stack([scale, -turn, turn, scale], -1)
-        return torch.cat([lin, inc[..., 4:] * self.flow_scale], -1)
+            scale, turn = inc[..., 0], inc[..., 1] * (self.linear == "similarity")
+            inc = torch.cat([torch.stack([scale, -turn, turn, scale], -1), inc[..., 4:]], -1)
+        return inc
 
 def fit(net, episodes, norm, steps, args):
     opt = torch.optim.AdamW(net.parameters(), wp.LR, betas=(0.9, 0.9), weight_decay=0.01)
@@ -73,7 +68,8 @@ def fit(net, episodes, norm, steps, args):
         pred = net(clips[:, 2], actions[:, 1:])
         loss = (pred - clips[:, 3:]).abs().mean()
         if args.mask_l1 > 0:  # what need not move stays in the background, copied exactly
-            loss = loss + args.mask_l1 * net.last_masks.mean(dim=(0, 2, 3)).sum()
+            weight = args.mask_l1 * min(1.0, step / max(1, args.l1_ramp * steps))
+            loss = loss + weight * net.last_masks.mean(dim=(0, 2, 3)).sum()
         wp.optimizer_step(net, opt, loss, step)
 
 
@@ -143,26 +139,26 @@ def main():
                     help="the mask noise grows linearly from 0 over this fraction of the steps")
     ap.add_argument("--mask-l1", type=float, default=0.01, metavar="W",
                     help="W times the layers' mean mask: static pixels stay in the background")
+    ap.add_argument("--l1-ramp", type=float, default=0.0, metavar="FRACTION",
+                    help="the mask L1 grows linearly from 0 over this fraction of the steps")
     ap.add_argument("--save", help="the trained net's state_dict (torch.save)")
     ap.add_argument("--load", help="a --save'd net: no training")
     ap.add_argument("--checkpoint", metavar="RUN_DIR",
                     help="a wm-motion run of kind layers: its weights and action statistics")
     ap.add_argument("--masks", metavar="PNG", help="the layers of val episodes 0-2")
-    ap.add_argument("--motion-channels", type=int, default=0, metavar="C",
-                    help="width of the motion CNN (default: --channels)")
     ap.add_argument("--linear", choices=("affine", "similarity", "scale"), default="affine",
                     help="what a step may do to a layer besides moving it")
-    ap.add_argument("--where", action="store_true",
-                    help="the layers' current centroids as inputs of the motion MLP")
+    ap.add_argument("--fill-residual", action="store_true",
+                    help="the fill is the given frame plus a learned correction")
     ap.add_argument("--ceiling", action="store_true",
                     help="also score each val rollout with its increments fitted to the real frames")
     args = ap.parse_args()
     train, val, actions, norm = wp.setup(args)
     torch.set_flush_denormal(True)  # as wm-motion: saturated masks underflow
-    if args.motion_channels or args.where or args.linear != "affine":
-        net = VariantLayerNet(actions.shape[1], args.layers, args.channels,
-                              args.motion_channels or args.channels, args.where, args.linear,
-                              mask_bias=args.mask_bias, mask_noise=args.mask_noise)
+    if args.linear != "affine" or args.fill_residual:
+        net = VariantLayerNet(actions.shape[1], args.layers, args.channels, args.linear,
+                              args.fill_residual, mask_bias=args.mask_bias,
+                              mask_noise=args.mask_noise)
     else:
         net = LayerNet(actions.shape[1], args.layers, args.channels, mask_bias=args.mask_bias,
                        mask_noise=args.mask_noise)
