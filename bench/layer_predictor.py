@@ -151,7 +151,7 @@ def main():
     ap.add_argument("--fill-residual", action="store_true",
                     help="the fill is the given frame plus a learned correction")
     ap.add_argument("--ceiling", action="store_true",
-                    help="also score each val rollout with its increments fitted to the real frames")
+                    help="also score each val rollout with its maps fitted to the real frames")
     args = ap.parse_args()
     train, val, actions, norm = wp.setup(args)
     torch.set_flush_denormal(True)  # as wm-motion: saturated masks underflow
@@ -174,8 +174,8 @@ def main():
     with torch.no_grad():
         r, rows = wp.score(net, val, norm, lambda first, a, _: net(first, a))
     trained = (args.checkpoint or args.load or
-               f"{args.layers} layers, {args.channels} ch, {args.steps} steps, unroll {args.unroll}, "
-               f"{seconds:.0f} s")
+               f"{args.layers} layers, {args.channels} ch, {args.steps} steps, "
+               f"unroll {args.unroll}, {seconds:.0f} s")
     print(f"layer predictor ({trained}): {wp.summary(r)}")
     if args.strip:
         wp.write_strip(args.strip, rows)

@@ -16,9 +16,10 @@ over steps, and at step 8).
       [--max-lr LR] [--flow-target W] [--flow-report] [--photometric W] [--detach-flow] \
       [--gate-bias B] [--peek]
 
-The last options are variants tried against the smear (docs/motion.md, "How the recipe was
-chosen"); none is in wm-motion: --self-condition P feeds the net, with probability P per batch,
-its own (gradient-free) prediction of frame t as the current frame, as an imagined rollout does;
+The last options are variants tried against the smear (docs/motion.md, "How the warp kind's
+recipe was chosen"); none is in wm-motion: --self-condition P feeds the net, with probability P
+per batch, its own (gradient-free) prediction of frame t as the current frame, as an imagined
+rollout does;
 --post-refine C adds a zero-initialised C-channel conv block that corrects the composited frame
 from it and the decoder's features (it sees the warped result, so it could sharpen it);
 --edge-loss W adds W times the L1 of the image-gradient difference (Mathieu et al. 2016);
