@@ -29,6 +29,8 @@ void VisitFields(Config& c, F&& f) {
   f("train", "mask_l1", t.mask_l1);
   f("train", "mask_noise", t.mask_noise);
   f("train", "mask_noise_ramp", t.mask_noise_ramp);
+  f("train", "motion_prior", t.motion_prior);
+  f("train", "motion_prior_steps", t.motion_prior_steps);
   f("data", "image_key", c.data.image_key);
 }
 
@@ -75,6 +77,9 @@ void ValidateConfig(const MotionConfig& c, const std::string& file) {
   require(t.mask_l1 >= 0, "train.mask_l1", "must be >= 0");
   require(t.mask_noise >= 0, "train.mask_noise", "must be >= 0");
   require(t.mask_noise_ramp >= 0 && t.mask_noise_ramp <= 1, "train.mask_noise_ramp",
+          "must be in [0, 1]");
+  require(t.motion_prior >= 0, "train.motion_prior", "must be >= 0");
+  require(t.motion_prior_steps >= 0 && t.motion_prior_steps <= 1, "train.motion_prior_steps",
           "must be in [0, 1]");
   require(!c.data.image_key.empty(), "data.image_key", "must not be empty");
 }

@@ -48,6 +48,12 @@ struct TrainConfig {
   double mask_l1 = 0.01;
   double mask_noise = 2.0;
   double mask_noise_ramp = 0.5;
+  // kind layers: the loss adds motion_prior x the cross-entropy of the layers' union against
+  // the pixels that change within the window, fading to 0 over the first motion_prior_steps of
+  // the steps (motion/motion_prior.h): the layers start on what moves. 0 = off, as checkpoints
+  // written before these keys were.
+  double motion_prior = 0;
+  double motion_prior_steps = 0.3;
 };
 
 struct DataConfig {

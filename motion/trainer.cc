@@ -14,6 +14,7 @@
 #include "core/provenance.h"
 #include "core/tensor_archive.h"
 #include "motion/motion_net.h"
+#include "motion/motion_prior.h"
 #include "motion/window_sampler.h"
 #include "trainkit/adamw.h"
 #include "trainkit/module_archive.h"
@@ -232,7 +233,8 @@ class MotionStage : public trainkit::TrainingStage {
   }
 
   // The layers of frame t moved through the window: the mean L1 of its U frames, plus
-  // train.mask_l1 x the layers' mean mask; the mask logits noised as the schedule says.
+  // train.mask_l1 x the layers' mean mask and the fading motion prior (motion_prior.h); the
+  // mask logits noised as the schedule says.
   torch::Tensor LayerLoss(const torch::Tensor& frames, const torch::Tensor& actions, int64_t step) {
     const int64_t U = actions.size(1);
     LayerNet& net = s_.model->layers();
@@ -244,6 +246,8 @@ class MotionStage : public trainkit::TrainingStage {
     }
     const torch::Tensor& masks = r.sprites.masks;
     loss = loss + cfg_.train.mask_l1 * masks.mean({0, 2, 3}).sum();
+    const double prior = MotionPriorWeight(cfg_.train, step);
+    if (prior > 0) loss = loss + prior * MotionPriorLoss(masks, MovedPixels(frames, 1));
     torch::NoGradGuard no_grad;
     diagnostics_ = {(ApplyMaps(r.maps, r.centre0) - r.centre0).norm(2, -1).mean(),
                     1 - torch::prod(1 - masks, 1).mean()};

@@ -14,7 +14,11 @@ LOOK=${LOOK:-plain}  # varied: textured tables, harder (README, "Known limits")
 # Intra-op threads of the dynamics model. 1 by default: 2 are faster only on a quiet machine,
 # but run about 6x slower when other work shares the cores (spinning threads).
 DYN_THREADS=${DYN_THREADS:-1}
-MOTION_CONFIG=${MOTION_CONFIG:-configs/motion/tiny.yaml}
+# The motion model's recipe: on textured tables (LOOK=varied) the one with the motion prior,
+# without which it copies there; on the plain look tiny.yaml (docs/motion.md, "The motion prior").
+DEFAULT_MOTION_CONFIG=configs/motion/tiny.yaml
+[ "$LOOK" = varied ] && DEFAULT_MOTION_CONFIG=configs/motion/textured.yaml
+MOTION_CONFIG=${MOTION_CONFIG:-$DEFAULT_MOTION_CONFIG}
 RAW=$OUT/raw
 SHARDS=$OUT/shards
 start=$(date +%s)

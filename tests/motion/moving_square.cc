@@ -12,11 +12,12 @@ namespace {
 
 constexpr int kSize = 32, kSquare = 6, kPixelsPerUnit = 3;
 
-std::string Frame(int x, int y) {
+std::string Frame(int x, int y, bool textured) {
   std::vector<uint8_t> rgb(kSize * kSize * 3);
   for (int v = 0; v < kSize; ++v) {
     for (int u = 0; u < kSize; ++u) {
-      std::array<int, 3> colour = {120, 100, 80};
+      const bool dark = textured && (u / 4 + v / 4) % 2;
+      std::array<int, 3> colour = dark ? std::array<int, 3>{70, 60, 45} : std::array<int, 3>{120, 100, 80};
       if ((u - 24) * (u - 24) + (v - 7) * (v - 7) <= 12) colour = {40, 60, 200};
       if (u >= x && u < x + kSquare && v >= y && v < y + kSquare) colour = {220, 30, 30};
       for (int c = 0; c < 3; ++c) rgb[(v * kSize + u) * 3 + c] = static_cast<uint8_t>(colour[c]);
@@ -35,7 +36,7 @@ int Step(int position, std::mt19937_64& rng) {
 }  // namespace
 
 void WriteMovingSquares(const std::string& dir, int episodes, int steps, uint64_t seed,
-                        const std::string& name) {
+                        const std::string& name, bool textured) {
   shard::DatasetWriter writer({.dir = dir, .config_hash = "motion-test"});
   std::mt19937_64 rng(seed);
   for (int e = 0; e < episodes; ++e) {
@@ -43,7 +44,7 @@ void WriteMovingSquares(const std::string& dir, int episodes, int steps, uint64_
     std::vector<std::string> frames;
     int x = 4 + static_cast<int>(rng() % 20), y = 12 + static_cast<int>(rng() % 12);
     for (int t = 0; t < steps; ++t) {
-      frames.push_back(Frame(x, y));
+      frames.push_back(Frame(x, y, textured));
       // Every step moves (no two equal frames): +-1 per axis, turned back at the borders.
       const int dx = Step(x, rng), dy = Step(y, rng);
       std::fill(ep.actions.begin() + t * kActionDim, ep.actions.begin() + (t + 1) * kActionDim, 0);

@@ -30,18 +30,26 @@ std::string WithoutThroughput(const std::string& csv) {
   return out;
 }
 
-// Every test of the trainer and the API runs for both model kinds (model.kind).
+// Every test of the trainer and the API runs for both model kinds (model.kind), and for the
+// layered kind with the motion prior on a textured background (configs/motion/textured.yaml's
+// case): the prior's weight changes over the steps, so resume is checked across it.
 class MotionTrainTest : public ::testing::TestWithParam<std::string> {
  protected:
   void SetUp() override {
-    test::WriteMovingSquares(dir_ / "train", 24, 12, 1);
-    test::WriteMovingSquares(dir_ / "val", 6, 9, 99, "moving_square_val");
+    test::WriteMovingSquares(dir_ / "train", 24, 12, 1, "moving_square", Textured());
+    test::WriteMovingSquares(dir_ / "val", 6, 9, 99, "moving_square_val", Textured());
   }
+
+  // "textured_prior": the layered kind with the motion prior on squares over a checkerboard
+  // (configs/motion/textured.yaml's case; on the flat background the prior costs: 27.1 dB vs
+  // copying's 27.5 after 300 steps)
+  bool Textured() const { return GetParam() == "textured_prior"; }
 
   TrainOptions Options(const std::string& out, int64_t steps) const {
     TrainOptions o;
     o.config = test::TestConfig();
-    o.config.model.kind = GetParam();
+    o.config.model.kind = Textured() ? "layers" : GetParam();
+    if (Textured()) o.config.train.motion_prior = 1;  // with textured.yaml's 0.2 of the steps
     o.config.train.steps = steps;
     o.data_dir = dir_ / "train";
     o.out_dir = dir_ / out;
@@ -65,12 +73,13 @@ TEST_P(MotionTrainTest, SameSeedGivesIdenticalCheckpoints) {
 TEST_P(MotionTrainTest, KilledRunResumesBitIdentically) {
   TrainMotion(Options("whole", 30));
   TrainOptions part = Options("parts", 30);
-  part.max_steps_this_run = 13;  // not a checkpoint_every multiple: the stop writes one
-  EXPECT_EQ(TrainMotion(part).end_step, 13);
+  // not a checkpoint_every multiple (the stop writes one), inside the motion prior's 6 steps
+  part.max_steps_this_run = 3;
+  EXPECT_EQ(TrainMotion(part).end_step, 3);
   part.max_steps_this_run = 0;
   part.resume = true;
   const TrainSummary rest = TrainMotion(part);
-  EXPECT_EQ(rest.start_step, 13);
+  EXPECT_EQ(rest.start_step, 3);
   EXPECT_EQ(rest.end_step, 30);
   EXPECT_EQ(Sha256File(dir_ / "whole/checkpoint.wmt"), Sha256File(dir_ / "parts/checkpoint.wmt"));
   EXPECT_EQ(WithoutThroughput(ReadFile(dir_ / "whole/metrics.csv")),
@@ -90,30 +99,51 @@ TEST_P(MotionTrainTest, KilledRunResumesBitIdentically) {
 }
 
 TEST(MotionConfigTest, ErrorsNameTheKey) {
-  EXPECT_NE(wm::test::ErrorText([] {
-              ParseMotionConfig("model:\n  channels: 0\n", "m.yaml");
-            }).find("model.channels"),
-            std::string::npos);
-  EXPECT_NE(wm::test::ErrorText([] {
-              ParseMotionConfig("model:\n  chanels: 4\n", "m.yaml");
-            }).find("chanels"),
-            std::string::npos);
-  EXPECT_NE(wm::test::ErrorText([] {
-              ParseMotionConfig("model:\n  image_size: 36\n", "m.yaml");
-            }).find("model.image_size"),
-            std::string::npos);
-  EXPECT_NE(wm::test::ErrorText([] {
-              ParseMotionConfig("model:\n  kind: sprites\n", "m.yaml");
-            }).find("model.kind"),
-            std::string::npos);
-  // the layered kind's motion CNN halves the frame four times
-  const std::string layers_at_40 = wm::test::ErrorText(
-      [] { ParseMotionConfig("model:\n  kind: layers\n  image_size: 40\n", "m.yaml"); });
-  EXPECT_NE(layers_at_40.find("model.image_size"), std::string::npos) << layers_at_40;
-  EXPECT_NE(wm::test::ErrorText([] {
-              ParseMotionConfig("train:\n  mask_noise_ramp: 2\n", "m.yaml");
-            }).find("train.mask_noise_ramp"),
-            std::string::npos);
+  struct Case {
+    const char* yaml;
+    const char* named;
+  };
+  const Case cases[] = {
+      {"model:\n  channels: 0\n", "model.channels"},
+      {"model:\n  chanels: 4\n", "chanels"},
+      {"model:\n  image_size: 36\n", "model.image_size"},
+      {"model:\n  kind: sprites\n", "model.kind"},
+      // the layered kind's motion CNN halves the frame four times
+      {"model:\n  kind: layers\n  image_size: 40\n", "model.image_size"},
+      {"train:\n  mask_noise_ramp: 2\n", "train.mask_noise_ramp"},
+      {"train:\n  motion_prior_steps: 1.5\n", "train.motion_prior_steps"},
+      {"train:\n  motion_prior: -1\n", "train.motion_prior"},
+  };
+  for (const Case& c : cases) {
+    const std::string error = wm::test::ErrorText([&] { ParseMotionConfig(c.yaml, "m.yaml"); });
+    EXPECT_NE(error.find(c.named), std::string::npos) << c.yaml << " -> " << error;
+  }
+}
+
+// Why configs/motion/textured.yaml exists, small: on squares over a checkerboard the layered
+// kind without the motion prior does not learn the motion in 300 steps (measured: 22.8 dB, below
+// copying's 26.8, reversed actions no worse), with it it does (33.9 dB, reversing costs 7.5 dB).
+TEST(MotionPriorTrainTest, OnATexturedBackgroundThePriorIsWhatMakesTheLayersMove) {
+  wm::test::TempDir dir;
+  test::WriteMovingSquares(dir / "train", 24, 12, 1, "moving_square", true);
+  test::WriteMovingSquares(dir / "val", 6, 9, 99, "moving_square_val", true);
+  const auto train = [&](double prior) {
+    TrainOptions o;
+    o.config = test::TestConfig();
+    o.config.model.kind = "layers";
+    o.config.train.motion_prior = prior;
+    o.config.train.motion_prior_steps = 0.2;
+    o.config.train.steps = 300;
+    o.data_dir = dir / "train";
+    o.val_dir = dir / "val";
+    o.out_dir = dir / (prior > 0 ? "prior" : "none");
+    o.show_progress = false;
+    return *TrainMotion(o).val;
+  };
+  const auto without = train(0), with = train(1);
+  EXPECT_GT(with.psnr, without.psnr + 3) << with.psnr << " vs " << without.psnr;
+  EXPECT_GT(with.delta_tpsnr(), without.delta_tpsnr() + 3)
+      << with.delta_tpsnr() << " vs " << without.delta_tpsnr();
 }
 
 // Issue 20's motion test, small: a model trained for 300 steps (seconds) imagines 6 frames from
@@ -159,7 +189,7 @@ TEST_P(MotionTrainTest, ModelApiRejectsWrongActionWidth) {
   EXPECT_NE(error.find("7 values per step"), std::string::npos) << error;
 }
 
-INSTANTIATE_TEST_SUITE_P(Kinds, MotionTrainTest, ::testing::Values("warp", "layers"),
+INSTANTIATE_TEST_SUITE_P(Kinds, MotionTrainTest, ::testing::Values("warp", "layers", "textured_prior"),
                          [](const auto& info) { return info.param; });
 
 }  // namespace
