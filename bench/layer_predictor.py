@@ -10,6 +10,7 @@ actions', arm / object MSE over copy_last's).
       [--steps 1500] [--unroll 4] [--layers 3] [--channels 32] [--seed S] [--strip OUT.png] \
       [--mask-noise 2] [--noise-ramp 0.5] [--mask-l1 0.01] [--l1-ramp 0] [--mask-bias 0] \
       [--linear affine|similarity|scale] [--fill-residual] \
+      [--motion-prior W [--prior-steps 0.3] [--static-only]] \
       [--save NET.pt | --load NET.pt | --checkpoint RUN_DIR] [--masks OUT.png] [--ceiling]
 
 --mask-noise SIGMA (Gaussian noise on the mask logits in training, grown from 0 over the first
@@ -17,8 +18,10 @@ actions', arm / object MSE over copy_last's).
 recipe's (docs/motion.md says what each does; 0 turns it off). Variants measured and not kept:
 --l1-ramp F grows the mask L1 from 0 over the first F of the steps; --linear restricts a step's
 linear part to a similarity (no shear) or a scale; --fill-residual makes the fill the given
-frame plus a correction. --checkpoint scores a wm-motion
-run of this kind through the twin instead of training (its weights and action statistics).
+frame plus a correction. --motion-prior W adds wm-motion's train.motion_prior (the layers'
+union pulled towards the pixels that change in the window, fading over --prior-steps);
+--static-only keeps only its term on the pixels that did not move. --checkpoint scores a
+wm-motion run of this kind through the twin instead of training (its weights and action statistics).
 --masks writes, for val episodes 0-2, the given frame, each layer's mask, the fill and the
 layers' cut-out. --ceiling (a diagnostic) also scores each rollout with its per-step maps fitted
 to the real frames by Adam (the masks and fill kept): the representation's error without the
@@ -70,7 +73,29 @@ def fit(net, episodes, norm, steps, args):
         if args.mask_l1 > 0:  # what need not move stays in the background, copied exactly
             weight = args.mask_l1 * min(1.0, step / max(1, args.l1_ramp * steps))
             loss = loss + weight * net.last_masks.mean(dim=(0, 2, 3)).sum()
+        if args.motion_prior > 0 and step < args.prior_steps * steps:
+            weight = args.motion_prior * (1 - step / (args.prior_steps * steps))
+            loss = loss + weight * motion_prior_loss(net.last_masks, clips, args.static_only)
         wp.optimizer_step(net, opt, loss, step)
+
+
+def moved_pixels(clips, levels=30):
+    """[B, S, S] 1 where some later frame of the window differs from the given one (clips[:, 2])
+    by more than `levels` in some channel, grown by a pixel: where something moves, from the
+    frames alone (no labels)."""
+    change = (clips[:, 3:] - clips[:, 2:3]).abs().amax(dim=(1, 2)) > levels / 127.5
+    return torch.nn.functional.max_pool2d(change.float()[:, None], 3, 1, 1)[:, 0]
+
+
+def motion_prior_loss(masks, clips, static_only=False):
+    """Cross-entropy of the layers' union against moved_pixels: the layers start on what moves
+    instead of growing over the whole (textured) table before any motion is learned.
+    `static_only`: only the term that keeps the layers off the pixels that did not move."""
+    covered = (1 - torch.prod(1 - masks, 1)).clamp(1e-4, 1 - 1e-4)
+    moved = moved_pixels(clips)
+    if static_only:
+        return -((1 - moved) * torch.log(1 - covered)).mean()
+    return torch.nn.functional.binary_cross_entropy(covered, moved)
 
 
 def ceiling(net, episodes, norm, iterations=300):
@@ -141,6 +166,12 @@ def main():
                     help="W times the layers' mean mask: static pixels stay in the background")
     ap.add_argument("--l1-ramp", type=float, default=0.0, metavar="FRACTION",
                     help="the mask L1 grows linearly from 0 over this fraction of the steps")
+    ap.add_argument("--motion-prior", type=float, default=0.0, metavar="W",
+                    help="W x the cross-entropy of the layers' union against the pixels that "
+                         "change in the window, fading to 0 over --prior-steps")
+    ap.add_argument("--prior-steps", type=float, default=0.3, metavar="FRACTION")
+    ap.add_argument("--static-only", action="store_true",
+                    help="the motion prior only keeps the layers off what did not move")
     ap.add_argument("--save", help="the trained net's state_dict (torch.save)")
     ap.add_argument("--load", help="a --save'd net: no training")
     ap.add_argument("--checkpoint", metavar="RUN_DIR",
