@@ -1,7 +1,5 @@
 #include "motion/motion_prior.h"
 
-#include <algorithm>
-
 namespace wm::motion {
 
 torch::Tensor MovedPixels(const torch::Tensor& frames, int64_t given, double levels) {
