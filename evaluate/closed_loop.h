@@ -5,7 +5,7 @@
 // (a token model's reward head, or a success classifier on the frames of a motion model) and
 // terminal probability decide how the episode ends. The loop is one (RunClosedLoop); what
 // imagines is an ImaginedWorlds over several episodes stepped in lockstep (issue 21 item 7): the
-// token model imagines them as one batch (a row per episode), the policy still answers one
+// token and motion models imagine them as one batch (a row per episode), the policy answers one
 // observation per episode and step (docs/policy-protocol.md: episodes interleave).
 #include <cstdint>
 #include <functional>
@@ -36,8 +36,8 @@ struct ClosedLoopOptions {
   // predictions for steps 0..horizon-1 cover the observations the simulator scores.
   int64_t horizon = 40;
   int rollouts = 1;  // rollouts per start, with distinct policy and sampling seeds
-  // Starts imagined together, as rows of one batch (token models; a motion model steps them in
-  // turn). A row's frames depend on its batch only through float rounding (docs/reports.md).
+  // Starts imagined together, as rows of one batch. A row's frames depend on its batch only
+  // through float rounding (docs/reports.md).
   int batch = 16;
   // Token models with rotary time: keep each imagined frame's temporal keys/values as the window
   // slides (DynamicsModel::StartRolling; 2 frame passes per step instead of context_frames).
@@ -143,7 +143,14 @@ WorldsFactory TokenWorldBatches(const train::DynamicsModel& model, const tokeniz
 
 // The motion model (deterministic: every rollout of a start imagines the same under the same
 // actions), each imagined frame scored by the success classifier's P(success); no terminal
-// head (evaluate/motion_closed_loop.cc).
+// head (evaluate/motion_closed_loop.cc). One episode at a time: the reference
+// MotionWorldBatches is checked against (tests/evaluate/motion_closed_loop_test.cc,
+// bench/motion_imagination_bench.cc).
 WorldFactory MotionWorlds(const motion::MotionModel& model, const success::SuccessModel& success);
+// The same worlds imagined as one batch: the starts are the rows of one MotionModel::Rollout and
+// each step's frames are scored by one classifier call. Equal to MotionWorlds up to float
+// rounding (other conv/GEMM shapes; docs/reports.md).
+WorldsFactory MotionWorldBatches(const motion::MotionModel& model,
+                                 const success::SuccessModel& success);
 
 }  // namespace wm::evaluate

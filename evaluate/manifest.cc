@@ -50,7 +50,7 @@ nlohmann::json PolicyEvalConfigJson(const PolicyEvalOptions& p) {
       {"policies", policies},
       {"horizon", p.loop.horizon},
       {"rollouts", p.loop.rollouts},
-      {"batch", p.loop.batch},  // a token model's frames depend on it through float rounding
+      {"batch", p.loop.batch},  // the frames depend on it through float rounding
       {"clamp_actions", p.loop.clamp_tabletop ? "tabletop" : "none"},
       {"success_threshold", p.loop.success_threshold},
       {"terminal_threshold", p.loop.terminal_threshold},

@@ -233,7 +233,7 @@ ClosedLoopModel LoadMotionModel(const EvalOptions& o, const std::string& checkpo
   auto keep = std::make_shared<std::pair<std::shared_ptr<const motion::MotionModel>,
                                          std::shared_ptr<const success::SuccessModel>>>(
       motion.model, success);
-  return {.worlds = WorldsInTurn(MotionWorlds(*motion.model, *success)),
+  return {.worlds = MotionWorldBatches(*motion.model, *success),
           .action_dim = motion.model->action_dim(),
           .info = std::move(motion.info),
           .keep = keep};

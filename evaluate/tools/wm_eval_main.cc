@@ -77,8 +77,8 @@ void AddPolicyOptions(CLI::App& app, PolicyArgs& a, wm::evaluate::PolicyEvalOpti
   app.add_option("--policy-rollouts", p.loop.rollouts, "Closed-loop rollouts per start")
       ->capture_default_str();
   app.add_option("--policy-batch", p.loop.batch,
-                 "Closed-loop starts imagined together as one batch (token models; frames equal "
-                 "to one at a time up to float rounding)")
+                 "Closed-loop starts imagined together as one batch (frames equal to one at a "
+                 "time up to float rounding)")
       ->check(CLI::PositiveNumber)
       ->capture_default_str();
   app.add_flag("--rolling-cache", p.loop.rolling_cache,
