@@ -7,11 +7,10 @@
 // with rotary time also runs the rolling cache (wm-eval --rolling-cache), compared with the
 // batched path: the same until the window slides, its own semantics after.
 #include <CLI/CLI.hpp>
-#include <chrono>
-#include <cmath>
 #include <cstdio>
 #include <limits>
 
+#include "bench/closed_loop_runs.h"
 #include "core/malloc_tuning.h"
 #include "core/tokens/token_dataset.h"
 #include "evaluate/closed_loop.h"
@@ -22,11 +21,13 @@
 
 namespace {
 namespace ev = wm::evaluate;
-using Clock = std::chrono::steady_clock;
-
-double Seconds(Clock::time_point a) {
-  return std::chrono::duration<double>(Clock::now() - a).count();
-}
+using wm::bench::Batched;
+using wm::bench::Clock;
+using wm::bench::Compare;
+using wm::bench::OneAtATime;
+using wm::bench::PrintSpeed;
+using wm::bench::Run;
+using wm::bench::Seconds;
 
 struct BenchOptions {
   std::string checkpoint, tokenizer, tokens, policy = "scripts/tabletop_colour_policy.py";
@@ -50,46 +51,6 @@ std::vector<ev::ClosedLoopStart> Starts(const wm::tokens::TokenDataset& data,
     starts.push_back(std::move(s));
   }
   return starts;
-}
-
-struct Run {
-  std::vector<ev::ClosedLoopRollout> rollouts;
-  double seconds = 0;
-  int64_t frames = 0;
-  double Rate() const { return frames / seconds; }  // imagined frames/s
-};
-
-void PrintSpeed(const char* name, const Run& run, const char* ratio_name, double ratio) {
-  std::printf("%s: %lld frames in %.2f s = %.1f frames/s; %s = %.2fx\n", name,
-              static_cast<long long>(run.frames), run.seconds, run.Rate(), ratio_name, ratio);
-}
-
-Run Reference(const ev::WorldFactory& worlds, wm::policy::PolicyProcess& policy,
-              const std::vector<ev::ClosedLoopStart>& starts, const ev::ClosedLoopOptions& o) {
-  Run run;
-  const auto t0 = Clock::now();
-  for (const auto& s : starts)
-    run.rollouts.push_back(ev::RunClosedLoop(*worlds(s, 0), policy, s, 0, o));
-  run.seconds = Seconds(t0);
-  for (const auto& r : run.rollouts) run.frames += r.steps;
-  return run;
-}
-
-Run Batched(const ev::WorldsFactory& worlds, wm::policy::PolicyProcess& policy,
-            const std::vector<ev::ClosedLoopStart>& starts, const ev::ClosedLoopOptions& o) {
-  Run run;
-  const auto t0 = Clock::now();
-  for (size_t first = 0; first < starts.size(); first += o.batch) {
-    std::vector<const ev::ClosedLoopStart*> group;
-    for (size_t i = first; i < std::min(starts.size(), first + o.batch); ++i)
-      group.push_back(&starts[i]);
-    for (auto& r : ev::RunClosedLoops(*worlds(group, 0), policy, group, 0, o)) {
-      run.rollouts.push_back(std::move(r));
-    }
-  }
-  run.seconds = Seconds(t0);
-  for (const auto& r : run.rollouts) run.frames += r.steps;
-  return run;
 }
 
 // The reference path's parts per imagined frame: model step, tokenizer decode, policy answer.
@@ -121,42 +82,6 @@ void TimeParts(const wm::train::DynamicsModel& model, const wm::tokenize::Tokeni
   const double policy_s = Seconds(t0) / steps;
   std::printf("reference parts per frame: model %.2f ms, decode %.2f ms, policy %.2f ms\n",
               model_s * 1e3, decode_s * 1e3, policy_s * 1e3);
-}
-
-// The first frame where two rollouts differ by more than float rounding (their length if none).
-int64_t FirstDifferentFrame(const ev::ClosedLoopRollout& a, const ev::ClosedLoopRollout& b) {
-  const size_t frame = static_cast<size_t>(3) * a.frames.size * a.frames.size;
-  const size_t n = std::min(a.frames.pixels.size(), b.frames.pixels.size()) / frame;
-  for (size_t f = 0; f < n; ++f) {
-    for (size_t k = f * frame; k < (f + 1) * frame; ++k) {
-      if (std::abs(a.frames.pixels[k] - b.frames.pixels[k]) > 1e-4) return static_cast<int64_t>(f);
-    }
-  }
-  return static_cast<int64_t>(n);
-}
-
-// How far the `fast` rollouts are from the `ref` ones.
-void Compare(const Run& ref, const Run& fast, const char* what) {
-  double reward = 0, pixel = 0, action = 0, first_different = 0;
-  int same_end = 0;
-  for (size_t i = 0; i < ref.rollouts.size(); ++i) {
-    const auto &a = ref.rollouts[i], &b = fast.rollouts[i];
-    same_end += a.steps == b.steps && a.end == b.end;
-    first_different += FirstDifferentFrame(a, b) / double(ref.rollouts.size());
-    for (size_t k = 0; k < std::min(a.rewards.size(), b.rewards.size()); ++k) {
-      reward = std::max<double>(reward, std::abs(a.rewards[k] - b.rewards[k]));
-    }
-    for (size_t k = 0; k < std::min(a.frames.pixels.size(), b.frames.pixels.size()); ++k) {
-      pixel = std::max<double>(pixel, std::abs(a.frames.pixels[k] - b.frames.pixels[k]));
-    }
-    for (size_t k = 0; k < std::min(a.actions.size(), b.actions.size()); ++k) {
-      action = std::max<double>(action, std::abs(a.actions[k] - b.actions[k]));
-    }
-  }
-  std::printf(
-      "%s: %d/%zu rollouts end alike; max |reward diff| %.3g, max |pixel diff| %.3g (of "
-      "[-1, 1]), max |action diff| %.3g; frames equal up to frame %.1f on average\n",
-      what, same_end, ref.rollouts.size(), reward, pixel, action, first_different);
 }
 
 }  // namespace
@@ -207,7 +132,7 @@ int main(int argc, char** argv) {
               static_cast<long long>(fast.frames), fast.seconds, fast.frames / fast.seconds);
   if (!b.skip_reference) {
     TimeParts(*model, tok, policy, starts.front(), o, std::min<int64_t>(b.horizon, 20));
-    const Run ref = Reference(ev::TokenWorlds(*model, tok, o), policy, starts, o);
+    const Run ref = OneAtATime(ev::TokenWorlds(*model, tok, o), policy, starts, o);
     PrintSpeed("reference", ref, "batched+cached / reference", fast.Rate() / ref.Rate());
     Compare(ref, fast, "batched+cached vs reference");
   }

@@ -7,7 +7,8 @@
 #   3. LPIPS vs the PyTorch reference on the same (random) weights
 #   4. tokenizer training and encoding vs its PyTorch twin (needs tokenizer_ref_tool: tests on)
 #   5. closed-loop imagination: the batched, cached path of wm-eval --policy vs one episode at a
-#      time (needs the demo's models: make demo; DEMO_DIR, IMAGINE_THREADS)
+#      time (needs the demo's models: make demo; DEMO_DIR, IMAGINE_THREADS), for the token model,
+#      then the motion model with a success classifier (make wpe's: WPE_DIR)
 set -euo pipefail
 BIN=${1:-build/bin}
 WORK=${BENCH_DIR:-/tmp/wmkit-bench}
@@ -48,4 +49,13 @@ if [ -f "$DEMO/dynamics/checkpoint.wmt" ]; then
     --tokens "$DEMO/tokens/val" --episodes 16 --horizon 40 --threads "${IMAGINE_THREADS:-2}"
 else
   echo "skipped: no $DEMO/dynamics (run make demo first)"
+fi
+echo "== imagination: the motion model's closed-loop frames/s, batched vs one episode at a time"
+SUCCESS=${WPE_DIR:-data/wpe}/success
+if [ -f "$DEMO/motion/checkpoint.wmt" ] && [ -f "$SUCCESS/checkpoint.wmt" ]; then
+  "$BIN/motion_imagination_bench" --checkpoint "$DEMO/motion" --success-model "$SUCCESS" \
+    --data "${DEMO_DIR:-data/demo}/shards/val" --episodes 16 --horizon 40 \
+    --threads "${IMAGINE_THREADS:-2}"
+else
+  echo "skipped: no $DEMO/motion or $SUCCESS (run make wpe first)"
 fi
