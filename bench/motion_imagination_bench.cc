@@ -3,7 +3,8 @@
 // wm-eval --policy runs (MotionWorldBatches: one step of all rows, one classifier call for them),
 // same model, classifier, starts and policy, in one run. Counts imagined frames: each is one model
 // step, its P(success) and the policy's answer to it (one policy process). Also times the parts
-// of a frame on each path, and checks that both paths imagine the same.
+// of a frame on each path, and checks that both paths imagine the same. Each path runs --repeats
+// times, taking turns with the other, and its fastest run counts (a shared machine's load).
 #include <CLI/CLI.hpp>
 #include <cstdio>
 #include <limits>
@@ -26,7 +27,7 @@ using wm::bench::Seconds;
 
 struct BenchOptions {
   std::string checkpoint, success, data, policy = "scripts/tabletop_colour_policy.py";
-  int episodes = 16, threads = 2, batch = 16;
+  int episodes = 16, threads = 2, batch = 16, repeats = 3;
   int64_t horizon = 40;
 };
 
@@ -69,6 +70,11 @@ void TimeParts(const wm::motion::MotionModel& model, const wm::success::SuccessM
               static_cast<long long>(batch), model_s * per_frame, success_s * per_frame);
 }
 
+// The run that took less time (`a` when it has none yet).
+Run Faster(Run a, Run b) {
+  return a.frames == 0 || b.seconds < a.seconds ? std::move(b) : std::move(a);
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -89,6 +95,9 @@ int main(int argc, char** argv) {
       ->capture_default_str();
   app.add_option("--batch", b.batch, "Starts per batch (batched path)")->capture_default_str();
   app.add_option("--threads", b.threads, "LibTorch intra-op threads")->capture_default_str();
+  app.add_option("--repeats", b.repeats, "Runs of each path, taking turns (the fastest counts)")
+      ->check(CLI::PositiveNumber)
+      ->capture_default_str();
   CLI11_PARSE(app, argc, argv);
 
   const auto model = wm::motion::MotionModel::Load(b.checkpoint, "cpu", b.threads);
@@ -106,13 +115,20 @@ int main(int argc, char** argv) {
   std::printf("%s (motion, %s), %zu episodes x %lld steps, %d threads, batch %d\n",
               b.checkpoint.c_str(), model->config().model.kind.c_str(), starts.size(),
               static_cast<long long>(b.horizon), b.threads, b.batch);
-  const Run fast = wm::bench::Batched(ev::MotionWorldBatches(*model, *success), policy, starts, o);
-  std::printf("batched: %lld frames in %.2f s = %.1f frames/s\n",
-              static_cast<long long>(fast.frames), fast.seconds, fast.Rate());
+  // The paths take turns, so that a burst of load on a shared machine hits both alike; each
+  // keeps its fastest run.
+  Run fast, ref;
+  for (int r = 0; r < b.repeats; ++r) {
+    fast = Faster(std::move(fast),
+                  wm::bench::Batched(ev::MotionWorldBatches(*model, *success), policy, starts, o));
+    ref = Faster(std::move(ref),
+                 wm::bench::OneAtATime(ev::MotionWorlds(*model, *success), policy, starts, o));
+  }
+  std::printf("batched: %lld frames in %.2f s = %.1f frames/s (fastest of %d)\n",
+              static_cast<long long>(fast.frames), fast.seconds, fast.Rate(), b.repeats);
   const int64_t part_steps = std::min<int64_t>(b.horizon, 20);
   TimeParts(*model, *success, starts.front().first_frame, 1, part_steps);
   TimeParts(*model, *success, starts.front().first_frame, b.batch, part_steps);
-  const Run ref = wm::bench::OneAtATime(ev::MotionWorlds(*model, *success), policy, starts, o);
   wm::bench::PrintSpeed("one at a time", ref, "batched / one at a time", fast.Rate() / ref.Rate());
   wm::bench::Compare(ref, fast, "batched vs one at a time");
   policy.Close();
