@@ -50,6 +50,7 @@ Run OneAtATime(const ev::WorldFactory& worlds, policy::PolicyProcess& policy,
                const std::vector<ev::ClosedLoopStart>& starts, const ev::ClosedLoopOptions& o) {
   const auto t0 = Clock::now();
   std::vector<ev::ClosedLoopRollout> rollouts;
+  rollouts.reserve(starts.size());
   for (const auto& s : starts)
     rollouts.push_back(ev::RunClosedLoop(*worlds(s, 0), policy, s, 0, o));
   return Timed(t0, std::move(rollouts));

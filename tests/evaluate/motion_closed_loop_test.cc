@@ -71,6 +71,7 @@ class MotionClosedLoopTest : public ::testing::Test {
   static std::vector<ClosedLoopStart> Starts() {
     const shard::DatasetReader shards(*dir_ / "val");
     std::vector<ClosedLoopStart> starts;
+    starts.reserve(kStarts);
     for (int k = 0; k < kStarts; ++k) {
       starts.push_back(
           {.episode = k,
@@ -92,6 +93,7 @@ class MotionClosedLoopTest : public ::testing::Test {
                                   .image_height = 32,
                                   .image_width = 32});
     std::vector<const ClosedLoopStart*> all;
+    all.reserve(starts.size());
     for (const ClosedLoopStart& s : starts) all.push_back(&s);
     return RunClosedLoops(*worlds(all, 0), policy, all, 0, o);
   }
