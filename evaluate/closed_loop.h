@@ -131,7 +131,8 @@ ClosedLoopRollout RunClosedLoop(ImaginedWorld& world, policy::PolicyProcess& pol
 // terminal heads score each step. Sampling seeds are ImaginationSeed(seed, episode, rollout,
 // step): byte-reproducible on CPU. One episode at a time, each step recomputing the whole
 // context window twice (the frame, then its reward): the reference TokenWorldBatches is checked
-// against (tests/evaluate/token_closed_loop_test.cc, bench/imagination_bench.cc).
+// against (bench/imagination_bench.cc; the model step it relies on, DynamicsModel::ImagineStep,
+// by tests/train/imagine_step_test.cc).
 WorldFactory TokenWorlds(const train::DynamicsModel& model, const tokenize::Tokenizer& tok,
                          const ClosedLoopOptions& options);
 // The same worlds imagined as one batch: a model call (DynamicsModel::ImagineStep: the window
