@@ -10,7 +10,7 @@ actions', arm / object MSE over copy_last's).
       [--steps 1500] [--unroll 4] [--layers 3] [--channels 32] [--seed S] [--strip OUT.png] \
       [--mask-noise 2] [--noise-ramp 0.5] [--mask-l1 0.01] [--l1-ramp 0] [--mask-bias 0] \
       [--linear affine|similarity|scale] [--fill-residual] \
-      [--motion-prior W [--prior-steps 0.3] [--static-only]] \
+      [--motion-prior W [--prior-steps 0.3] [--static-only]] [--follow [--follow-bias -4]] \
       [--save NET.pt | --load NET.pt | --checkpoint RUN_DIR] [--masks OUT.png] [--ceiling]
 
 --mask-noise SIGMA (Gaussian noise on the mask logits in training, grown from 0 over the first
@@ -20,8 +20,10 @@ recipe's (docs/motion.md says what each does; 0 turns it off). Variants measured
 linear part to a similarity (no shear) or a scale; --fill-residual makes the fill the given
 frame plus a correction. --motion-prior W adds wm-motion's train.motion_prior (the layers'
 union pulled towards the pixels that change in the window, fading over --prior-steps);
---static-only keeps only its term on the pixels that did not move. --checkpoint scores a
-wm-motion run of this kind through the twin instead of training (its weights and action statistics).
+--static-only keeps only its term on the pixels that did not move. --follow (measured, not kept)
+lets a layer follow another's step, gated by the state: for the block, carried only once
+grasped. --checkpoint scores a wm-motion run of this kind through the twin instead of training
+(its weights and action statistics).
 --masks writes, for val episodes 0-2, the given frame, each layer's mask, the fill and the
 layers' cut-out. --ceiling (a diagnostic) also scores each rollout with its per-step maps fitted
 to the real frames by Adam (the masks and fill kept): the representation's error without the
@@ -59,6 +61,34 @@ class VariantLayerNet(LayerNet):
             scale, turn = inc[..., 0], inc[..., 1] * (self.linear == "similarity")
             inc = torch.cat([torch.stack([scale, -turn, turn, scale], -1), inc[..., 4:]], -1)
         return inc
+
+class FollowLayerNet(VariantLayerNet):
+    """A layer may follow another's motion this step (`--follow`): the maps applied are
+    (I + sum_j g_kj (M_j - I)) M_k, with gates g_kj = sigmoid(.) read by a head beside the
+    motion head from the same features (the current frame: is the block in a closed gripper?).
+    The gates start near shut (bias `follow_bias`), so the untrained model is the plain one."""
+
+    def __init__(self, action_dim, layers, channels, follow_bias=-4.0, **kw):
+        super().__init__(action_dim, layers, channels, **kw)
+        self.follow_head = torch.nn.Linear(256, layers * layers)
+        torch.nn.init.zeros_(self.follow_head.weight)
+        torch.nn.init.constant_(self.follow_head.bias, follow_bias)
+
+    def step_maps(self, current, first, maps, action):
+        b, k = current.shape[0], self.layers
+        hidden = []
+        handle = self.motion_mlp.register_forward_hook(lambda m, i, o: hidden.append(o))
+        inc = super().step_maps(current, first, maps, action)
+        handle.remove()
+        others = 1 - torch.eye(k)
+        self.gates = torch.sigmoid(self.follow_head(hidden[0])).view(b, k, k) * others
+        return inc
+
+    def combine(self, steps):
+        eye = torch.eye(3)
+        followed = eye + torch.einsum("bkj,bjrc->bkrc", self.gates, steps - eye)
+        return followed @ steps
+
 
 def fit(net, episodes, norm, steps, args):
     opt = torch.optim.AdamW(net.parameters(), wp.LR, betas=(0.9, 0.9), weight_decay=0.01)
@@ -181,12 +211,19 @@ def main():
                     help="what a step may do to a layer besides moving it")
     ap.add_argument("--fill-residual", action="store_true",
                     help="the fill is the given frame plus a learned correction")
+    ap.add_argument("--follow", action="store_true",
+                    help="a layer may follow another's motion, gated per step by the state")
+    ap.add_argument("--follow-bias", type=float, default=-4.0, help="the gates' initial logit")
     ap.add_argument("--ceiling", action="store_true",
                     help="also score each val rollout with its maps fitted to the real frames")
     args = ap.parse_args()
     train, val, actions, norm = wp.setup(args)
     torch.set_flush_denormal(True)  # as wm-motion: saturated masks underflow
-    if args.linear != "affine" or args.fill_residual:
+    if args.follow:
+        net = FollowLayerNet(actions.shape[1], args.layers, args.channels, args.follow_bias,
+                             linear=args.linear, fill_residual=args.fill_residual,
+                             mask_bias=args.mask_bias, mask_noise=args.mask_noise)
+    elif args.linear != "affine" or args.fill_residual:
         net = VariantLayerNet(actions.shape[1], args.layers, args.channels, args.linear,
                               args.fill_residual, mask_bias=args.mask_bias,
                               mask_noise=args.mask_noise)

@@ -73,11 +73,16 @@ class LayerNet(nn.Module):
             inc = (self.step_maps(current.detach(), first, maps, actions[:, t]) if fixed is None
                    else fixed[:, t])
             centre = apply(maps, centre0)
-            maps = increment(inc, centre) @ maps
+            maps = self.combine(increment(inc, centre)) @ maps
             frame = render(first, masks, fill, maps, s)
             out.append(frame)
             current = frame if frames_in is None else frames_in[:, t]
         return torch.stack(out, 1)
+
+    def combine(self, steps):
+        """[B, K, 3, 3] this step's maps per layer -> the maps applied (a hook for variants in
+        bench/layer_predictor.py; the model itself applies each layer's own)."""
+        return steps
 
 
 def centroids(masks):
