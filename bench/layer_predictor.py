@@ -10,7 +10,8 @@ actions', arm / object MSE over copy_last's).
       [--steps 1500] [--unroll 4] [--layers 3] [--channels 32] [--seed S] [--strip OUT.png] \
       [--mask-noise 2] [--noise-ramp 0.5] [--mask-l1 0.01] [--l1-ramp 0] [--mask-bias 0] \
       [--linear affine|similarity|scale] [--fill-residual] \
-      [--motion-prior W [--prior-steps 0.3] [--static-only]] [--follow [--follow-bias -4]] \
+      [--motion-prior W [--prior-steps 0.3] [--prior-layers N] [--static-only]] \
+      [--follow [--follow-bias -4]] \
       [--save NET.pt | --load NET.pt | --checkpoint RUN_DIR] [--masks OUT.png] [--ceiling]
 
 --mask-noise SIGMA (Gaussian noise on the mask logits in training, grown from 0 over the first
@@ -20,7 +21,8 @@ recipe's (docs/motion.md says what each does; 0 turns it off). Variants measured
 linear part to a similarity (no shear) or a scale; --fill-residual makes the fill the given
 frame plus a correction. --motion-prior W adds wm-motion's train.motion_prior (the layers'
 union pulled towards the pixels that change in the window, fading over --prior-steps);
---static-only keeps only its term on the pixels that did not move. --follow (measured, not kept)
+--prior-layers N pulls only the first N layers' union (the others are left to sort
+themselves); --static-only keeps only its term on the pixels that did not move. --follow (measured, not kept)
 lets a layer follow another's step, gated by the state: for the block, carried only once
 grasped. --checkpoint scores a wm-motion run of this kind through the twin instead of training
 (its weights and action statistics).
@@ -105,7 +107,8 @@ def fit(net, episodes, norm, steps, args):
             loss = loss + weight * net.last_masks.mean(dim=(0, 2, 3)).sum()
         if args.motion_prior > 0 and step < args.prior_steps * steps:
             weight = args.motion_prior * (1 - step / (args.prior_steps * steps))
-            loss = loss + weight * motion_prior_loss(net.last_masks, clips, args.static_only)
+            pulled = net.last_masks[:, :args.prior_layers or None]
+            loss = loss + weight * motion_prior_loss(pulled, clips, args.static_only)
         wp.optimizer_step(net, opt, loss, step)
 
 
@@ -200,6 +203,8 @@ def main():
                     help="W x the cross-entropy of the layers' union against the pixels that "
                          "change in the window, fading to 0 over --prior-steps")
     ap.add_argument("--prior-steps", type=float, default=0.3, metavar="FRACTION")
+    ap.add_argument("--prior-layers", type=int, default=0, metavar="N",
+                    help="the prior pulls only the union of the first N layers (0: all)")
     ap.add_argument("--static-only", action="store_true",
                     help="the motion prior only keeps the layers off what did not move")
     ap.add_argument("--save", help="the trained net's state_dict (torch.save)")
