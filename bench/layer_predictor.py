@@ -101,7 +101,7 @@ def fit(net, episodes, norm, steps, args):
         net.mask_noise = args.mask_noise * min(1.0, step / max(1, args.noise_ramp * steps))
         clips, actions, _, _, _, _ = wp.batch(episodes, norm, rng, args.unroll)
         pred = net(clips[:, 2], actions[:, 1:])
-        loss = (pred - clips[:, 3:]).abs().mean()
+        loss = frame_loss(pred, clips, args.moved_weight)
         if args.mask_l1 > 0:  # what need not move stays in the background, copied exactly
             weight = args.mask_l1 * min(1.0, step / max(1, args.l1_ramp * steps))
             loss = loss + weight * net.last_masks.mean(dim=(0, 2, 3)).sum()
@@ -110,6 +110,17 @@ def fit(net, episodes, norm, steps, args):
             pulled = net.last_masks[:, :args.prior_layers or None]
             loss = loss + weight * motion_prior_loss(pulled, clips, args.static_only)
         wp.optimizer_step(net, opt, loss, step)
+
+
+def frame_loss(pred, clips, moved_weight=0.0):
+    """The L1 between the imagined and the real frames of the window; with `moved_weight` W
+    the pixels that change within the window (moved_pixels) weigh 1 + W: the arm and the block
+    are a few percent of the frame, and the metrics that matter are on them."""
+    error = (pred - clips[:, 3:]).abs()
+    if moved_weight <= 0:
+        return error.mean()
+    weight = 1 + moved_weight * moved_pixels(clips)[:, None, None]
+    return (error * weight).mean() / weight.mean()
 
 
 def moved_pixels(clips, levels=30):
@@ -207,6 +218,8 @@ def main():
                     help="the prior pulls only the union of the first N layers (0: all)")
     ap.add_argument("--static-only", action="store_true",
                     help="the motion prior only keeps the layers off what did not move")
+    ap.add_argument("--moved-weight", type=float, default=0.0, metavar="W",
+                    help="the frame loss weighs the pixels that change in the window 1 + W")
     ap.add_argument("--save", help="the trained net's state_dict (torch.save)")
     ap.add_argument("--load", help="a --save'd net: no training")
     ap.add_argument("--checkpoint", metavar="RUN_DIR",

@@ -31,6 +31,7 @@ void VisitFields(Config& c, F&& f) {
   f("train", "mask_noise_ramp", t.mask_noise_ramp);
   f("train", "motion_prior", t.motion_prior);
   f("train", "motion_prior_steps", t.motion_prior_steps);
+  f("train", "moved_weight", t.moved_weight);
   f("data", "image_key", c.data.image_key);
 }
 
@@ -81,6 +82,7 @@ void ValidateConfig(const MotionConfig& c, const std::string& file) {
   require(t.motion_prior >= 0, "train.motion_prior", "must be >= 0");
   require(t.motion_prior_steps >= 0 && t.motion_prior_steps <= 1, "train.motion_prior_steps",
           "must be in [0, 1]");
+  require(t.moved_weight >= 0, "train.moved_weight", "must be >= 0");
   require(!c.data.image_key.empty(), "data.image_key", "must not be empty");
 }
 

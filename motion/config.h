@@ -54,6 +54,10 @@ struct TrainConfig {
   // written before these keys were.
   double motion_prior = 0;
   double motion_prior_steps = 0.3;
+  // kind layers: the frame loss weighs the pixels that change within the window 1 +
+  // moved_weight, the rest 1 (a weighted mean; motion/motion_prior.h): the arm and the block are
+  // a few percent of the frame, and what the model is for happens there. 0 = the plain mean.
+  double moved_weight = 0;
 };
 
 struct DataConfig {

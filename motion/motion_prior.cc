@@ -15,6 +15,18 @@ torch::Tensor MotionPriorLoss(const torch::Tensor& masks, const torch::Tensor& m
   return torch::binary_cross_entropy(covered, moved);
 }
 
+torch::Tensor MovedLossWeights(const torch::Tensor& moved, double moved_weight) {
+  if (moved_weight <= 0) return {};
+  const torch::Tensor weights = (1 + moved_weight * moved).unsqueeze(1);
+  return weights / weights.mean();
+}
+
+torch::Tensor FrameL1(const torch::Tensor& imagined, const torch::Tensor& real,
+                      const torch::Tensor& weights) {
+  const torch::Tensor error = (imagined - real).abs();
+  return weights.defined() ? (error * weights).mean() : error.mean();
+}
+
 double MotionPriorWeight(const TrainConfig& t, int64_t step) {
   const double span = t.motion_prior_steps * static_cast<double>(t.steps);
   if (t.motion_prior <= 0 || static_cast<double>(step) >= span) return 0;

@@ -20,6 +20,16 @@ torch::Tensor MovedPixels(const torch::Tensor& frames, int64_t given, double lev
 // against `moved` [B, S, S].
 torch::Tensor MotionPriorLoss(const torch::Tensor& masks, const torch::Tensor& moved);
 
+// Per-pixel weights [B, 1, S, S] of the frame loss: 1 + moved_weight where `moved` [B, S, S] is
+// 1, else 1, divided by their mean so that the weighted L1 stays on the plain L1's scale (the
+// mask L1 and the prior keep their meaning). Undefined when moved_weight is 0: the plain mean.
+torch::Tensor MovedLossWeights(const torch::Tensor& moved, double moved_weight);
+
+// The mean L1 between `imagined` and `real` [B, 3, S, S], weighted per pixel by `weights` from
+// MovedLossWeights (the plain mean when undefined).
+torch::Tensor FrameL1(const torch::Tensor& imagined, const torch::Tensor& real,
+                      const torch::Tensor& weights);
+
 // The prior's weight at `step`: train.motion_prior fading linearly to 0 over the first
 // train.motion_prior_steps of the steps, 0 after (the rest of training is the plain recipe).
 double MotionPriorWeight(const TrainConfig& train, int64_t step);

@@ -232,22 +232,25 @@ class MotionStage : public trainkit::TrainingStage {
     return loss;
   }
 
-  // The layers of frame t moved through the window: the mean L1 of its U frames, plus
-  // train.mask_l1 x the layers' mean mask and the fading motion prior (motion_prior.h); the
-  // mask logits noised as the schedule says.
+  // The layers of frame t moved through the window: the mean L1 of its U frames (moved pixels
+  // weighed by train.moved_weight), plus train.mask_l1 x the layers' mean mask and the fading
+  // motion prior (motion_prior.h); the mask logits noised as the schedule says.
   torch::Tensor LayerLoss(const torch::Tensor& frames, const torch::Tensor& actions, int64_t step) {
     const int64_t U = actions.size(1);
     LayerNet& net = s_.model->layers();
     LayerRollout r = net->Start(frames.select(1, 1), MaskNoise(frames, step));
+    const double prior = MotionPriorWeight(cfg_.train, step);
+    torch::Tensor moved;
+    if (prior > 0 || cfg_.train.moved_weight > 0) moved = MovedPixels(frames, 1);
+    const torch::Tensor weights = MovedLossWeights(moved, cfg_.train.moved_weight);
     torch::Tensor loss = torch::zeros({}, frames.options());
     for (int64_t u = 0; u < U; ++u) {
       const torch::Tensor next = net->Advance(r, actions.select(1, u));
-      loss = loss + (next - frames.select(1, u + 2)).abs().mean() / static_cast<double>(U);
+      loss = loss + FrameL1(next, frames.select(1, u + 2), weights) / static_cast<double>(U);
     }
     const torch::Tensor& masks = r.sprites.masks;
     loss = loss + cfg_.train.mask_l1 * masks.mean({0, 2, 3}).sum();
-    const double prior = MotionPriorWeight(cfg_.train, step);
-    if (prior > 0) loss = loss + prior * MotionPriorLoss(masks, MovedPixels(frames, 1));
+    if (prior > 0) loss = loss + prior * MotionPriorLoss(masks, moved);
     torch::NoGradGuard no_grad;
     diagnostics_ = {(ApplyMaps(r.maps, r.centre0) - r.centre0).norm(2, -1).mean(),
                     1 - torch::prod(1 - masks, 1).mean()};

@@ -1,6 +1,7 @@
 // The layered kind's motion prior (motion/motion_prior.h): which pixels count as moved in a
-// window, the cross-entropy it pulls the layers' union towards them with, and its schedule.
-// Checked against geometry worked out by hand.
+// window, the cross-entropy it pulls the layers' union towards them with, its schedule, and the
+// frame loss's weights on those pixels (train.moved_weight). Checked against geometry and
+// means worked out by hand.
 #include "motion/motion_prior.h"
 
 #include <gtest/gtest.h>
@@ -56,6 +57,24 @@ TEST(MotionPriorLoss, IsTheCrossEntropyOfTheLayersUnion) {
   // saturated masks on exactly the moved pixels: the clamp keeps it finite and near 0
   const torch::Tensor exact = torch::stack({moved, torch::zeros_like(moved)}, 1);
   EXPECT_LT(MotionPriorLoss(exact, moved).item<double>(), 1e-3);
+}
+
+TEST(MovedLossWeights, MakeTheL1AMeanWeightedTowardsTheMovedPixels) {
+  const torch::Tensor imagined = torch::zeros({1, 3, kSize, kSize});
+  torch::Tensor real = torch::full({1, 3, kSize, kSize}, 0.1);
+  torch::Tensor moved = torch::zeros({1, kSize, kSize});
+  moved[0].narrow(0, 0, kSize / 4).fill_(1);  // a quarter of the pixels moved
+  real.narrow(2, 0, kSize / 4).fill_(0.9);    // and are imagined 0.9 off, the rest 0.1
+  // no weights: the plain mean, 0.25 x 0.9 + 0.75 x 0.1
+  EXPECT_FALSE(MovedLossWeights(moved, 0).defined());
+  EXPECT_NEAR(FrameL1(imagined, real, MovedLossWeights(moved, 0)).item<double>(), 0.3, 1e-6);
+  // weight 4: moved pixels count 5, the rest 1: (0.25 x 5 x 0.9 + 0.75 x 0.1) / 2
+  const torch::Tensor weights = MovedLossWeights(moved, 4);
+  ASSERT_EQ(weights.sizes(), torch::IntArrayRef({1, 1, kSize, kSize}));
+  EXPECT_NEAR(weights.mean().item<double>(), 1, 1e-6);
+  EXPECT_NEAR(FrameL1(imagined, real, weights).item<double>(), (1.125 + 0.075) / 2, 1e-6);
+  // a uniform error is weighed to itself whatever moved
+  EXPECT_NEAR(FrameL1(imagined, torch::full_like(real, 0.1), weights).item<double>(), 0.1, 1e-6);
 }
 
 TEST(MotionPriorWeight, FadesToZeroOverItsShareOfTheSteps) {

@@ -116,6 +116,7 @@ TEST(MotionConfigTest, ErrorsNameTheKey) {
       {"train:\n  mask_noise_ramp: 2\n", "train.mask_noise_ramp"},
       {"train:\n  motion_prior_steps: 1.5\n", "train.motion_prior_steps"},
       {"train:\n  motion_prior: -1\n", "train.motion_prior"},
+      {"train:\n  moved_weight: -0.5\n", "train.moved_weight"},
   };
   for (const Case& c : cases) {
     const std::string error = wm::test::ErrorText([&] { ParseMotionConfig(c.yaml, "m.yaml"); });
