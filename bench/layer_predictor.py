@@ -12,6 +12,7 @@ actions', arm / object MSE over copy_last's).
       [--linear affine|similarity|scale] [--fill-residual] \
       [--motion-prior W [--prior-steps 0.3] [--prior-layers N] [--static-only]] \
       [--follow [--follow-bias -4]] \
+      [--moved-weight W] \
       [--save NET.pt | --load NET.pt | --checkpoint RUN_DIR] [--masks OUT.png] [--ceiling]
 
 --mask-noise SIGMA (Gaussian noise on the mask logits in training, grown from 0 over the first
@@ -24,7 +25,8 @@ union pulled towards the pixels that change in the window, fading over --prior-s
 --prior-layers N pulls only the first N layers' union (the others are left to sort
 themselves); --static-only keeps only its term on the pixels that did not move. --follow (measured, not kept)
 lets a layer follow another's step, gated by the state: for the block, carried only once
-grasped. --checkpoint scores a wm-motion run of this kind through the twin instead of training
+grasped. --moved-weight W (wm-motion's train.moved_weight) weighs the pixels that change in the
+window 1 + W in the frame loss. --checkpoint scores a wm-motion run of this kind through the twin instead of training
 (its weights and action statistics).
 --masks writes, for val episodes 0-2, the given frame, each layer's mask, the fill and the
 layers' cut-out. --ceiling (a diagnostic) also scores each rollout with its per-step maps fitted

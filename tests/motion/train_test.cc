@@ -52,6 +52,7 @@ class MotionTrainTest : public ::testing::TestWithParam<std::string> {
     if (Textured()) {  // textured.yaml's prior: weight 1 fading over the first 0.2 of the steps
       o.config.train.motion_prior = 1;
       o.config.train.motion_prior_steps = 0.2;
+      o.config.train.moved_weight = 4;  // and its weighted frame loss
     }
     o.config.train.steps = steps;
     o.data_dir = dir_ / "train";
