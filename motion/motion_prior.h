@@ -4,7 +4,9 @@
 // that change within the training window. Without it, on a textured table the masks grow over
 // the whole frame before any motion is learned (covering the grey initial fill pays at once),
 // and a layer holding the whole table cannot move: the model copies the given frame. The target
-// comes from the frames alone, so no segmentation labels are needed. Internal (includes torch).
+// comes from the frames alone, so no segmentation labels are needed. The same pixels can also
+// weigh more in the frame loss (train.moved_weight; "Weighing the pixels that move"): the arm
+// and the block are a few percent of the frame. Internal (includes torch).
 #include <torch/torch.h>
 
 #include "motion/config.h"
