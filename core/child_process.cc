@@ -199,8 +199,8 @@ std::pair<std::optional<std::pair<char, std::string>>, int> ForkOnce(
 ChildOutcome RunInChildProcess(const std::function<std::string()>& work,
                                const ChildLimits& limits) {
   auto [message, status] = ForkOnce(work, limits);
-  for (int attempt = 1; attempt < kAsanForkAttempts && WIFSIGNALED(status) &&
-                        WTERMSIG(status) == SIGALRM;
+  for (int attempt = 1;
+       attempt < kAsanForkAttempts && WIFSIGNALED(status) && WTERMSIG(status) == SIGALRM;
        ++attempt) {
     std::tie(message, status) = ForkOnce(work, limits);
   }

@@ -17,7 +17,8 @@ std::string Frame(int x, int y, bool textured) {
   for (int v = 0; v < kSize; ++v) {
     for (int u = 0; u < kSize; ++u) {
       const bool dark = textured && (u / 4 + v / 4) % 2;
-      std::array<int, 3> colour = dark ? std::array<int, 3>{70, 60, 45} : std::array<int, 3>{120, 100, 80};
+      std::array<int, 3> colour =
+          dark ? std::array<int, 3>{70, 60, 45} : std::array<int, 3>{120, 100, 80};
       if ((u - 24) * (u - 24) + (v - 7) * (v - 7) <= 12) colour = {40, 60, 200};
       if (u >= x && u < x + kSquare && v >= y && v < y + kSquare) colour = {220, 30, 30};
       for (int c = 0; c < 3; ++c) rgb[(v * kSize + u) * 3 + c] = static_cast<uint8_t>(colour[c]);

@@ -194,7 +194,8 @@ TEST_P(MotionTrainTest, ModelApiRejectsWrongActionWidth) {
   EXPECT_NE(error.find("7 values per step"), std::string::npos) << error;
 }
 
-INSTANTIATE_TEST_SUITE_P(Kinds, MotionTrainTest, ::testing::Values("warp", "layers", "textured_prior"),
+INSTANTIATE_TEST_SUITE_P(Kinds, MotionTrainTest,
+                         ::testing::Values("warp", "layers", "textured_prior"),
                          [](const auto& info) { return info.param; });
 
 }  // namespace
