@@ -292,10 +292,12 @@ def batch(episodes, norm, rng, unroll):
     """[B, unroll + 3, 3, S, S] windows (frames t-2, t-1, t, t+1..t+unroll, indices clamped at
     0), the normalised actions a_{t-1}..a_{t+unroll-1} (a_0 again at t = 0), whether t > 0,
     the episodes' frames 0 [B, 3, S, S], the retrace actions r_{t-1}..r_{t+unroll-1} and the
-    windows' (episode, t)."""
+    windows' (episode, t). Episodes of at most `unroll` frames hold no window and are skipped,
+    as wm-motion's WindowSampler skips them (the same draws when none is that short)."""
     clips, actions, later, firsts, retraces, where = [], [], [], [], [], []
+    long_enough = [e for e, (frames, _, _) in enumerate(episodes) if len(frames) > unroll]
     for _ in range(BATCH):
-        e = int(rng.integers(len(episodes)))
+        e = long_enough[int(rng.integers(len(long_enough)))]
         frames, _, acts = episodes[e]
         t = int(rng.integers(len(frames) - unroll))
         where.append((e, t))
