@@ -151,22 +151,22 @@ def ceiling(net, episodes, norm, iterations=300):
     motion predictor's. Started from identity maps instead, the fit fell into local minima (the
     gripper vanished) and scored worse than the predictor. The reversed rollouts are the
     predictor's, so that column says nothing here."""
-    def scaled(p):  # Adam's steps of similar size for the linear part and the translation
-        return torch.cat([p[..., :4] * 0.1, p[..., 4:] * 4], -1)
+    # Adam's steps of similar size for the linear part and the translation (pixels)
+    scale = torch.tensor([0.1] * 4 + [4.0] * 2)
     fitted = {}
     for k, (frames, _, acts) in enumerate(episodes[:wp.recipes.ROLLOUTS]):
         first, real = frames[:1], frames[1:wp.recipes.HORIZON + 1][None]
         a = torch.tensor(norm(acts[:wp.recipes.HORIZON]))[None]
         with torch.no_grad():
-            predicted = predicted_increments(net, first, a)
-        inc = torch.cat([predicted[..., :4] / 0.1, predicted[..., 4:] / 4], -1).requires_grad_()
+            net(first, a)
+        inc = (net.last_increments / scale).requires_grad_()
         opt = torch.optim.Adam([inc], 0.02)
         for _ in range(iterations):
-            loss = (net(first, a, fixed=scaled(inc)) - real).abs().mean()
+            loss = (net(first, a, fixed=inc * scale) - real).abs().mean()
             opt.zero_grad()
             loss.backward()
             opt.step()
-        fitted[k] = scaled(inc).detach()
+        fitted[k] = (inc * scale).detach()
     calls = iter(range(2 * wp.recipes.ROLLOUTS))
 
     def imagine(first, a, _):  # score() asks for each episode's logged, then reversed actions
@@ -174,21 +174,6 @@ def ceiling(net, episodes, norm, iterations=300):
         return net(first, a) if call % 2 else net(first, a, fixed=fitted[call // 2])
     with torch.no_grad():
         return wp.score(net, episodes, norm, imagine)
-
-
-def predicted_increments(net, first, actions):
-    """[1, H, K, 6] the increments the motion predictor picks along its own rollout."""
-    found, predict = [], net.step_maps
-
-    def recorded(*inputs):
-        found.append(predict(*inputs))
-        return found[-1]
-    net.step_maps = recorded
-    try:
-        net(first, actions)
-    finally:
-        del net.step_maps
-    return torch.stack(found, 1)
 
 
 def from_checkpoint(run_dir):

@@ -68,15 +68,17 @@ class LayerNet(nn.Module):
         self.last_masks = masks  # for fit()'s mask penalty
         centre0 = centroids(masks)  # [B, K, 2] on the start frame
         maps = torch.eye(3).expand(b, self.layers, 3, 3)
-        current, out = first, []
+        current, out, increments = first, [], []
         for t in range(h):
             inc = (self.step_maps(current.detach(), first, maps, actions[:, t]) if fixed is None
                    else fixed[:, t])
+            increments.append(inc)
             centre = apply(maps, centre0)
             maps = self.combine(increment(inc, centre)) @ maps
             frame = render(first, masks, fill, maps, s)
             out.append(frame)
             current = frame if frames_in is None else frames_in[:, t]
+        self.last_increments = torch.stack(increments, 1)  # [B, H, K, 6], for --ceiling
         return torch.stack(out, 1)
 
     def combine(self, steps):
