@@ -57,7 +57,7 @@ struct GradientReducer::State {
 GradientReducer::GradientReducer(const DistributedOptions& o, const torch::Device& device)
     : state_(std::make_unique<State>()) {
   state_->options = o;
-  if (o.world_size <= 1) return;
+  if (o.world_size <= 1 && !o.launched) return;
   c10d::TCPStoreOptions so;
   so.port = static_cast<uint16_t>(o.master_port);
   so.isServer = o.rank == 0;
@@ -92,7 +92,7 @@ std::string GradientReducer::backend() const { return state_->backend; }
 
 void GradientReducer::AllReduceMean(const std::vector<torch::Tensor>& tensors) {
   const int W = state_->options.world_size;
-  if (W <= 1 || tensors.empty()) return;
+  if (state_->backend == "none" || tensors.empty()) return;
   torch::NoGradGuard no_grad;
   // One flat buffer: one collective per step instead of one per parameter.
   std::vector<torch::Tensor> flats;

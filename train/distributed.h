@@ -15,6 +15,9 @@ namespace wm::train {
 
 struct DistributedOptions {
   int rank = 0, world_size = 1;
+  // Set when a launcher named the world (WORLD_SIZE in the environment): then a process group is
+  // made even for world size 1, as torchrun does, so a one-GPU job exercises NCCL end to end.
+  bool launched = false;
   std::string master_addr = "127.0.0.1";
   int master_port = 29500;
 };
@@ -23,7 +26,7 @@ class GradientReducer {
  public:
   GradientReducer(const DistributedOptions& options, const torch::Device& device);
   ~GradientReducer();
-  // tensors <- mean over ranks (in place). A no-op for world_size 1.
+  // tensors <- mean over ranks (in place). A no-op without a process group.
   void AllReduceMean(const std::vector<torch::Tensor>& tensors);
   std::string backend() const;
 

@@ -183,10 +183,10 @@ class DynamicsStage : public trainkit::TrainingStage {
         t_(t),
         meta_(meta),
         summary_(summary),
-        reducer_({o.rank, o.world_size, o.master_addr, o.master_port}, device) {
-    if (o.world_size > 1 && o.rank == 0) {
-      LogInfo("data parallel: " + std::to_string(o.world_size) + " ranks, " + reducer_.backend() +
-              " backend");
+        reducer_({o.rank, o.world_size, o.launched, o.master_addr, o.master_port}, device) {
+    if (reducer_.backend() != "none" && o.rank == 0) {
+      LogInfo("data parallel: " + std::to_string(o.world_size) +
+              (o.world_size == 1 ? " rank, " : " ranks, ") + reducer_.backend() + " backend");
     }
   }
 

@@ -33,6 +33,7 @@ struct TrainOptions {
   bool show_progress = true;
   // Data parallelism (train/distributed.h): rank 0 of world_size writes the run directory.
   int rank = 0, world_size = 1;
+  bool launched = false;  // WORLD_SIZE was in the environment (train/distributed.h)
   std::string master_addr = "127.0.0.1";
   int master_port = 0;
 };

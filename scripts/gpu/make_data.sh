@@ -3,7 +3,8 @@
 # wm-gen-tabletop / wm-ingest (WM_MODEL_ONLY builds): plain-look tabletop shards at 64x64 (meta64)
 # and 256x256 (whale-x). Prints the total size,
 # which must stay well under the 64 MiB a device call carries with the working tree.
-#   scripts/gpu/make_data.sh [BIN] [OUT]      (defaults: build/bin gpu-data)
+#   [SETS=...] [EPISODES_256="TRAIN VAL"] scripts/gpu/make_data.sh [BIN] [OUT]
+#   (defaults: build/bin gpu-data)
 set -euo pipefail
 BIN=${1:-build/bin}
 OUT=${2:-gpu-data}
@@ -22,6 +23,12 @@ tabletop() {  # name size train val [more wm-gen-tabletop flags]
   done
 }
 
-tabletop tabletop64 64 300 16
-tabletop tabletop256 256 40 8
+# SETS picks them (scripts/gpu/session.sh uses make demo's shards as tabletop64); EPISODES_256
+# ("train val") shrinks the 256x256 set to fit beside them in one call's 64 MiB.
+for set in ${SETS:-tabletop64 tabletop256}; do
+  case $set in
+    tabletop64) tabletop tabletop64 64 300 16 ;;
+    tabletop256) tabletop tabletop256 256 ${EPISODES_256:-40 8} ;;
+  esac
+done
 du -sh "$OUT"/* "$OUT"

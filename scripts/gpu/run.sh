@@ -5,11 +5,14 @@
 # LOG_DIR/summary.txt, and a failed stage does not stop the later ones.
 #
 #   scripts/gpu/run.sh [--logs DIR] [--data DIR] STAGE...
-#     build   configure + build into build-gpu (ninja if present)
+#     build   configure + build into build-gpu (ninja if present); TARGETS=... builds only those
 #     test    ctest of that build
 #     bench   scripts/gpu/bench.sh: meta64 tokenizer frames/s, dynamics tokens/s, two attentions
-#     check   scripts/gpu/check.py: CUDA vs CPU numerics; FLOPs per step and a profile (MFU)
+#     check   scripts/gpu/check.py: CUDA vs CPU numerics; FLOPs per step and a profile (MFU), on
+#             `bench`'s runs or CHECK_TOKENIZER / CHECK_DYNAMICS
 #     train   scripts/gpu/train_presets.sh: presets on CUDA bf16, resume, eval, CPU load-back
+#     nccl    wm-train through NCCL as a launcher starts one rank (WORLD_SIZE=1), after `train`
+#     motion  scripts/gpu/motion_runs.sh: motion model variants on make demo's shards (MOTION_S s)
 #     gdb     backtraces (cuda-gdb) of the tests that crashed in `test`
 # DATA (default gpu-data) is what scripts/gpu/make_data.sh wrote on a full build.
 set -uo pipefail
@@ -38,7 +41,7 @@ stage_build() {
   cmake -S . -B "$BUILD" "${generator[@]}" -DCMAKE_BUILD_TYPE=Release -DWM_MODEL_ONLY=ON \
     -DWM_BUILD_BENCH=OFF -DCMAKE_PREFIX_PATH="$torch_prefix" -DWM_PYTHON="$PYTHON" \
     -DTORCH_CUDA_ARCH_LIST=9.0 || return 1
-  cmake --build "$BUILD" -j "$(nproc)" -- -k 0
+  cmake --build "$BUILD" -j "$(nproc)" ${TARGETS:+--target $TARGETS} -- -k 0
 }
 
 stage_test() {
@@ -58,9 +61,22 @@ stage_bench() { bash scripts/gpu/bench.sh "$BUILD/bin" "$DATA" "$LOG_DIR"; }
 
 stage_train() { bash scripts/gpu/train_presets.sh "$BUILD/bin" "$DATA" "$LOG_DIR"; }
 
+# A process group of one, as torchrun makes for --nproc-per-node 1: NCCL's all-reduce runs every
+# step (the log names the backend). Uses the meta64 tokens that `train` wrote.
+stage_nccl() {
+  local run=gpu-runs/nccl
+  rm -rf "$run"
+  WORLD_SIZE=1 RANK=0 LOCAL_RANK=0 MASTER_ADDR=127.0.0.1 MASTER_PORT=29531 \
+    "$BUILD/bin/wm-train" --config configs/dynamics/meta64.yaml \
+    --tokens gpu-runs/meta64/tokens/train --out "$run" --device cuda --steps 10 2>&1 | grep -v '%'
+}
+
+stage_motion() { bash scripts/gpu/motion_runs.sh "$BUILD/bin" data/demo/shards "$LOG_DIR" "${MOTION_S:-300}"; }
+
 stage_check() {
   "$PYTHON" scripts/gpu/check.py --bin "$BUILD/bin" --out "$LOG_DIR" \
-    --tokenizer gpu-runs/bench/tokenizer --dynamics gpu-runs/bench/dyn-fused/checkpoint.wmt
+    --tokenizer "${CHECK_TOKENIZER:-gpu-runs/bench/tokenizer}" \
+    --dynamics "${CHECK_DYNAMICS:-gpu-runs/bench/dyn-fused/checkpoint.wmt}"
 }
 
 for stage in "$@"; do

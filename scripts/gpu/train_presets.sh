@@ -9,6 +9,7 @@
 set -euo pipefail
 BIN=$1 DATA=$2 LOGS=$3 RUNS=${4:-gpu-runs}
 TOK_STEPS=${TOK_STEPS:-400} DYN_STEPS=${DYN_STEPS:-400}
+# whale-x-small's batch 64 did not fit one H200 (docs/gpu.md): WHALE_BATCH sets a per-GPU batch.
 mkdir -p "$RUNS" "$LOGS"
 
 # Trains half the steps, then resumes to the end: the second process continues from the
@@ -18,11 +19,11 @@ train_twice() {  # tool... (ends with --out DIR)
   "$@" --resume
 }
 
-run_preset() {  # name tokenizer-preset dynamics-preset data
-  local name=$1 tok=$2 dyn=$3 data=$4 run=$RUNS/$1
+run_preset() {  # name tokenizer-preset dynamics-preset data [dynamics batch]
+  local name=$1 tok=$2 dyn=$3 data=$4 dyn_batch=${5:-} run=$RUNS/$1
   mkdir -p "$run"
   bash scripts/gpu/short_config.sh "$tok" "$TOK_STEPS" "$run/tokenizer.yaml"
-  bash scripts/gpu/short_config.sh "$dyn" "$DYN_STEPS" "$run/dynamics.yaml"
+  bash scripts/gpu/short_config.sh "$dyn" "$DYN_STEPS" "$run/dynamics.yaml" "$dyn_batch"
   echo "== $name tokenizer ($tok, $TOK_STEPS steps, cuda)"
   HALF=$((TOK_STEPS / 2)) train_twice "$BIN/wm-tokenize" train --config "$run/tokenizer.yaml" \
     --data "$data/train" --val-data "$data/val" --device cuda --out "$run/tokenizer"
@@ -54,6 +55,6 @@ for preset in ${PRESETS:-meta64 whale-x-small}; do
     meta64) run_preset meta64 configs/tokenizer/meta64.yaml configs/dynamics/meta64.yaml \
       "$DATA/tabletop64" ;;
     whale-x-small) run_preset whale-x-small configs/tokenizer/whale-x.yaml \
-      configs/dynamics/whale-x-small.yaml "$DATA/tabletop256" ;;
+      configs/dynamics/whale-x-small.yaml "$DATA/tabletop256" "${WHALE_BATCH:-}" ;;
   esac
 done

@@ -6,6 +6,7 @@ all-reduced) follows the single-process loss curve and ends at the same weights 
 tolerance."""
 import json
 import os
+import socket
 import subprocess
 import sys
 import tempfile
@@ -38,6 +39,12 @@ def check(ok, what):
 def run(args, **kw):
     return subprocess.run([os.path.join(BIN, "wm-train")] + args, capture_output=True, text=True,
                           **kw)
+
+
+def free_port():
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        return s.getsockname()[1]
 
 
 def losses(run_dir):
@@ -90,6 +97,8 @@ def main():
         check(h.returncode == 0 and "Example:" in h.stdout and "--nproc" in h.stdout, "--help")
         check(run(["--version"]).stdout.startswith("wm-train"), "--version")
         check(run(["--config", cfg]).returncode == 2, "missing --tokens is a usage error (exit 2)")
+        r = run(["--config", cfg, "--tokens", tokens, "--out", os.path.join(tmp, "x"), "--steps", "0"])
+        check(r.returncode == 2 and "--steps" in r.stderr, "--steps 0 is a usage error (exit 2)")
         bad = os.path.join(tmp, "bad.yaml")
         open(bad, "w").write("model:\n  num_heads: 0\n")
         r = run(["--config", bad, "--tokens", tokens, "--out", os.path.join(tmp, "bad")])
@@ -114,6 +123,14 @@ def main():
             werr = max(float(np.max(np.abs(ta[k] - tb[k]))) for k in ta if k.startswith("model/"))
             check(werr < 1e-4, "2-process weights equal 1-process weights (max diff %.2e)" % werr)
             check(not os.path.exists(os.path.join(two, ".checkpoint.wmt.tmp")), "no temp files")
+            launched = os.path.join(tmp, "launched")
+            r3 = run(["--config", cfg, "--tokens", tokens, "--out", launched],
+                     env=dict(os.environ, WORLD_SIZE="1", RANK="0", MASTER_PORT=str(free_port())))
+            check(r3.returncode == 0 and "data parallel: 1 rank, " in r3.stderr,
+                  "WORLD_SIZE=1 makes a process group of one (%r)" % r3.stderr[-300:])
+            if r3.returncode == 0:
+                check(np.array_equal(losses(launched), a),
+                      "a process group of one follows the plain run's loss curve exactly")
             manifest = json.load(open(os.path.join(one, "checkpoint.json")))
             for part, name in ((manifest, "dynamics-checkpoint"),
                                (manifest["config"], "dynamics-config")):

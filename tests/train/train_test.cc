@@ -437,6 +437,7 @@ TEST(DistributedEnvironment, TorchrunVariablesSetRankAndTheLocalGpu) {
   EXPECT_EQ(o.master_addr, "node7");
   EXPECT_EQ(o.device, "cuda:1");
   EXPECT_FALSE(o.show_progress);
+  EXPECT_TRUE(o.launched);  // a process group even where WORLD_SIZE is 1 (torchrun's way)
   TrainOptions pinned;
   pinned.device = "cuda:0";  // an explicit index is kept
   ReadDistributedEnvironment(pinned);
@@ -445,6 +446,10 @@ TEST(DistributedEnvironment, TorchrunVariablesSetRankAndTheLocalGpu) {
   EXPECT_NE(wm::test::ErrorText([&] { ReadDistributedEnvironment(o); }).find("RANK"),
             std::string::npos);
   for (const char* v : {"RANK", "WORLD_SIZE", "LOCAL_RANK", "MASTER_ADDR"}) unsetenv(v);
+  TrainOptions plain;
+  ReadDistributedEnvironment(plain);
+  EXPECT_FALSE(plain.launched);
+  EXPECT_EQ(plain.world_size, 1);
 }
 
 TEST(LearningRate, AdaptsTheTokenizerSchedule) {

@@ -47,7 +47,7 @@ void AddOptions(CLI::App& app, Args& a) {
   app.add_option("--val-tokens", a.options.val_dir, "Validation token dataset")
       ->check(CLI::ExistingDirectory);
   app.add_option("--out", a.options.out_dir, "Run directory (RUN_DIR)")->required();
-  app.add_option("--steps", a.steps, "Override train.steps");
+  app.add_option("--steps", a.steps, "Override train.steps")->check(CLI::Range(1, 1 << 30));
   app.add_option("--device", a.options.device, "cpu, cuda or cuda:N")->capture_default_str();
   app.add_option("--seed", a.seed, "Override train.seed");
   app.add_option("--threads", a.threads, "Override train.threads (LibTorch intra-op, per rank)");

@@ -42,7 +42,7 @@ CLI::App* AddTrainCommand(CLI::App& app, const TrainCommandText& text, Options& 
       ->check(CLI::ExistingDirectory);
   train->add_option("--out", o.out_dir, "Run directory (RUN_DIR)")->required();
   train->add_option("--val-data", o.val_dir, text.val_help)->check(CLI::ExistingDirectory);
-  train->add_option("--steps", a.steps, "Override train.steps");
+  train->add_option("--steps", a.steps, "Override train.steps")->check(CLI::Range(1, 1 << 30));
   train->add_option("--device", o.device, "cpu, cuda or cuda:N")->capture_default_str();
   train->add_option("--seed", a.seed, "Override train.seed");
   train->add_option("--threads", a.threads, "Override train.threads (LibTorch intra-op)");
