@@ -4,7 +4,7 @@
 # Work that shares nothing runs side by side: the motion model variants on the GPU from the
 # moment wm-motion is built, the tests on the CPU cores, and the presets, NCCL and the numerics
 # check one after another on the GPU.
-#   bash scripts/gpu/session.sh          (carry: data/demo/shards and gpu-data)
+#   [BUDGET=520] [MOTION_S=...] bash scripts/gpu/session.sh   (carry: data/demo/shards, gpu-data)
 set -uo pipefail
 BUDGET=${BUDGET:-520}
 OUT=${OUT:-gpu-out}
@@ -24,7 +24,10 @@ nvidia-smi --query-gpu=timestamp,utilization.gpu,memory.used --format=csv -l 5 \
   > "$LOGS/gpu-usage.csv" 2>&1 &
 USAGE_PID=$!
 TARGETS=wm-motion run 9999 motion-build build
-MOTION_S=$(($(left) - 20)) run 9999 motion motion &
+# MOTION_S=0 skips the motion runs (the GPU then serves the presets alone); default: all the time
+# left, beside everything else.
+MOTION_S=${MOTION_S:-$(($(left) - 20))}
+((MOTION_S > 0)) && MOTION_S=$MOTION_S run 9999 motion motion &
 run 9999 all build
 run 300 tests test &
 PRESETS=meta64 TOK_STEPS=200 DYN_STEPS=60 run 9999 meta64 train nccl
