@@ -15,6 +15,8 @@ PACKAGES=(
   # Python reference checks (run with /usr/bin/python3)
   python3 python3-numpy python3-scipy python3-skimage python3-torch python3-torchvision
   python3-opencv python3-h5py python3-jsonschema python3-crc32c python3-zstandard python3-yaml python3-matplotlib
+  # scripts/openpi_policy.py: openpi-style (websocket + msgpack) policy servers
+  python3-msgpack python3-websockets
 )
 # Packages only some targets need, named by them (make fuzz: clang libclang-rt-dev).
 PACKAGES+=("$@")
