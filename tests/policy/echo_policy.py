@@ -34,6 +34,14 @@ os.dup2(2, 1)
 sys.stdout = sys.stderr
 
 
+def pixels(image):
+    """(red of the first pixel, blue of the last, sum of all) of a numpy [H, W, 3] image, or of
+    the raw RGB bytes wmpolicy hands over where Python has no numpy (a GPU image's)."""
+    if isinstance(image, (bytes, bytearray)):
+        return image[0], image[-1], sum(image)
+    return int(image[0, 0, 0]), int(image[-1, -1, 2]), int(image.sum())
+
+
 class Echo:
     def __init__(self, episode):
         self.seed = episode.seed
@@ -41,8 +49,9 @@ class Echo:
     def act(self, obs):
         if args.chatty:
             print("chatty policy at step", obs.step)  # must not reach the protocol channel
-        action = [obs.step, obs.episode, int(obs.image[0, 0, 0]), int(obs.image[-1, -1, 2]),
-                  int(obs.image.sum()) % 9973, len(obs.instruction), self.seed % 1000]
+        first_red, last_blue, total = pixels(obs.image)
+        action = [obs.step, obs.episode, first_red, last_blue, total % 9973,
+                  len(obs.instruction), self.seed % 1000]
         if obs.step != args.at or not args.bad:
             return action
         print("misbehaving on purpose:", args.bad, file=sys.stderr)
