@@ -151,8 +151,12 @@ TEST(TensorArchiveTest, NumpyReadsCppArchive) {
   const std::string path = dir / "a.wmt";
   WriteSample(path);
   const std::string out = dir / "list.txt";
-  const std::string cmd = "/usr/bin/python3 " + test::SourceDir() +
-                          "/scripts/export_lpips_weights.py --list " + path + " > " + out;
+  // WM_PYTHON: the build's Python of the reference checks (a GPU image's /usr/bin/python3 has
+  // no numpy).
+  const char* python = std::getenv("WM_PYTHON");
+  const std::string cmd = std::string(python != nullptr ? python : "/usr/bin/python3") + " " +
+                          test::SourceDir() + "/scripts/export_lpips_weights.py --list " + path +
+                          " > " + out;
   ASSERT_EQ(std::system(cmd.c_str()), 0) << cmd;
   std::ifstream in(out);
   const std::string listing((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
