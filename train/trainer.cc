@@ -16,6 +16,7 @@
 #include "train/init_from.h"
 #include "trainkit/adamw.h"
 #include "trainkit/module_archive.h"
+#include "trainkit/phase_timer.h"
 #include "trainkit/run_dir.h"
 #include "trainkit/schedule.h"
 #include "trainkit/step_log.h"
@@ -197,10 +198,12 @@ class DynamicsStage : public trainkit::TrainingStage {
   void Train(int64_t step, int64_t) override {
     const TrainConfig& tc = cfg_.train;
     const int64_t local = tc.batch_size / o_.world_size, first_row = o_.rank * local;
+    timer_.StartStep();
     sampler_.Fill(sampler_.Draw(tc.seed, step, tc.batch_size), first_row, local, data_);
     SegmentBatch batch =
         MakeSegmentBatch(cfg_, data_, DrawStepNoise(cfg_, tc.seed, step, tc.batch_size), first_row,
                          o_.world_size, device_);
+    timer_.Mark("batch");
     lr_ = LearningRateAt(tc, step);
     t_.adamw->set_lr(lr_);
     t_.adamw->ZeroGrad();
@@ -208,7 +211,9 @@ class DynamicsStage : public trainkit::TrainingStage {
       AutocastScope autocast(device_.is_cuda() && tc.bf16);
       losses_ = t_.model->Losses(batch);
     }
+    timer_.Mark("forward");
     losses_.total.backward();
+    timer_.Mark("backward");
     std::vector<torch::Tensor> grads;
     for (auto& p : t_.all_params) {
       if (!p.grad().defined()) p.mutable_grad() = torch::zeros_like(p);
@@ -218,8 +223,12 @@ class DynamicsStage : public trainkit::TrainingStage {
     // Separate clipping: z is stop-gradient, so the two losses train disjoint parameters.
     Clip(t_.dyn_params, tc.grad_clip);
     Clip(t_.policy_params, tc.grad_clip);
+    timer_.Mark("all-reduce + clip");
     t_.adamw->Step();
+    timer_.Mark("optimizer");
   }
+
+  std::string StepTimes() const { return timer_.Summary(); }
 
   std::optional<trainkit::MetricsRow> Finish(const trainkit::StepInfo& info) override {
     const bool val_now =
@@ -277,6 +286,7 @@ class DynamicsStage : public trainkit::TrainingStage {
   CheckpointMeta& meta_;
   TrainSummary& summary_;
   GradientReducer reducer_;
+  trainkit::PhaseTimer timer_{device_.is_cuda()};  // WM_STEP_TIMES=1 (docs/gpu.md)
   SegmentData data_;
   WorldModelLosses losses_;  // of the last step
   double lr_ = 0;
@@ -333,6 +343,9 @@ TrainSummary TrainDynamics(const TrainOptions& options) {
   if (secs > 0) {
     summary.steps_per_second = (summary.end_step - start) / secs;
     summary.tokens_per_second = summary.steps_per_second * stage.UnitsPerStep();
+  }
+  if (const std::string times = stage.StepTimes(); !times.empty() && o.rank == 0) {
+    LogInfo("step phases: " + times);
   }
   summary.checkpoint_path = run.checkpoint();
   return summary;

@@ -62,11 +62,12 @@ stage_bench() { bash scripts/gpu/bench.sh "$BUILD/bin" "$DATA" "$LOG_DIR"; }
 stage_train() { bash scripts/gpu/train_presets.sh "$BUILD/bin" "$DATA" "$LOG_DIR"; }
 
 # A process group of one, as torchrun makes for --nproc-per-node 1: NCCL's all-reduce runs every
-# step (the log names the backend). Uses the meta64 tokens that `train` wrote.
+# step (the log names the backend), and the time per step phase (WM_STEP_TIMES) says where the
+# MFU goes. Uses the meta64 tokens that `train` wrote.
 stage_nccl() {
   local run=gpu-runs/nccl
   rm -rf "$run"
-  WORLD_SIZE=1 RANK=0 LOCAL_RANK=0 MASTER_ADDR=127.0.0.1 MASTER_PORT=29531 \
+  WORLD_SIZE=1 RANK=0 LOCAL_RANK=0 MASTER_ADDR=127.0.0.1 MASTER_PORT=29531 WM_STEP_TIMES=1 \
     "$BUILD/bin/wm-train" --config configs/dynamics/meta64.yaml \
     --tokens gpu-runs/meta64/tokens/train --out "$run" --device cuda --steps 10 2>&1 | grep -v '%'
 }

@@ -125,9 +125,13 @@ def main():
             check(not os.path.exists(os.path.join(two, ".checkpoint.wmt.tmp")), "no temp files")
             launched = os.path.join(tmp, "launched")
             r3 = run(["--config", cfg, "--tokens", tokens, "--out", launched],
-                     env=dict(os.environ, WORLD_SIZE="1", RANK="0", MASTER_PORT=str(free_port())))
+                     env=dict(os.environ, WORLD_SIZE="1", RANK="0", MASTER_PORT=str(free_port()),
+                              WM_STEP_TIMES="1"))
             check(r3.returncode == 0 and "data parallel: 1 rank, " in r3.stderr,
                   "WORLD_SIZE=1 makes a process group of one (%r)" % r3.stderr[-300:])
+            check("step phases: batch " in r3.stderr and "optimizer" in r3.stderr
+                  and "per step over 30 steps" in r3.stderr,
+                  "WM_STEP_TIMES=1 logs the time per step phase")
             if r3.returncode == 0:
                 check(np.array_equal(losses(launched), a),
                       "a process group of one follows the plain run's loss curve exactly")

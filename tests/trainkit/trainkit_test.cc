@@ -2,7 +2,10 @@
 // directory (refuses to overwrite, writes the archive before its manifest) and step logs.
 #include <gtest/gtest.h>
 
+#include <chrono>
+#include <cstdlib>
 #include <filesystem>
+#include <thread>
 
 #include "core/atomic_file.h"
 #include "core/error.h"
@@ -12,6 +15,7 @@
 #include "trainkit/adamw.h"
 #include "trainkit/checkpoint_kind.h"
 #include "trainkit/mixture.h"
+#include "trainkit/phase_timer.h"
 #include "trainkit/run_dir.h"
 #include "trainkit/schedule.h"
 #include "trainkit/step_log.h"
@@ -37,6 +41,37 @@ TEST(AdamW, MatchesLibTorchAdamW) {
     ref.step();
   }
   EXPECT_TRUE(torch::allclose(a, b, 1e-6, 1e-7)) << (a - b).abs().max().item<float>();
+}
+
+TEST(PhaseTimer, ChargesEachPhaseItsOwnTimeAndIsOffUnlessAskedFor) {
+  using std::chrono::milliseconds;
+  unsetenv("WM_STEP_TIMES");
+  trainkit::PhaseTimer off(/*cuda=*/false);
+  off.StartStep();
+  off.Mark("batch");
+  EXPECT_FALSE(off.enabled());
+  EXPECT_EQ(off.Summary(), "");
+  setenv("WM_STEP_TIMES", "1", 1);
+  trainkit::PhaseTimer timer(/*cuda=*/false);
+  unsetenv("WM_STEP_TIMES");
+  ASSERT_TRUE(timer.enabled());
+  for (int step = 0; step < 2; ++step) {
+    timer.StartStep();
+    std::this_thread::sleep_for(milliseconds(5));
+    timer.Mark("batch");
+    std::this_thread::sleep_for(milliseconds(200));
+    timer.Mark("forward");
+  }
+  const std::string s = timer.Summary();
+  // "batch 5.xx ms (2%), forward 200.xx ms (98%) per step over 2 steps"
+  EXPECT_EQ(s.find("batch "), 0u) << s;
+  EXPECT_NE(s.find(", forward "), std::string::npos) << s;
+  EXPECT_NE(s.find("per step over 2 steps"), std::string::npos) << s;
+  const double batch_ms = std::stod(s.substr(6)),
+               forward_ms = std::stod(s.substr(s.find(", forward ") + 10));
+  EXPECT_GE(batch_ms, 5.0);
+  EXPECT_GE(forward_ms, 200.0);
+  EXPECT_LT(batch_ms, forward_ms);  // each phase its own time, not the step's so far
 }
 
 TEST(Mixture, WeightsComeFromTheFileAndMisspeltKeysAreErrors) {
