@@ -31,8 +31,9 @@ int EnvInt(const char* name, int fallback, int min_value) {
 }  // namespace
 
 void ReadDistributedEnvironment(TrainOptions& o) {
-  o.world_size = EnvInt("WORLD_SIZE", 1, 1);
-  o.launched = EnvInt("WORLD_SIZE", 0, 1) > 0;
+  const int named_world = EnvInt("WORLD_SIZE", 0, 1);  // 0: no launcher named one
+  o.launched = named_world > 0;
+  o.world_size = o.launched ? named_world : 1;
   o.rank = EnvInt("RANK", 0, 0);
   Check(o.rank < o.world_size, "RANK must be < WORLD_SIZE", {.key = "RANK"});
   if (const char* addr = std::getenv("MASTER_ADDR"); addr != nullptr && *addr != '\0') {

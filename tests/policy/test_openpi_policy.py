@@ -33,6 +33,12 @@ def check(ok, what):
     print(("ok   " if ok else "FAIL ") + what)
 
 
+def free_port():
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        return s.getsockname()[1]
+
+
 def decode(value):  # the server side's own reading of the convention
     if b"__ndarray__" in value:
         return np.frombuffer(value[b"data"], dtype=value[b"dtype"]).reshape(value[b"shape"])
@@ -51,10 +57,7 @@ class FakeServer:
     [c, r, red of pixel (0, 0), image height, prompt length, 0, ...]; "text" an error text."""
 
     def __init__(self, mode="chunk", width=7):
-        self.mode, self.width, self.seen = mode, width, []
-        with socket.socket() as s:
-            s.bind(("127.0.0.1", 0))
-            self.port = s.getsockname()[1]
+        self.mode, self.width, self.seen, self.port = mode, width, [], free_port()
         ready = threading.Event()
         self.loop = asyncio.new_event_loop()
         threading.Thread(target=self._serve, args=(ready,), daemon=True).start()
@@ -94,18 +97,15 @@ def drive(server_port, flags, steps, image_size=64, action_dim=7):
                           "--timeout", "10"] + flags,
                          stdin=subprocess.PIPE, stdout=subprocess.PIPE, stderr=subprocess.PIPE)
     image = {"height": image_size, "width": image_size, "channels": 3, "encoding": "rgb8"}
-    requests = [{"type": "hello", "protocol": "wmkit-policy", "version": 1,
-                 "action_dim": action_dim, "image": image},
-                {"type": "reset", "episode": 3, "seed": 1, "instruction": "push the block"}]
-    payload = b""
+    def line(message):
+        return (json.dumps(message) + "\n").encode()
+    payload = line({"type": "hello", "protocol": "wmkit-policy", "version": 1,
+                    "action_dim": action_dim, "image": image})
+    payload += line({"type": "reset", "episode": 3, "seed": 1, "instruction": "push the block"})
     for step in range(steps):
         pixels = np.full((image_size, image_size, 3), 10 * step + 5, np.uint8).tobytes()
-        requests.append({"type": "step", "episode": 3, "step": step, "instruction":
-                         "push the block", "image": dict(image, bytes=len(pixels)),
-                         "_pixels": pixels})
-    for r in requests:
-        pixels = r.pop("_pixels", b"")
-        payload += (json.dumps(r) + "\n").encode() + pixels
+        payload += line({"type": "step", "episode": 3, "step": step, "instruction":
+                         "push the block", "image": dict(image, bytes=len(pixels))}) + pixels
     out, err = p.communicate(payload + b'{"type":"close"}\n', timeout=60)
     replies = [json.loads(line) for line in out.decode().splitlines()]
     return replies, p.returncode, err.decode()
@@ -152,9 +152,7 @@ def main():
     check(replies and replies[-1]["type"] == "error" and "bad prompt" in message,
           "the server's error text becomes the error reply (%r)" % message)
 
-    with socket.socket() as s:
-        s.bind(("127.0.0.1", 0))
-        dead = s.getsockname()[1]
+    dead = free_port()
     replies, rc, err = drive(dead, [], 1)
     check(rc == 1 and not replies and "cannot open ws://127.0.0.1:%d" % dead in err,
           "no server: exit 1 with one line naming it (%r)" % err.strip()[-200:])
