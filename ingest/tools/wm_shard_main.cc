@@ -1,4 +1,4 @@
-// wm-shard: inspect, verify, dump and merge wmkit shard datasets.
+// wm-shard: inspect, verify, dump, merge and slice wmkit shard datasets.
 #include <spdlog/spdlog.h>
 
 #include <CLI/CLI.hpp>
@@ -12,6 +12,7 @@
 #include "ingest/dataset_summary.h"
 #include "ingest/episode_json.h"
 #include "ingest/merge.h"
+#include "ingest/slice.h"
 
 namespace {
 
@@ -21,13 +22,14 @@ Examples:
   wm-shard verify data/shards/train
   wm-shard dump data/shards/train --episode 3
   wm-shard merge --output data/shards/all data/shards/part-0 data/shards/part-1
+  wm-shard slice --from-step 8 --min-steps 9 --output data/val-from8 data/shards/val
 
 Exit codes: 0 success (verify: every checksum matched), 1 a check failed or bad input, 2 usage.)";
 
 }  // namespace
 
 int main(int argc, char** argv) {
-  CLI::App app{"wm-shard: inspect, verify, dump and merge wmkit shard datasets"};
+  CLI::App app{"wm-shard: inspect, verify, dump, merge and slice wmkit shard datasets"};
   app.footer(kFooter);
   app.set_version_flag("--version", wm::VersionString("wm-shard"));
   app.require_subcommand(1);
@@ -46,6 +48,19 @@ int main(int argc, char** argv) {
   auto* merge = app.add_subcommand("merge", "Join part directories (in the given order)");
   merge->add_option("--output", output, "Merged dataset directory")->required();
   merge->add_option("parts", parts, "Part directories")->required();
+  wm::ingest::SliceOptions slice_options;
+  auto* slice = app.add_subcommand(
+      "slice", "The same episodes from step --from-step on (is_first there; too short: skipped)");
+  slice->add_option("dir", slice_options.input, "Dataset directory")->required();
+  slice->add_option("--output", slice_options.output, "New dataset directory")->required();
+  slice->add_option("--from-step", slice_options.from_step, "First step kept")
+      ->check(CLI::NonNegativeNumber);
+  slice->add_option("--max-steps", slice_options.max_steps, "Steps kept at most (0: to the end)")
+      ->check(CLI::NonNegativeNumber);
+  slice
+      ->add_option("--min-steps", slice_options.min_steps,
+                   "Skip episodes with fewer steps left (wm-eval --horizon H needs H + 1)")
+      ->check(CLI::PositiveNumber);
   if (const int rc = wm::ParseCommandLine(app, argc, argv); rc >= 0) return rc;
   wm::InitLogging("info");
   try {
@@ -72,6 +87,11 @@ int main(int argc, char** argv) {
       auto index = wm::ingest::MergeDatasets(parts, output);
       spdlog::info("merged {} parts: {} episodes in {} shards -> {}", parts.size(),
                    index.num_episodes, index.shards.size(), output);
+    } else if (*slice) {
+      auto index = wm::ingest::SliceDataset(slice_options);
+      spdlog::info("sliced {} episodes ({} steps) from step {} -> {}; {} skipped",
+                   index.num_episodes, index.num_steps, slice_options.from_step,
+                   slice_options.output, index.skipped.size());
     }
   } catch (const std::exception& e) {
     std::cerr << "wm-shard: error: " << e.what() << "\n";

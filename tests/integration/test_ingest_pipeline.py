@@ -2,7 +2,8 @@
 """End to end: wm-gen-tabletop -> wm-ingest -> the C++ reader (wm-shard dump) and the independent
 Python reader (scripts/wmshard.py) agree on every episode; index.json matches its schema and
 numpy's action statistics; a SIGKILLed ingest resumes to identical bytes; sharded jobs merge to
-the single-job episodes; bad input fails with a clear message."""
+the single-job episodes; `wm-shard slice` keeps each episode from a step on; bad input fails
+with a clear message."""
 import json
 import os
 import shutil
@@ -122,6 +123,45 @@ class IngestPipeline(unittest.TestCase):
         b = json.load(open(os.path.join(merged, "index.json")))
         self.assertEqual(a["action_stats"], b["action_stats"])
         self.assertEqual(a["num_steps"], b["num_steps"])
+
+    def test_slice_keeps_each_episode_from_a_step_on(self):
+        episodes = json.loads(run([f"{BIN}/wm-shard", "dump", self.out]).stdout)
+        out = os.path.join(self.tmp, "from5")
+        run([f"{BIN}/wm-shard", "slice", "--from-step", "5", "--max-steps", "9", "--min-steps",
+             "8", "--output", out, self.out])
+        run([f"{BIN}/wm-shard", "verify", out])
+        sliced = json.loads(run([f"{BIN}/wm-shard", "dump", out]).stdout)
+        kept = [e for e in episodes if e["num_steps"] - 5 >= 8]
+        self.assertGreater(len(kept), 0)
+        self.assertLess(len(kept), len(episodes), "some episodes end early (success)")
+        self.assertEqual(len(sliced), len(kept))
+        for whole, part in zip(kept, sliced):
+            n = min(whole["num_steps"] - 5, 9)
+            self.assertEqual(part["num_steps"], n)
+            self.assertEqual(part["episode_key"], whole["episode_key"] + "@5")
+            for k in ("actions", "rewards", "discounts", "is_last", "is_terminal",
+                      "image_sha256"):
+                self.assertEqual(part[k], whole[k][5:5 + n], f"{part['episode_key']}: {k}")
+            self.assertEqual(part["is_first"], [1] + whole["is_first"][6:5 + n])
+            self.assertEqual(part["num_frames"], {k: n for k in whole["num_frames"]})
+            for k in ("policy_id", "episode_seed", "language_instruction"):
+                self.assertEqual(part[k], whole[k])
+        index = json.load(open(os.path.join(out, "index.json")))
+        jsonschema.validate(index, json.load(open(os.path.join(SRC, "schemas",
+                                                                 "shard-index.schema.json"))))
+        self.assertEqual(index["skipped"]["count"], len(episodes) - len(kept))
+        self.assertIn("--min-steps 8", index["skipped"]["episodes"][0]["reason"])
+        actions = np.concatenate([np.asarray(e["actions"], np.float64) for e in sliced])
+        np.testing.assert_allclose(index["action_stats"]["mean"], actions.mean(0), atol=1e-12)
+        self.assertEqual(index["provenance"]["tool"], "wm-shard slice")
+        again = run([f"{BIN}/wm-shard", "slice", "--from-step", "5", "--output", out, self.out],
+                    check=False)
+        self.assertEqual(again.returncode, 1)
+        self.assertIn("already holds a dataset", again.stderr)
+        none = run([f"{BIN}/wm-shard", "slice", "--from-step", "500", "--output",
+                    os.path.join(self.tmp, "none"), self.out], check=False)
+        self.assertEqual(none.returncode, 1)
+        self.assertIn("no episodes were written", none.stderr)
 
     def test_resize_reencodes_every_stream(self):
         out = os.path.join(self.tmp, "resized")
