@@ -7,7 +7,6 @@ for --replan steps, and the errors (wrong action width, a server error, no serve
 import asyncio
 import json
 import os
-import socket
 import subprocess
 import sys
 import threading
@@ -21,22 +20,12 @@ except ImportError as e:  # e.g. a GPU image without them; scripts/install-deps.
     print("SKIP: %s (Debian: python3-msgpack python3-websockets)" % e)
     sys.exit(77)
 
+sys.path.insert(0, os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
+from check_list import CheckList, free_port  # noqa: E402
+
 SRC = os.environ.get("WM_SOURCE_DIR", os.path.join(os.path.dirname(__file__), "..", ".."))
 BRIDGE = os.path.join(SRC, "scripts", "openpi_policy.py")
-checks, failures = [], []
-
-
-def check(ok, what):
-    checks.append(what)
-    if not ok:
-        failures.append(what)
-    print(("ok   " if ok else "FAIL ") + what)
-
-
-def free_port():
-    with socket.socket() as s:
-        s.bind(("127.0.0.1", 0))
-        return s.getsockname()[1]
+check = CheckList()
 
 
 def decode(value):  # the server side's own reading of the convention
@@ -156,8 +145,7 @@ def main():
     replies, rc, err = drive(dead, [], 1)
     check(rc == 1 and not replies and "cannot open ws://127.0.0.1:%d" % dead in err,
           "no server: exit 1 with one line naming it (%r)" % err.strip()[-200:])
-    print("%d passed, %d failed" % (len(checks) - len(failures), len(failures)))
-    return 1 if failures else 0
+    return check.summary()
 
 
 if __name__ == "__main__":

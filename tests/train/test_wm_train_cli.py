@@ -6,7 +6,6 @@ all-reduced) follows the single-process loss curve and ends at the same weights 
 tolerance."""
 import json
 import os
-import socket
 import subprocess
 import sys
 import tempfile
@@ -15,7 +14,9 @@ import jsonschema
 import numpy as np
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+sys.path.insert(0, os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
 import dynamics_twin  # noqa: E402
+from check_list import CheckList, free_port  # noqa: E402
 
 BIN = os.environ.get("WM_BIN_DIR", "build/bin")
 SRC = os.environ.get("WM_SOURCE_DIR", os.path.join(os.path.dirname(__file__), "..", ".."))
@@ -26,25 +27,12 @@ policy: {d_model: 16, num_heads: 2, posterior_layers: 1, prior_layers: 1, decode
 train: {batch_size: 4, steps: 30, warmup_steps: 3, max_lr: 3.0e-3, threads: 1, log_every: 1,
         checkpoint_every: 30}
 """
-failures, checks = [], []
-
-
-def check(ok, what):
-    print(("ok   " if ok else "FAIL ") + what)
-    checks.append(what)
-    if not ok:
-        failures.append(what)
+check = CheckList()
 
 
 def run(args, **kw):
     return subprocess.run([os.path.join(BIN, "wm-train")] + args, capture_output=True, text=True,
                           **kw)
-
-
-def free_port():
-    with socket.socket() as s:
-        s.bind(("127.0.0.1", 0))
-        return s.getsockname()[1]
 
 
 def losses(run_dir):
@@ -145,8 +133,7 @@ def main():
                 except jsonschema.ValidationError as e:
                     check(False, "checkpoint.json, %s.schema.json: %s" % (name, e.message))
             fine_tune(tmp, cfg, tokens, one)
-    print("%d passed, %d failed" % (len(checks) - len(failures), len(failures)))
-    return 1 if failures else 0
+    return check.summary()
 
 
 if __name__ == "__main__":
