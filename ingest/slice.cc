@@ -5,6 +5,7 @@
 
 #include "core/episode.h"
 #include "core/error.h"
+#include "core/progress.h"
 #include "core/provenance.h"
 #include "core/shard/dataset_reader.h"
 #include "core/shard/dataset_writer.h"
@@ -52,13 +53,18 @@ shard::DatasetIndex SliceDataset(const SliceOptions& o) {
   Check(o.max_steps >= 0, "--max-steps must be >= 0 (0: to the episode's end)",
         {.key = "--max-steps"});
   Check(o.min_steps >= 1, "--min-steps must be >= 1", {.key = "--min-steps"});
+  Check(o.max_steps == 0 || o.min_steps <= o.max_steps,
+        "--min-steps must be at most --max-steps: every episode would be skipped",
+        {.key = "--min-steps"});
   Check(!std::filesystem::exists(std::filesystem::path(o.output) / shard::kIndexFileName),
         "output already holds a dataset; slice writes a new directory", {.file = o.output});
   shard::DatasetReader reader(o.input);
   const shard::DatasetIndex& in = reader.index();
   const nlohmann::json config = SliceConfig(o, in);
   shard::DatasetWriter writer({.dir = o.output, .config_hash = ConfigHash(config)});
-  for (uint64_t k = writer.resume_position(); k < reader.num_episodes(); ++k) {
+  Progress progress("slice", reader.num_episodes(), "episodes");
+  progress.Add(writer.resume_position());
+  for (uint64_t k = writer.resume_position(); k < reader.num_episodes(); ++k, progress.Add()) {
     const Episode e = reader.ReadEpisode(k);
     const int64_t left = e.num_steps - o.from_step;
     const int64_t count = o.max_steps > 0 ? std::min(left, o.max_steps) : left;
@@ -73,6 +79,7 @@ shard::DatasetIndex SliceDataset(const SliceOptions& o) {
     }
     writer.Add(SliceEpisode(e, o.from_step, count), k);
   }
+  progress.Finish();
   shard::DatasetIndex out;
   out.dataset = in.dataset, out.split = in.split, out.source = in.source;
   out.skipped = in.skipped;  // what the input had already left out, then the slice's own

@@ -5,8 +5,9 @@
 // arm is already near the block, or only the part of each episode where something is carried.
 // Episodes with no step left after `from_step`, or with fewer than `min_steps`, are recorded in
 // the index's `skipped` list. The first kept step is marked is_first; the per-step fields and
-// every image stream are cut alike; action statistics are recomputed. Killed runs resume as
-// wm-ingest's do (the shard writer's state), and the same input and options give the same bytes.
+// every image stream are cut alike; action statistics are recomputed. It writes through
+// wm-ingest's DatasetWriter: a killed run leaves no index.json, a rerun continues after the last
+// finished shard, and the same input and options give the same bytes.
 #include <cstdint>
 #include <string>
 
