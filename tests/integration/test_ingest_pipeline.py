@@ -154,6 +154,10 @@ class IngestPipeline(unittest.TestCase):
         actions = np.concatenate([np.asarray(e["actions"], np.float64) for e in sliced])
         np.testing.assert_allclose(index["action_stats"]["mean"], actions.mean(0), atol=1e-12)
         self.assertEqual(index["provenance"]["tool"], "wm-shard slice")
+        twin = os.path.join(self.tmp, "from5-again")
+        run([f"{BIN}/wm-shard", "slice", "--from-step", "5", "--max-steps", "9", "--min-steps",
+             "8", "--output", twin, self.out])
+        self.assertEqual(dir_bytes(out), dir_bytes(twin))
         again = run([f"{BIN}/wm-shard", "slice", "--from-step", "5", "--output", out, self.out],
                     check=False)
         self.assertEqual(again.returncode, 1)
