@@ -38,10 +38,13 @@ import time
 
 import numpy as np
 import torch
+from torch.nn import functional as F
 
 import warp_predictor as wp
 from dynamics_twin import read_archive
+import layer_twin as lt
 from layer_twin import LayerNet
+from warp_twin import down as wp_down
 
 
 class VariantLayerNet(LayerNet):
@@ -65,6 +68,58 @@ class VariantLayerNet(LayerNet):
             scale, turn = inc[..., 0], inc[..., 1] * (self.linear == "similarity")
             inc = torch.cat([torch.stack([scale, -turn, turn, scale], -1), inc[..., 4:]], -1)
         return inc
+
+
+class MarginLayerNet(LayerNet):
+    """The layers on a canvas `margin` pixels wider than the frame on every side (`--margin`):
+    inside the frame a layer's colours are the given frame's, outside they are drawn by the
+    U-Net (a head beside the fill's), so a layer moved inwards brings in what the given frame
+    does not show (an arm entering from the edge) instead of its border pixels repeated. The
+    U-Net reads the frame zero-padded to the canvas and a channel that says where it is."""
+
+    def __init__(self, action_dim, layers, channels, margin, replicate=False, **kw):
+        super().__init__(action_dim, layers, channels, **kw)
+        self.margin, self.replicate = margin, replicate
+        self.down1 = wp_down(4, channels)
+        self.sprite_head = torch.nn.Conv2d(channels + 4, layers + 6, 3, 1, 1)
+        torch.nn.init.zeros_(self.sprite_head.weight)
+        torch.nn.init.constant_(self.sprite_head.bias, kw.get("mask_bias", 0.0))
+
+    def canvas(self, first):
+        """[B, 4, S + 2P, S + 2P]: the frame zero-padded, and 1 where the frame is."""
+        inside = torch.ones_like(first[:, :1])
+        return torch.nn.functional.pad(torch.cat([first, inside], 1), [self.margin] * 4)
+
+    def sprites(self, first):
+        """-> masks [B, K, C, C] on the canvas, fill [B, 3, S, S] on the frame; the layers'
+        colours [B, 3, C, C] on the canvas are kept for render()."""
+        x = self.canvas(first)
+        h1 = self.down1(x)
+        h2 = self.down2(h1)
+        u = self.up3(self.middle(self.down3(h2)))
+        u = self.up1(torch.cat([self.up2(torch.cat([u, h2], 1)), h1], 1))
+        out = self.sprite_head(torch.cat([u, x], 1))
+        k, p, s = self.layers, self.margin, first.shape[-1]
+        inside = x[:, 3:]
+        logits = out[:, :k]
+        if self.replicate:  # outside: the border's logits and colours plus a learned correction
+            border = F.pad(logits[..., p:p + s, p:p + s], [p] * 4, mode="replicate")
+            logits = border + logits * (1 - inside)
+            colours = F.pad(first, [p] * 4, mode="replicate") + out[:, k + 3:k + 6] * (1 - inside)
+        else:
+            colours = x[:, :3] * inside + torch.tanh(out[:, k + 3:k + 6]) * (1 - inside)
+        if self.training and self.mask_noise > 0:
+            logits = logits + self.mask_noise * torch.randn_like(logits)
+        self.colours = colours
+        return torch.sigmoid(logits), torch.tanh(out[:, k:k + 3, p:p + s, p:p + s])
+
+    def centroids(self, masks):
+        return lt.centroids(masks) - self.margin  # frame pixels
+
+    def render(self, first, masks, fill, maps):
+        return lt.render(first, masks, fill, maps, first.shape[-1], self.colours, self.margin,
+                         "border" if self.replicate else "zeros")
+
 
 class FollowLayerNet(VariantLayerNet):
     """A layer may follow another's motion this step (`--follow`): the maps applied are
@@ -101,7 +156,8 @@ def fit(net, episodes, norm, steps, args):
         for group in opt.param_groups:
             group["lr"] = wp.learning_rate(step, steps, args.max_lr)
         net.mask_noise = args.mask_noise * min(1.0, step / max(1, args.noise_ramp * steps))
-        clips, actions, _, _, _, _ = wp.batch(episodes, norm, rng, args.unroll)
+        clips, actions, _, _, _, _ = wp.batch(episodes, norm, rng, args.unroll,
+                                                 args.start_fraction, args.start_span)
         pred = net(clips[:, 2], actions[:, 1:])
         loss = frame_loss(pred, clips, args.moved_weight)
         if args.mask_l1 > 0:  # what need not move stays in the background, copied exactly
@@ -198,6 +254,8 @@ def write_masks(path, net, episodes):
     for frames, _, _ in episodes[:3]:
         first = frames[:1]
         masks, fill = net.eval().sprites(first)
+        p, s = getattr(net, "margin", 0), first.shape[-1]
+        masks = masks[..., p:p + s, p:p + s]  # --margin: the canvas cropped to the frame
         covered = 1 - torch.prod(1 - masks, 1, keepdim=True)
         tiles = [first[0]] + [m.expand(3, -1, -1) * 2 - 1 for m in masks[0]]
         tiles += [fill[0], (first * covered + (1 - covered))[0]]
@@ -227,6 +285,16 @@ def main():
                     help="the motion prior only keeps the layers off what did not move")
     ap.add_argument("--moved-weight", type=float, default=0.0, metavar="W",
                     help="the frame loss weighs the pixels that change in the window 1 + W")
+    ap.add_argument("--start-fraction", type=float, default=0.0, metavar="F",
+                    help="this fraction of the windows starts in an episode's first frames")
+    ap.add_argument("--start-span", type=int, default=0, metavar="N",
+                    help="those windows start at t < N (0: the unroll)")
+    ap.add_argument("--score-from", type=int, default=0, metavar="T",
+                    help="score rollouts from frame T of each val episode (not the first)")
+    ap.add_argument("--margin", type=int, default=0, metavar="P",
+                    help="the layers on a canvas P pixels wider on each side, drawn outside")
+    ap.add_argument("--margin-replicate", action="store_true",
+                    help="--margin's canvas starts as the frame's border repeated (the recipe)")
     ap.add_argument("--save", help="the trained net's state_dict (torch.save)")
     ap.add_argument("--load", help="a --save'd net: no training")
     ap.add_argument("--checkpoint", metavar="RUN_DIR",
@@ -248,6 +316,10 @@ def main():
         net = FollowLayerNet(actions.shape[1], args.layers, args.channels, args.follow_bias,
                              linear=args.linear, fill_residual=args.fill_residual,
                              mask_bias=args.mask_bias, mask_noise=args.mask_noise)
+    elif args.margin:
+        net = MarginLayerNet(actions.shape[1], args.layers, args.channels, args.margin,
+                             args.margin_replicate,
+                             mask_bias=args.mask_bias, mask_noise=args.mask_noise)
     elif args.linear != "affine" or args.fill_residual:
         net = VariantLayerNet(actions.shape[1], args.layers, args.channels, args.linear,
                               args.fill_residual, mask_bias=args.mask_bias,
@@ -265,7 +337,7 @@ def main():
     seconds = time.time() - start
     net.eval()
     with torch.no_grad():
-        r, rows = wp.score(net, val, norm, lambda first, a, _: net(first, a))
+        r, rows = wp.score(net, val, norm, lambda first, a, _: net(first, a), args.score_from)
     trained = (args.checkpoint or args.load or
                f"{args.layers} layers, {args.channels} ch, {args.steps} steps, "
                f"unroll {args.unroll}, {seconds:.0f} s")

@@ -288,7 +288,7 @@ def imagine(net, first, actions, retraces=None):
     return torch.stack(frames, 1)
 
 
-def batch(episodes, norm, rng, unroll):
+def batch(episodes, norm, rng, unroll, start_fraction=0.0, start_span=0):
     """[B, unroll + 3, 3, S, S] windows (frames t-2, t-1, t, t+1..t+unroll, indices clamped at
     0), the normalised actions a_{t-1}..a_{t+unroll-1} (a_0 again at t = 0), whether t > 0,
     the episodes' frames 0 [B, 3, S, S], the retrace actions r_{t-1}..r_{t+unroll-1} and the
@@ -300,6 +300,8 @@ def batch(episodes, norm, rng, unroll):
         e = long_enough[int(rng.integers(len(long_enough)))]
         frames, _, acts = episodes[e]
         t = int(rng.integers(len(frames) - unroll))
+        if start_fraction > 0 and rng.random() < start_fraction:  # an episode's first frames
+            t = int(rng.integers(min(start_span or unroll, len(frames) - unroll)))
         where.append((e, t))
         clips.append(frames[[max(t - 2, 0), max(t - 1, 0)] + list(range(t, t + unroll + 1))])
         steps = [max(t - 1, 0)] + list(range(t, t + unroll))
@@ -485,16 +487,18 @@ def scores(real, pred, seg):
             "obj": np.nanmean(goal1.region_mse(real, pred, seg, 2))}
 
 
-def score(net, episodes, norm, imagine_fn=None):
-    """Means over val episodes 0..ROLLOUTS-1 of scores() for the net's rollout under the logged
-    and the reversed actions and for copy_last, and strip rows of episodes 0-2.
-    `imagine_fn(first, actions, retraces)`, when given, replaces imagine(net, ...)."""
+def score(net, episodes, norm, imagine_fn=None, start=0):
+    """Means over val episodes 0..ROLLOUTS-1 of scores() for the net's rollout from frame
+    `start` under the logged and the reversed actions and for copy_last, and strip rows of
+    episodes 0-2. `imagine_fn(first, actions, retraces)`, when given, replaces
+    imagine(net, ...). Episodes too short for the horizon from `start` are left out."""
     H = recipes.HORIZON
     imagine_fn = imagine_fn or (lambda first, a, r: imagine(net, first, a, r))
     found = {k: [] for k in ("model", "reversed", "copy_last")}
     rows = []
-    for k in range(recipes.ROLLOUTS):
-        frames, seg, acts = episodes[k]
+    long_enough = [e for e in episodes if len(e[0]) > start + H]
+    for k in range(min(recipes.ROLLOUTS, len(long_enough))):
+        frames, seg, acts = (x[start:] for x in long_enough[k])
         runs = {}
         for name, raw in (("model", acts[:H]), ("reversed", acts[:H][::-1].copy())):
             runs[name] = (torch.tensor(norm(raw))[None],

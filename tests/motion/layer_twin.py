@@ -63,10 +63,9 @@ class LayerNet(nn.Module):
         `frames_in` [B, H, 3, S, S] (teacher forcing) replaces the imagined current frames the
         motion CNN reads; `fixed` [B, H, K, 6] replaces the predicted increments (--ceiling)."""
         b, h = actions.shape[:2]
-        s = first.shape[-1]
         masks, fill = self.sprites(first)
         self.last_masks = masks  # for fit()'s mask penalty
-        centre0 = centroids(masks)  # [B, K, 2] on the start frame
+        centre0 = self.centroids(masks)  # [B, K, 2] on the start frame
         maps = torch.eye(3).expand(b, self.layers, 3, 3)
         current, out, increments = first, [], []
         for t in range(h):
@@ -75,11 +74,19 @@ class LayerNet(nn.Module):
             increments.append(inc)
             centre = apply(maps, centre0)
             maps = self.combine(increment(inc, centre)) @ maps
-            frame = render(first, masks, fill, maps, s)
+            frame = self.render(first, masks, fill, maps)
             out.append(frame)
             current = frame if frames_in is None else frames_in[:, t]
         self.last_increments = torch.stack(increments, 1)  # [B, H, K, 6], for --ceiling
         return torch.stack(out, 1)
+
+    def centroids(self, masks):
+        """[B, K, 2] the layers' centroids in frame pixels (a hook for bench variants)."""
+        return centroids(masks)
+
+    def render(self, first, masks, fill, maps):
+        """The imagined frame (a hook for bench variants)."""
+        return render(first, masks, fill, maps, first.shape[-1])
 
     def combine(self, steps):
         """[B, K, 3, 3] this step's maps per layer -> the maps applied (a hook for variants in
@@ -112,20 +119,24 @@ def increment(inc, centre):
     return torch.cat([top, bottom], -2)
 
 
-def render(first, masks, fill, maps, s):
+def render(first, masks, fill, maps, s, colours=None, margin=0, padding="border"):
     """The layers of `first` moved by `maps` (source -> imagined pixels), composited front
     (layer 0) to back over the background: `first` where no layer covers it, `fill` where one
-    does."""
+    does. bench/layer_predictor.py's --margin passes masks and `colours` [B, 3, C, C] on a canvas
+    `margin` pixels wider than the frame on each side."""
     b, k = masks.shape[:2]
+    c = s + 2 * margin
     inv = torch.linalg.inv(maps)  # imagined pixel -> source pixel
     coords = torch.arange(s, dtype=first.dtype)
     ys, xs = torch.meshgrid(coords, coords, indexing="ij")
     pix = torch.stack([xs, ys, torch.ones_like(xs)], -1).view(1, 1, s * s, 3)
-    src = (pix @ inv.transpose(-1, -2))[..., :2].view(b * k, s, s, 2) / (s - 1) * 2 - 1
-    layer = torch.cat([first[:, None] * masks[:, :, None], masks[:, :, None]], 2)
-    moved = F.grid_sample(layer.view(b * k, 4, s, s), src, mode="bilinear",
-                          padding_mode="border", align_corners=True).view(b, k, 4, s, s)
-    visible = torch.prod(1 - masks, 1, keepdim=True)
+    src = ((pix @ inv.transpose(-1, -2))[..., :2] + margin).view(b * k, s, s, 2) / (c - 1) * 2 - 1
+    colours = first if colours is None else colours
+    layer = torch.cat([colours[:, None] * masks[:, :, None], masks[:, :, None]], 2)
+    moved = F.grid_sample(layer.view(b * k, 4, c, c), src, mode="bilinear",
+                          padding_mode=padding, align_corners=True).view(b, k, 4, s, s)
+    frame_masks = masks[..., margin:margin + s, margin:margin + s]
+    visible = torch.prod(1 - frame_masks, 1, keepdim=True)
     out = visible * first + (1 - visible) * fill
     for j in reversed(range(k)):
         out = moved[:, j, :3] + (1 - moved[:, j, 3:]) * out
