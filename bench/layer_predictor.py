@@ -12,8 +12,9 @@ actions', arm / object MSE over copy_last's).
       [--linear affine|similarity|scale] [--fill-residual] \
       [--motion-prior W [--prior-steps 0.3] [--prior-layers N] [--static-only]] \
       [--follow [--follow-bias -4]] \
-      [--moved-weight W] \
-      [--save NET.pt | --load NET.pt | --checkpoint RUN_DIR] [--masks OUT.png] [--ceiling]
+      [--moved-weight W] [--start-fraction F [--start-span N]] [--margin P [--margin-replicate]] \
+      [--save NET.pt | --load NET.pt | --checkpoint RUN_DIR] [--masks OUT.png] [--ceiling] \
+      [--score-from T]
 
 --mask-noise SIGMA (Gaussian noise on the mask logits in training, grown from 0 over the first
 --noise-ramp of the steps) and --mask-l1 W (W x the layers' mean mask in the loss) are the
@@ -27,7 +28,11 @@ themselves); --static-only keeps only its term on the pixels that did not move. 
 lets a layer follow another's step, gated by the state: for the block, carried only once
 grasped. --moved-weight W (wm-motion's train.moved_weight) weighs the pixels that change in the
 window 1 + W in the frame loss. --checkpoint scores a wm-motion run of this kind through the twin instead of training
-(its weights and action statistics).
+(its weights and action statistics). Measured in session 26, not kept: --start-fraction F starts
+that fraction of the training windows at t < N (the unroll unless --start-span), where every
+scored rollout starts; --margin P puts the layers on a canvas P pixels wider than the frame,
+whose outside the U-Net draws (--margin-replicate: starting from the border repeated, the
+recipe). --score-from T scores the rollouts from frame T of each val episode long enough.
 --masks writes, for val episodes 0-2, the given frame, each layer's mask, the fill and the
 layers' cut-out. --ceiling (a diagnostic) also scores each rollout with its per-step maps fitted
 to the real frames by Adam from the predictor's own (the masks and fill kept): the
