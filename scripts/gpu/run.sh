@@ -44,7 +44,19 @@ stage_build() {
   cmake --build "$BUILD" -j "$(nproc)" ${TARGETS:+--target $TARGETS} -- -k 0
 }
 
+# The image's Python has no jsonschema and cannot install it: Debian's pure-Python package
+# (scripts/gpu/make_data.sh carries its .debs in DATA/pydebs) is unpacked and put on PYTHONPATH.
+python_test_deps() {
+  "$PYTHON" -c 'import jsonschema' 2> /dev/null && return
+  local debs=("$DATA"/pydebs/*.deb) prefix=$PWD/$BUILD/pydeps
+  [ -f "${debs[0]}" ] || { echo "no jsonschema and no $DATA/pydebs: 7 tests will fail"; return; }
+  for deb in "${debs[@]}"; do dpkg -x "$deb" "$prefix"; done
+  export PYTHONPATH=$prefix/usr/lib/python3/dist-packages${PYTHONPATH:+:$PYTHONPATH}
+  "$PYTHON" -c 'import jsonschema; print("jsonschema from", jsonschema.__file__)'
+}
+
 stage_test() {
+  python_test_deps
   ctest --test-dir "$BUILD" -j 8 --output-on-failure --timeout 600 ${TESTS:+-R "$TESTS"}
 }
 
