@@ -1,5 +1,6 @@
 #!/usr/bin/python3
-"""The C++ motion model and its PyTorch twins give the same outputs to 1e-5 on the same weights:
+"""The C++ motion model and its PyTorch twins give the same outputs to 1e-5 on the same weights
+(3-step imaginations to 1e-4, below):
 the warp kind (motion/warp_net.cc, warp_twin.py) its flow, gate, next frame and 3-step
 imagination; the layered kind (motion/layer_net.cc, layer_twin.py) its masks, fill and 3-step
 imagination. motion_test_tool writes random weights (non-zero heads, so flows and layer moves
@@ -21,6 +22,12 @@ import warp_twin  # noqa: E402
 from dynamics_twin import read_archive  # noqa: E402
 
 TOL = 1e-5
+# Multi-step imagination resamples each imagined frame at flows of several pixels, so a rounding
+# difference in a flow is multiplied by the image's gradient (up to 2 per pixel in [-1, 1]
+# units) and compounds over the steps: LibTorch 2.11 (CUDA build, on the CPU) differed from the
+# 1.13 reference by 2.67e-5 on the 26-dim rollout while every single forward stayed within 5e-6
+# (docs/gpu.md). A twin that ignored the flow or the action would be off by more than 0.05.
+IMAGINED_TOL = 1e-4
 
 
 def load_reference(tool, flags, tmp):
@@ -43,10 +50,10 @@ class Comparison:
     def __init__(self, flags):
         self.flags, self.failures = flags, []
 
-    def __call__(self, name, got, want):
+    def __call__(self, name, got, want, tol=TOL):
         err = float(np.max(np.abs(got.detach().numpy() - want)))
         print("%-22s %-10s max |diff| %.2e" % (" ".join(self.flags) or "(default)", name, err))
-        if not err <= TOL:
+        if not err <= tol:
             self.failures.append("%s %s: %.3g" % (self.flags, name, err))
 
 
@@ -60,7 +67,7 @@ def check_case(tool, flags, tmp):
         compare("flow", flow, tensors["output/flow"])
         compare("gate", gate, tensors["output/gate"])
         compare("imagined", warp_twin.imagine(net, t["current"], t["actions"]),
-                tensors["output/imagined"])
+                tensors["output/imagined"], IMAGINED_TOL)
     # The check must be able to fail: the flows are far from zero, so a twin that ignored them
     # (or the action) would differ by much more than TOL.
     moved = float(np.abs(tensors["output/flow"]).mean())
@@ -82,7 +89,7 @@ def check_layers(tool, tmp):
         compare("masks", masks, tensors["output/masks"])
         compare("fill", fill, tensors["output/fill"])
         compare("imagined", net(t["current"], t["actions"]).clamp(-1, 1),
-                tensors["output/imagined"])
+                tensors["output/imagined"], IMAGINED_TOL)
     # Able to fail: the layers differ from pixel to pixel and the frames move away from the start.
     spread = float(tensors["output/masks"].std())
     change = float(np.abs(tensors["output/imagined"][:, -1] - tensors["input/current"]).mean())
