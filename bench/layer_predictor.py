@@ -93,17 +93,13 @@ class MarginLayerNet(LayerNet):
     def canvas(self, first):
         """[B, 4, S + 2P, S + 2P]: the frame zero-padded, and 1 where the frame is."""
         inside = torch.ones_like(first[:, :1])
-        return torch.nn.functional.pad(torch.cat([first, inside], 1), [self.margin] * 4)
+        return F.pad(torch.cat([first, inside], 1), [self.margin] * 4)
 
     def sprites(self, first):
         """-> masks [B, K, C, C] on the canvas, fill [B, 3, S, S] on the frame; the layers'
         colours [B, 3, C, C] on the canvas are kept for render()."""
         x = self.canvas(first)
-        h1 = self.down1(x)
-        h2 = self.down2(h1)
-        u = self.up3(self.middle(self.down3(h2)))
-        u = self.up1(torch.cat([self.up2(torch.cat([u, h2], 1)), h1], 1))
-        out = self.sprite_head(torch.cat([u, x], 1))
+        out = self.sprite_head(torch.cat([self.unet(x), x], 1))
         k, p, s = self.layers, self.margin, first.shape[-1]
         inside = x[:, 3:]
         logits = out[:, :k]

@@ -36,15 +36,18 @@ class LayerNet(nn.Module):
 
     def sprites(self, first):
         """-> masks [B, K, S, S] in (0, 1) on the start frame's pixels, fill [B, 3, S, S]."""
-        h1 = self.down1(first)
-        h2 = self.down2(h1)
-        u = self.up3(self.middle(self.down3(h2)))
-        u = self.up1(torch.cat([self.up2(torch.cat([u, h2], 1)), h1], 1))
-        out = self.sprite_head(torch.cat([u, first], 1))
+        out = self.sprite_head(torch.cat([self.unet(first), first], 1))
         logits = out[:, :self.layers]
         if self.training and self.mask_noise > 0:  # noisy logits pay off only when saturated
             logits = logits + self.mask_noise * torch.randn_like(logits)
         return torch.sigmoid(logits), torch.tanh(out[:, self.layers:])
+
+    def unet(self, x):
+        """The sprite U-Net's features [B, C, S, S] of `x` (three halvings and back)."""
+        h1 = self.down1(x)
+        h2 = self.down2(h1)
+        u = self.up3(self.middle(self.down3(h2)))
+        return self.up1(torch.cat([self.up2(torch.cat([u, h2], 1)), h1], 1))
 
     def step_maps(self, current, first, maps, action):
         """[B, K, 6] affine increments for this step: b + J a (linear part 0.2 tanh(.), translation
