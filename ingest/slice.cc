@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <filesystem>
+#include <utility>
 
 #include "core/episode.h"
 #include "core/error.h"
@@ -13,9 +14,11 @@
 namespace wm::ingest {
 namespace {
 
+// Keeps rows [from, from + count) of `width` values each, in place (no copy of the kept frames).
 template <class T>
-std::vector<T> Cut(const std::vector<T>& v, int64_t from, int64_t count, int64_t width = 1) {
-  return {v.begin() + from * width, v.begin() + (from + count) * width};
+void Keep(std::vector<T>& v, int64_t from, int64_t count, int64_t width = 1) {
+  v.erase(v.begin() + (from + count) * width, v.end());
+  v.erase(v.begin(), v.begin() + from * width);
 }
 
 nlohmann::json SliceConfig(const SliceOptions& o, const shard::DatasetIndex& input) {
@@ -27,25 +30,22 @@ nlohmann::json SliceConfig(const SliceOptions& o, const shard::DatasetIndex& inp
 
 }  // namespace
 
-Episode SliceEpisode(const Episode& e, int64_t from, int64_t count) {
+Episode SliceEpisode(Episode e, int64_t from, int64_t count) {
   Check(from >= 0 && count >= 1 && from + count <= e.num_steps,
         "slice [" + std::to_string(from) + ", " + std::to_string(from + count) +
             ") is outside the episode's " + std::to_string(e.num_steps) + " steps",
         {.file = e.source_file, .record = e.source_record});
-  Episode out = e;
-  out.episode_key = e.episode_key + "@" + std::to_string(from);
-  out.num_steps = count;
-  out.actions = Cut(e.actions, from, count, e.action_dim);
-  out.rewards = Cut(e.rewards, from, count);
-  out.discounts = Cut(e.discounts, from, count);
-  out.is_first = Cut(e.is_first, from, count);
-  out.is_last = Cut(e.is_last, from, count);
-  out.is_terminal = Cut(e.is_terminal, from, count);
-  out.is_first.front() = 1;  // the slice is an episode of its own
-  for (auto& [name, stream] : out.images) {
-    stream.frames = Cut(e.images.at(name).frames, from, count);
-  }
-  return out;
+  e.episode_key += "@" + std::to_string(from);
+  e.num_steps = count;
+  Keep(e.actions, from, count, e.action_dim);
+  Keep(e.rewards, from, count);
+  Keep(e.discounts, from, count);
+  Keep(e.is_first, from, count);
+  Keep(e.is_last, from, count);
+  Keep(e.is_terminal, from, count);
+  e.is_first.front() = 1;  // the slice is an episode of its own
+  for (auto& [name, stream] : e.images) Keep(stream.frames, from, count);
+  return e;
 }
 
 shard::DatasetIndex SliceDataset(const SliceOptions& o) {
@@ -65,7 +65,7 @@ shard::DatasetIndex SliceDataset(const SliceOptions& o) {
   Progress progress("slice", reader.num_episodes(), "episodes");
   progress.Add(writer.resume_position());
   for (uint64_t k = writer.resume_position(); k < reader.num_episodes(); ++k, progress.Add()) {
-    const Episode e = reader.ReadEpisode(k);
+    Episode e = reader.ReadEpisode(k);
     const int64_t left = e.num_steps - o.from_step;
     const int64_t count = o.max_steps > 0 ? std::min(left, o.max_steps) : left;
     if (count < o.min_steps) {
@@ -77,7 +77,7 @@ shard::DatasetIndex SliceDataset(const SliceOptions& o) {
                   k);
       continue;
     }
-    writer.Add(SliceEpisode(e, o.from_step, count), k);
+    writer.Add(SliceEpisode(std::move(e), o.from_step, count), k);
   }
   progress.Finish();
   shard::DatasetIndex out;

@@ -11,11 +11,8 @@
 #include <cstdint>
 #include <string>
 
+#include "core/episode.h"
 #include "core/shard/dataset_index.h"
-
-namespace wm {
-struct Episode;
-}
 
 namespace wm::ingest {
 
@@ -26,8 +23,9 @@ struct SliceOptions {
   int64_t min_steps = 1;  // shorter slices are skipped (e.g. horizon + 1 for wm-eval)
 };
 
-// Episode `e` from step `from` on, at most `count` steps (count >= 1, from + count <= T).
-Episode SliceEpisode(const Episode& e, int64_t from, int64_t count);
+// Episode `e` from step `from` on, `count` steps (count >= 1, from + count <= T); cut in place,
+// so a moved-in episode's frames are not copied.
+Episode SliceEpisode(Episode e, int64_t from, int64_t count);
 
 // Throws wm::Error naming the input or output directory on bad options or input.
 shard::DatasetIndex SliceDataset(const SliceOptions& options);
