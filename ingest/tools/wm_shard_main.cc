@@ -88,10 +88,14 @@ int main(int argc, char** argv) {
       spdlog::info("merged {} parts: {} episodes in {} shards -> {}", parts.size(),
                    index.num_episodes, index.shards.size(), output);
     } else if (*slice) {
+      // index.json's `skipped` also lists what the input had left out; the log counts apart
+      const size_t inherited =
+          wm::shard::DatasetReader(slice_options.input).index().skipped.size();
       auto index = wm::ingest::SliceDataset(slice_options);
-      spdlog::info("sliced {} episodes ({} steps) from step {} -> {}; {} skipped",
+      spdlog::info("sliced {} episodes ({} steps) from step {} -> {}; {} too short, {} already "
+                   "skipped in the input",
                    index.num_episodes, index.num_steps, slice_options.from_step,
-                   slice_options.output, index.skipped.size());
+                   slice_options.output, index.skipped.size() - inherited, inherited);
     }
   } catch (const std::exception& e) {
     std::cerr << "wm-shard: error: " << e.what() << "\n";

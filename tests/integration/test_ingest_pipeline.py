@@ -154,6 +154,13 @@ class IngestPipeline(unittest.TestCase):
         actions = np.concatenate([np.asarray(e["actions"], np.float64) for e in sliced])
         np.testing.assert_allclose(index["action_stats"]["mean"], actions.mean(0), atol=1e-12)
         self.assertEqual(index["provenance"]["tool"], "wm-shard slice")
+        # sliced again: its log counts the slice's own skips apart from the input's
+        short = sum(1 for e in sliced if e["num_steps"] < 9)
+        self.assertLess(short, len(sliced), "some slices keep 9 steps")
+        resliced = run([f"{BIN}/wm-shard", "slice", "--min-steps", "9", "--output",
+                        os.path.join(self.tmp, "from5-min9"), out])
+        self.assertIn(f"{short} too short, {len(episodes) - len(kept)} already skipped in the "
+                      "input", resliced.stdout + resliced.stderr)
         twin = os.path.join(self.tmp, "from5-again")
         run([f"{BIN}/wm-shard", "slice", "--from-step", "5", "--max-steps", "9", "--min-steps",
              "8", "--output", twin, self.out])
