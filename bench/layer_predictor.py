@@ -14,7 +14,7 @@ actions', arm / object MSE over copy_last's).
       [--follow [--follow-bias -4]] \
       [--moved-weight W] [--start-fraction F [--start-span N]] [--margin P [--margin-replicate]] \
       [--save NET.pt | --load NET.pt | --checkpoint RUN_DIR] [--masks OUT.png] [--ceiling] \
-      [--score-from T]
+      [--score-from T] [--template T [--template-bias -4]] [--keypoints]
 
 --mask-noise SIGMA (Gaussian noise on the mask logits in training, grown from 0 over the first
 --noise-ramp of the steps) and --mask-l1 W (W x the layers' mean mask in the loss) are the
@@ -24,15 +24,20 @@ linear part to a similarity (no shear) or a scale; --fill-residual makes the fil
 frame plus a correction. --motion-prior W adds wm-motion's train.motion_prior (the layers'
 union pulled towards the pixels that change in the window, fading over --prior-steps);
 --prior-layers N pulls only the first N layers' union (the others are left to sort
-themselves); --static-only keeps only its term on the pixels that did not move. --follow (measured, not kept)
-lets a layer follow another's step, gated by the state: for the block, carried only once
-grasped. --moved-weight W (wm-motion's train.moved_weight) weighs the pixels that change in the
-window 1 + W in the frame loss. --checkpoint scores a wm-motion run of this kind through the twin instead of training
-(its weights and action statistics). Measured in session 26, not kept: --start-fraction F starts
-that fraction of the training windows at t < N (the unroll unless --start-span), where every
-scored rollout starts; --margin P puts the layers on a canvas P pixels wider than the frame,
-whose outside the U-Net draws (--margin-replicate: starting from the border repeated, the
-recipe). --score-from T scores the rollouts from frame T of each val episode long enough.
+themselves); --static-only keeps only its term on the pixels that did not move. --follow
+(measured, not kept) lets a layer follow another's step, gated by the state: for the block,
+carried only once grasped. --moved-weight W (wm-motion's train.moved_weight) weighs the pixels
+that change in the window 1 + W in the frame loss. --checkpoint scores a wm-motion run of this
+kind through the twin instead of training (its weights and action statistics). Measured in
+session 26, not kept: --start-fraction F starts that fraction of the training windows at t < N
+(the unroll unless --start-span), where every scored rollout starts; --margin P puts the
+layers on a canvas P pixels wider than the frame, whose outside the U-Net draws
+(--margin-replicate: starting from the border repeated, the recipe). --score-from T scores the
+rollouts from frame T of each val episode long enough.
+Measured in session 27, not kept: --template T adds, behind the frame's layers, a layer learned
+once for all episodes on a T x T canvas and placed on each given frame by a head (what enters
+the frame could come from it); --keypoints lets the motion MLP read its features' soft-argmax
+points.
 --masks writes, for val episodes 0-2, the given frame, each layer's mask, the fill and the
 layers' cut-out. --ceiling (a diagnostic) also scores each rollout with its per-step maps fitted
 to the real frames by Adam from the predictor's own (the masks and fill kept): the
@@ -150,12 +155,122 @@ class FollowLayerNet(VariantLayerNet):
         return followed @ steps
 
 
+class KeypointLayerNet(LayerNet):
+    """`--keypoints`: the motion MLP also reads where each channel of the motion CNN's 16 x 16
+    features peaks, as a spatial soft-argmax (x, y) per channel (the deep spatial autoencoder's
+    feature points, Finn et al. 2016): the step's motion in the image depends on where the
+    gripper is and how large it looks, which a 4 x 4 map after four halvings blurs."""
+
+    def __init__(self, action_dim, layers, channels, **kw):
+        super().__init__(action_dim, layers, channels, **kw)
+        cells = 16  # the motion CNN's 4 x 4 map at 64 px, flattened
+        self.motion_mlp = torch.nn.Sequential(
+            torch.nn.Linear(cells * channels + 2 * channels + layers * lt.AFFINE, 256),
+            torch.nn.ReLU())
+
+    def motion_features(self, current, first):
+        half = self.motion_cnn[:4](torch.cat([current, first], 1))  # [B, C, 16, 16]
+        weights = torch.softmax(half.flatten(2), -1).view_as(half)
+        grid = torch.linspace(-1, 1, half.shape[-1])
+        points = torch.cat([(weights.sum(2) * grid).sum(-1), (weights.sum(3) * grid).sum(-1)], 1)
+        return torch.cat([self.motion_cnn[4:](half).flatten(1), points], 1)
+
+
+TEMPLATE_LR = 10.0
+
+
+class TemplateLayerNet(LayerNet):
+    """`--template T`: behind the given frame's layers, one more layer that is learned once for
+    all episodes (its colours and mask on a T x T canvas: the arm as it looks anywhere), placed
+    on each given frame by a head that reads the frame, then moved by its own maps like the
+    others. It can draw what the given frame does not show: an arm entering from the frame's
+    edge, its link beyond the border. Its mask starts near 0, so the untrained model is the
+    recipe's."""
+
+    def __init__(self, action_dim, layers, channels, size=96, bias=-4.0, **kw):
+        super().__init__(action_dim, layers, channels, **kw)
+        self.size, k = size, layers + 1
+        self.template = torch.nn.Parameter(torch.cat([torch.zeros(3, size, size),
+                                                      torch.full((1, size, size), bias)]))
+        cells = 16  # the motion CNN's 4 x 4 map at 64 px, flattened
+        self.motion_mlp = torch.nn.Sequential(
+            torch.nn.Linear(cells * channels + k * lt.AFFINE, 256), torch.nn.ReLU())
+        self.motion_head = torch.nn.Linear(256, k * lt.AFFINE * (action_dim + 1))
+        self.place_head = torch.nn.Linear(256, lt.AFFINE)
+        for layer in (self.motion_head, self.place_head):
+            torch.nn.init.zeros_(layer.weight)
+            torch.nn.init.zeros_(layer.bias)
+
+    def param_groups(self):
+        """The template's pixels learn `TEMPLATE_LR` times faster: Adam moves a parameter by
+        about the learning rate per step, and at the net's 1e-3 a mask logit cannot cross from
+        hidden to shown within the run (measured: it stayed below 0.02)."""
+        rest = [p for p in self.parameters() if p is not self.template]
+        return [{"params": rest}, {"params": [self.template], "lr_scale": TEMPLATE_LR}]
+
+    def placement(self, first):
+        """[B, 3, 3] template pixels -> the given frame's pixels: the canvas's centre on the
+        frame's, then a map read from the frame (linear part 0.5 tanh, translation 16 px)."""
+        b, s, t = first.shape[0], first.shape[-1], self.size
+        feats = self.motion_features(first, first)
+        state = torch.zeros(b, (self.layers + 1) * lt.AFFINE)
+        p = self.place_head(self.motion_mlp(torch.cat([feats, state], 1)))
+        lin = torch.eye(2) + 0.5 * torch.tanh(p[:, :4]).view(b, 2, 2)
+        centre = torch.full((b, 2), (t - 1) / 2)
+        shift = (s - 1) / 2 + 16 * p[:, 4:] - (lin @ centre[..., None])[..., 0]
+        top = torch.cat([lin, shift[..., None]], -1)
+        return torch.cat([top, torch.tensor([0.0, 0.0, 1.0]).expand(b, 1, 3)], 1)
+
+    def forward(self, first, actions, frames_in=None, fixed=None):
+        b, h = actions.shape[:2]
+        k = self.layers
+        masks, fill = self.sprites(first)
+        self.last_masks = masks
+        place = self.placement(first)
+        middle = torch.full((b, 1, 2), (self.size - 1) / 2)
+        centre0 = torch.cat([self.centroids(masks), lt.apply(place[:, None], middle)], 1)
+        maps = torch.eye(3).expand(b, k + 1, 3, 3)
+        current, out, increments = first, [], []
+        for t in range(h):
+            inc = (self.step_maps(current.detach(), first, maps, actions[:, t]) if fixed is None
+                   else fixed[:, t])
+            increments.append(inc)
+            maps = lt.increment(inc, lt.apply(maps, centre0)) @ maps
+            frame = self.draw(first, masks, fill, maps, place)
+            out.append(frame)
+            current = frame if frames_in is None else frames_in[:, t]
+        self.last_increments = torch.stack(increments, 1)
+        return torch.stack(out, 1)
+
+    def draw(self, first, masks, fill, maps, place):
+        """The template moved by its map after its placement, over the background, under the
+        frame's layers."""
+        s, k = first.shape[-1], self.layers
+        logit = self.template[3:]
+        if self.training and self.mask_noise > 0:
+            logit = logit + self.mask_noise * torch.randn_like(logit)
+        mask = torch.sigmoid(logit)
+        sprite = torch.cat([torch.tanh(self.template[:3]) * mask, mask])
+        inv = torch.linalg.inv(maps[:, k] @ place)  # frame pixel -> template pixel
+        coords = torch.arange(s, dtype=first.dtype)
+        ys, xs = torch.meshgrid(coords, coords, indexing="ij")
+        pix = torch.stack([xs, ys, torch.ones_like(xs)], -1).view(1, s * s, 3)
+        src = (pix @ inv.transpose(-1, -2))[..., :2].view(-1, s, s, 2) / (self.size - 1) * 2 - 1
+        moved = F.grid_sample(sprite.expand(first.shape[0], -1, -1, -1), src, mode="bilinear",
+                              padding_mode="zeros", align_corners=True)
+        visible = torch.prod(1 - masks, 1, keepdim=True)
+        background = visible * first + (1 - visible) * fill
+        background = moved[:, :3] + (1 - moved[:, 3:]) * background
+        return lt.render(first, masks, fill, maps[:, :k], s, background=background)
+
+
 def fit(net, episodes, norm, steps, args):
-    opt = torch.optim.AdamW(net.parameters(), wp.LR, betas=(0.9, 0.9), weight_decay=0.01)
+    groups = net.param_groups() if hasattr(net, "param_groups") else net.parameters()
+    opt = torch.optim.AdamW(groups, wp.LR, betas=(0.9, 0.9), weight_decay=0.01)
     rng = np.random.default_rng(args.seed)
     for step in range(steps):
         for group in opt.param_groups:
-            group["lr"] = wp.learning_rate(step, steps, args.max_lr)
+            group["lr"] = wp.learning_rate(step, steps, args.max_lr) * group.get("lr_scale", 1)
         net.mask_noise = args.mask_noise * min(1.0, step / max(1, args.noise_ramp * steps))
         clips, actions, _, _, _, _ = wp.batch(episodes, norm, rng, args.unroll,
                                                  args.start_fraction, args.start_span)
@@ -201,29 +316,51 @@ def motion_prior_loss(masks, clips, static_only=False):
     return torch.nn.functional.binary_cross_entropy(covered, moved)
 
 
+# Adam's steps of similar size for the linear part and the translation (pixels)
+INCREMENT_SCALE = torch.tensor([0.1] * 4 + [4.0] * 2)
+
+
+def drawn(net, first, masks, fill, increments):
+    """[B, H, 3, S, S] the frames the layers (`masks`, `fill` of `first`) draw when moved by
+    `increments` [B, H, K, 6]."""
+    centre0 = net.centroids(masks)
+    maps = torch.eye(3).expand(first.shape[0], net.layers, 3, 3)
+    out = []
+    for t in range(increments.shape[1]):
+        maps = lt.increment(increments[:, t], lt.apply(maps, centre0)) @ maps
+        out.append(net.render(first, masks, fill, maps))
+    return torch.stack(out, 1)
+
+
+def fit_increments(net, first, actions, real, iterations=300):
+    """[B, H, K, 6] each rollout's increments fitted to its real frames [B, H, 3, S, S] by Adam
+    on the L1, started from the predictor's own increments (the masks and fill kept, computed
+    once). Started from identity maps instead, the fit fell into local minima (the gripper
+    vanished). The loss is a sum of per-rollout means, so each rollout is fitted alone."""
+    with torch.no_grad():
+        net(first, actions)
+        masks, fill = net.sprites(first)
+    inc = (net.last_increments / INCREMENT_SCALE).requires_grad_()
+    opt = torch.optim.Adam([inc], 0.02)
+    for _ in range(iterations):
+        frames = drawn(net, first, masks, fill, inc * INCREMENT_SCALE)
+        loss = (frames - real).abs().mean((1, 2, 3, 4)).sum()
+        opt.zero_grad()
+        loss.backward()
+        opt.step()
+    return (inc * INCREMENT_SCALE).detach()
+
+
 def ceiling(net, episodes, norm, iterations=300):
     """score() of the layers' best case near the predictor's: each val rollout's increments
-    fitted to its real frames by Adam on the L1, started from the predictor's own increments
-    (the trained masks and fill kept), so what is left is the representation's error, not the
-    motion predictor's. Started from identity maps instead, the fit fell into local minima (the
-    gripper vanished) and scored worse than the predictor. The reversed rollouts are the
-    predictor's, so that column says nothing here."""
-    # Adam's steps of similar size for the linear part and the translation (pixels)
-    scale = torch.tensor([0.1] * 4 + [4.0] * 2)
+    fitted to its real frames (fit_increments), so what is left is the representation's error,
+    not the motion predictor's. The reversed rollouts are the predictor's, so that column says
+    nothing here."""
     fitted = {}
     for k, (frames, _, acts) in enumerate(episodes[:wp.recipes.ROLLOUTS]):
         first, real = frames[:1], frames[1:wp.recipes.HORIZON + 1][None]
         a = torch.tensor(norm(acts[:wp.recipes.HORIZON]))[None]
-        with torch.no_grad():
-            net(first, a)
-        inc = (net.last_increments / scale).requires_grad_()
-        opt = torch.optim.Adam([inc], 0.02)
-        for _ in range(iterations):
-            loss = (net(first, a, fixed=inc * scale) - real).abs().mean()
-            opt.zero_grad()
-            loss.backward()
-            opt.step()
-        fitted[k] = (inc * scale).detach()
+        fitted[k] = fit_increments(net, first, a, real, iterations)
     calls = iter(range(2 * wp.recipes.ROLLOUTS))
 
     def imagine(first, a, _):  # score() asks for each episode's logged, then reversed actions
@@ -296,6 +433,13 @@ def main():
                     help="the layers on a canvas P pixels wider on each side, drawn outside")
     ap.add_argument("--margin-replicate", action="store_true",
                     help="--margin's canvas starts as the frame's border repeated (the recipe)")
+    ap.add_argument("--keypoints", action="store_true",
+                    help="the motion MLP also reads the motion CNN's features' soft-argmax points")
+    ap.add_argument("--template", type=int, default=0, metavar="T",
+                    help="behind the frame's layers a layer learned for all episodes on a T x T "
+                         "canvas, placed on each given frame by a head")
+    ap.add_argument("--template-bias", type=float, default=-4.0,
+                    help="the template's initial mask logit")
     ap.add_argument("--save", help="the trained net's state_dict (torch.save)")
     ap.add_argument("--load", help="a --save'd net: no training")
     ap.add_argument("--checkpoint", metavar="RUN_DIR",
@@ -317,6 +461,13 @@ def main():
         net = FollowLayerNet(actions.shape[1], args.layers, args.channels, args.follow_bias,
                              linear=args.linear, fill_residual=args.fill_residual,
                              mask_bias=args.mask_bias, mask_noise=args.mask_noise)
+    elif args.keypoints:
+        net = KeypointLayerNet(actions.shape[1], args.layers, args.channels,
+                               mask_bias=args.mask_bias, mask_noise=args.mask_noise)
+    elif args.template:
+        net = TemplateLayerNet(actions.shape[1], args.layers, args.channels, args.template,
+                               args.template_bias, mask_bias=args.mask_bias,
+                               mask_noise=args.mask_noise)
     elif args.margin:
         net = MarginLayerNet(actions.shape[1], args.layers, args.channels, args.margin,
                              args.margin_replicate,

@@ -52,14 +52,18 @@ class LayerNet(nn.Module):
     def step_maps(self, current, first, maps, action):
         """[B, K, 6] affine increments for this step: b + J a (linear part 0.2 tanh(.), translation
         in flow_scale pixels)."""
-        b, k, d = current.shape[0], self.layers, self.action_dim
-        feats = self.motion_cnn(torch.cat([current, first], 1)).flatten(1)
+        b, k, d = current.shape[0], maps.shape[1], self.action_dim  # k: the layers that move
+        feats = self.motion_features(current, first)
         state = (maps[:, :, :2, :] - torch.eye(3)[:2]).flatten(1)  # [B, K * 6]
         out = self.motion_head(self.motion_mlp(torch.cat([feats, state * 0.05], 1)))
         out = out.view(b, k, AFFINE, d + 1)
         inc = out[..., 0] + (out[..., 1:] * action.view(b, 1, 1, d)).sum(-1)
         # bounded linear part: a step never shrinks or shears a layer to a singular map
         return torch.cat([0.2 * torch.tanh(inc[..., :4]), inc[..., 4:] * self.flow_scale], -1)
+
+    def motion_features(self, current, first):
+        """[B, F] what the motion MLP reads of the frames (a hook for bench variants)."""
+        return self.motion_cnn(torch.cat([current, first], 1)).flatten(1)
 
     def forward(self, first, actions, frames_in=None, fixed=None):
         """Open-loop frames [B, H, 3, S, S] after `first` under normalised actions [B, H, D];
@@ -122,11 +126,13 @@ def increment(inc, centre):
     return torch.cat([top, bottom], -2)
 
 
-def render(first, masks, fill, maps, s, colours=None, margin=0, padding="border"):
+def render(first, masks, fill, maps, s, colours=None, margin=0, padding="border",
+           background=None):
     """The layers of `first` moved by `maps` (source -> imagined pixels), composited front
     (layer 0) to back over the background: `first` where no layer covers it, `fill` where one
     does. bench/layer_predictor.py's --margin passes masks and `colours` [B, 3, C, C] on a canvas
-    `margin` pixels wider than the frame on each side."""
+    `margin` pixels wider than the frame on each side; its --template passes the `background`
+    the layers are composited over."""
     b, k = masks.shape[:2]
     c = s + 2 * margin
     inv = torch.linalg.inv(maps)  # imagined pixel -> source pixel
@@ -139,8 +145,10 @@ def render(first, masks, fill, maps, s, colours=None, margin=0, padding="border"
     moved = F.grid_sample(layer.view(b * k, 4, c, c), src, mode="bilinear",
                           padding_mode=padding, align_corners=True).view(b, k, 4, s, s)
     frame_masks = masks[..., margin:margin + s, margin:margin + s]
-    visible = torch.prod(1 - frame_masks, 1, keepdim=True)
-    out = visible * first + (1 - visible) * fill
+    if background is None:
+        visible = torch.prod(1 - frame_masks, 1, keepdim=True)
+        background = visible * first + (1 - visible) * fill
+    out = background
     for j in reversed(range(k)):
         out = moved[:, j, :3] + (1 - moved[:, j, 3:]) * out
     return out
