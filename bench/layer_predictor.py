@@ -14,7 +14,7 @@ actions', arm / object MSE over copy_last's).
       [--follow [--follow-bias -4]] \
       [--moved-weight W] [--start-fraction F [--start-span N]] [--margin P [--margin-replicate]] \
       [--save NET.pt | --load NET.pt | --checkpoint RUN_DIR] [--masks OUT.png] [--ceiling] \
-      [--score-from T] [--template T [--template-bias -4]] [--keypoints]
+      [--score-from T] [--template T [--template-bias -4]] [--keypoints] [--depth]
 
 --mask-noise SIGMA (Gaussian noise on the mask logits in training, grown from 0 over the first
 --noise-ramp of the steps) and --mask-l1 W (W x the layers' mean mask in the loss) are the
@@ -37,7 +37,7 @@ rollouts from frame T of each val episode long enough.
 Measured in session 27, not kept: --template T adds, behind the frame's layers, a layer learned
 once for all episodes on a T x T canvas and placed on each given frame by a head (what enters
 the frame could come from it); --keypoints lets the motion MLP read its features' soft-argmax
-points.
+points; --depth lets the motion CNN read the given frame's depth image.
 --masks writes, for val episodes 0-2, the given frame, each layer's mask, the fill and the
 layers' cut-out. --ceiling (a diagnostic) also scores each rollout with its per-step maps fitted
 to the real frames by Adam from the predictor's own (the masks and fill kept): the
@@ -46,6 +46,7 @@ representation's error without the motion predictor's.
 import os
 import time
 
+import cv2
 import numpy as np
 import torch
 from torch.nn import functional as F
@@ -176,6 +177,35 @@ class KeypointLayerNet(LayerNet):
         return torch.cat([self.motion_cnn[4:](half).flatten(1), points], 1)
 
 
+class DepthLayerNet(LayerNet):
+    """`--depth`: the motion CNN also reads the given frame's depth image (the dataset's
+    steps/observation/depth, as RGB-D robots record it): how far an action moves the arm in the
+    image depends on how far the gripper is from the camera, which one 64 px RGB frame leaves
+    uncertain. `depths` is the training (or val) episodes' [T, 1, S, S] depths; `windows` says
+    which episode and step each batch row starts at."""
+
+    def __init__(self, action_dim, layers, channels, **kw):
+        super().__init__(action_dim, layers, channels, **kw)
+        self.motion_cnn[0] = torch.nn.Conv2d(7, channels, 4, 2, 1)
+        self.depths, self.windows = None, None
+
+    def motion_features(self, current, first):
+        depth = torch.stack([self.depths[e][t] for e, t in self.windows])
+        return self.motion_cnn(torch.cat([current, first, depth], 1)).flatten(1)
+
+
+def load_depths(directory):
+    """[T, 1, S, S] per episode: steps/observation/depth (mm) as (d - 700) / 250."""
+    import wmshard
+    ds, out = wmshard.Dataset(directory), []
+    for k in range(ds.num_episodes):
+        _, _, blobs = ds.episode(k)
+        mm = np.stack([cv2.imdecode(np.frombuffer(b, np.uint8), cv2.IMREAD_UNCHANGED)
+                       for b in blobs["depth"]]).astype(np.float32)
+        out.append(torch.from_numpy((mm - 700) / 250)[:, None])
+    return out
+
+
 TEMPLATE_LR = 10.0
 
 
@@ -272,8 +302,9 @@ def fit(net, episodes, norm, steps, args):
         for group in opt.param_groups:
             group["lr"] = wp.learning_rate(step, steps, args.max_lr) * group.get("lr_scale", 1)
         net.mask_noise = args.mask_noise * min(1.0, step / max(1, args.noise_ramp * steps))
-        clips, actions, _, _, _, _ = wp.batch(episodes, norm, rng, args.unroll,
-                                                 args.start_fraction, args.start_span)
+        clips, actions, _, _, _, where = wp.batch(episodes, norm, rng, args.unroll,
+                                                     args.start_fraction, args.start_span)
+        net.windows = where  # --depth reads the window's given frame's depth
         pred = net(clips[:, 2], actions[:, 1:])
         loss = frame_loss(pred, clips, args.moved_weight)
         if args.mask_l1 > 0:  # what need not move stays in the background, copied exactly
@@ -433,6 +464,8 @@ def main():
                     help="the layers on a canvas P pixels wider on each side, drawn outside")
     ap.add_argument("--margin-replicate", action="store_true",
                     help="--margin's canvas starts as the frame's border repeated (the recipe)")
+    ap.add_argument("--depth", action="store_true",
+                    help="the motion CNN also reads the given frame's depth image")
     ap.add_argument("--keypoints", action="store_true",
                     help="the motion MLP also reads the motion CNN's features' soft-argmax points")
     ap.add_argument("--template", type=int, default=0, metavar="T",
@@ -461,6 +494,10 @@ def main():
         net = FollowLayerNet(actions.shape[1], args.layers, args.channels, args.follow_bias,
                              linear=args.linear, fill_residual=args.fill_residual,
                              mask_bias=args.mask_bias, mask_noise=args.mask_noise)
+    elif args.depth:
+        net = DepthLayerNet(actions.shape[1], args.layers, args.channels,
+                            mask_bias=args.mask_bias, mask_noise=args.mask_noise)
+        net.depths = load_depths(args.train)
     elif args.keypoints:
         net = KeypointLayerNet(actions.shape[1], args.layers, args.channels,
                                mask_bias=args.mask_bias, mask_noise=args.mask_noise)
@@ -488,8 +525,19 @@ def main():
         fit(net, train, norm, args.steps, args)
     seconds = time.time() - start
     net.eval()
+    if args.depth:  # score() imagines each long enough val episode's logged, then reversed
+        net.depths = load_depths(args.val)
+        scored = [e for e, (f, _, _) in enumerate(val) if len(f) > args.score_from + 8]
+        calls = iter(range(2 * len(scored)))
+
+        def imagine(first, a, _):
+            net.windows = [(scored[next(calls) // 2], args.score_from)]
+            return net(first, a)
+    else:
+        def imagine(first, a, _):
+            return net(first, a)
     with torch.no_grad():
-        r, rows = wp.score(net, val, norm, lambda first, a, _: net(first, a), args.score_from)
+        r, rows = wp.score(net, val, norm, imagine, args.score_from)
     trained = (args.checkpoint or args.load or
                f"{args.layers} layers, {args.channels} ch, {args.steps} steps, "
                f"unroll {args.unroll}, {seconds:.0f} s")
