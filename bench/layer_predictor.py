@@ -14,7 +14,8 @@ actions', arm / object MSE over copy_last's).
       [--follow [--follow-bias -4]] \
       [--moved-weight W] [--start-fraction F [--start-span N]] [--margin P [--margin-replicate]] \
       [--save NET.pt | --load NET.pt | --checkpoint RUN_DIR] [--masks OUT.png] [--ceiling] \
-      [--score-from T] [--template T [--template-bias -4]] [--keypoints] [--depth]
+      [--score-from T] [--template T [--template-bias -4]] [--keypoints] [--depth] \
+      [--mlp-width W]
 
 --mask-noise SIGMA (Gaussian noise on the mask logits in training, grown from 0 over the first
 --noise-ramp of the steps) and --mask-l1 W (W x the layers' mean mask in the loss) are the
@@ -37,7 +38,8 @@ rollouts from frame T of each val episode long enough.
 Measured in session 27, not kept: --template T adds, behind the frame's layers, a layer learned
 once for all episodes on a T x T canvas and placed on each given frame by a head (what enters
 the frame could come from it); --keypoints lets the motion MLP read its features' soft-argmax
-points; --depth lets the motion CNN read the given frame's depth image.
+points; --depth lets the motion CNN read the given frame's depth image; --mlp-width W makes
+the motion MLP two hidden layers of W units (one run, not yet repeated).
 --masks writes, for val episodes 0-2, the given frame, each layer's mask, the fill and the
 layers' cut-out. --ceiling (a diagnostic) also scores each rollout with its per-step maps fitted
 to the real frames by Adam from the predictor's own (the masks and fill kept): the
@@ -204,6 +206,21 @@ def load_depths(directory):
                        for b in blobs["depth"]]).astype(np.float32)
         out.append(torch.from_numpy((mm - 700) / 250)[:, None])
     return out
+
+
+class WideMlpLayerNet(LayerNet):
+    """`--mlp-width W`: the motion MLP as two hidden layers of W units instead of one of 256, for
+    whether the predictor underfits (docs/motion.md, session 27) for want of capacity there."""
+
+    def __init__(self, action_dim, layers, channels, width, **kw):
+        super().__init__(action_dim, layers, channels, **kw)
+        cells = 16  # the motion CNN's 4 x 4 map at 64 px, flattened
+        self.motion_mlp = torch.nn.Sequential(
+            torch.nn.Linear(cells * channels + layers * lt.AFFINE, width), torch.nn.ReLU(),
+            torch.nn.Linear(width, width), torch.nn.ReLU())
+        self.motion_head = torch.nn.Linear(width, layers * lt.AFFINE * (action_dim + 1))
+        torch.nn.init.zeros_(self.motion_head.weight)
+        torch.nn.init.zeros_(self.motion_head.bias)
 
 
 TEMPLATE_LR = 10.0
@@ -464,6 +481,8 @@ def main():
                     help="the layers on a canvas P pixels wider on each side, drawn outside")
     ap.add_argument("--margin-replicate", action="store_true",
                     help="--margin's canvas starts as the frame's border repeated (the recipe)")
+    ap.add_argument("--mlp-width", type=int, default=0, metavar="W",
+                    help="the motion MLP as two hidden layers of W units")
     ap.add_argument("--depth", action="store_true",
                     help="the motion CNN also reads the given frame's depth image")
     ap.add_argument("--keypoints", action="store_true",
@@ -494,6 +513,9 @@ def main():
         net = FollowLayerNet(actions.shape[1], args.layers, args.channels, args.follow_bias,
                              linear=args.linear, fill_residual=args.fill_residual,
                              mask_bias=args.mask_bias, mask_noise=args.mask_noise)
+    elif args.mlp_width:
+        net = WideMlpLayerNet(actions.shape[1], args.layers, args.channels, args.mlp_width,
+                              mask_bias=args.mask_bias, mask_noise=args.mask_noise)
     elif args.depth:
         net = DepthLayerNet(actions.shape[1], args.layers, args.channels,
                             mask_bias=args.mask_bias, mask_noise=args.mask_noise)
