@@ -1,6 +1,6 @@
 #!/usr/bin/python3
 """Issue 20, goal 2: does the layers' ceiling teach the motion predictor? (docs/motion.md,
-"Distilling the fitted maps into the predictor (session 27)").
+"Fitted maps as targets; a layer learned for all episodes; more episodes (session 27)").
 
 Session 24 found that a trained layered model's own masks and fill, moved by maps fitted to the
 real frames (bench/layer_predictor.py --ceiling), draw the arm at 0.42x copy_last's error at
@@ -29,7 +29,6 @@ import torch
 
 import warp_predictor as wp
 import layer_predictor as lp
-import layer_twin as lt
 
 SCALE = lp.INCREMENT_SCALE
 
@@ -63,15 +62,13 @@ def predicted_along(net, first, a, fitted):
     fitted maps draw so far and those maps, as the predictor would see them had it been right."""
     with torch.no_grad():
         masks, fill = net.sprites(first)
-        centre0 = net.centroids(masks)
-    maps = torch.eye(3).expand(first.shape[0], net.layers, 3, 3)
-    current, preds = first, []
-    for t in range(a.shape[1]):
-        preds.append(net.step_maps(current, first, maps, a[:, t]))
-        with torch.no_grad():
-            maps = lt.increment(fitted[:, t], lt.apply(maps, centre0)) @ maps
-            current = net.render(first, masks, fill, maps)
-    return torch.stack(preds, 1)
+        frames, maps = lp.drawn(net, first, masks, fill, fitted, with_maps=True)
+    # the states before each step: the given frame and identity maps, then the fitted ones
+    currents = torch.cat([first[:, None], frames[:, :-1]], 1)
+    identity = torch.eye(3).expand(first.shape[0], 1, net.layers, 3, 3)
+    befores = torch.cat([identity, maps[:, :-1]], 1)
+    return torch.stack([net.step_maps(currents[:, t], first, befores[:, t], a[:, t])
+                        for t in range(a.shape[1])], 1)
 
 
 def finetune(net, episodes, norm, where, fitted, args):

@@ -368,16 +368,18 @@ def motion_prior_loss(masks, clips, static_only=False):
 INCREMENT_SCALE = torch.tensor([0.1] * 4 + [4.0] * 2)
 
 
-def drawn(net, first, masks, fill, increments):
+def drawn(net, first, masks, fill, increments, with_maps=False):
     """[B, H, 3, S, S] the frames the layers (`masks`, `fill` of `first`) draw when moved by
-    `increments` [B, H, K, 6]."""
+    `increments` [B, H, K, 6]; `with_maps`: also the maps [B, H, K, 3, 3] after each step."""
     centre0 = net.centroids(masks)
     maps = torch.eye(3).expand(first.shape[0], net.layers, 3, 3)
-    out = []
+    out, steps = [], []
     for t in range(increments.shape[1]):
         maps = lt.increment(increments[:, t], lt.apply(maps, centre0)) @ maps
         out.append(net.render(first, masks, fill, maps))
-    return torch.stack(out, 1)
+        steps.append(maps)
+    frames = torch.stack(out, 1)
+    return (frames, torch.stack(steps, 1)) if with_maps else frames
 
 
 def fit_increments(net, first, actions, real, iterations=300):
