@@ -97,7 +97,7 @@ class LayerNet(nn.Module):
 
     def combine(self, steps):
         """[B, K, 3, 3] this step's maps per layer -> the maps applied (a hook for variants in
-        bench/layer_predictor.py; the model itself applies each layer's own)."""
+        bench/layer_variants.py; the model itself applies each layer's own)."""
         return steps
 
 
@@ -130,7 +130,7 @@ def render(first, masks, fill, maps, s, colours=None, margin=0, padding="border"
            background=None):
     """The layers of `first` moved by `maps` (source -> imagined pixels), composited front
     (layer 0) to back over the background: `first` where no layer covers it, `fill` where one
-    does. bench/layer_predictor.py's --margin passes masks and `colours` [B, 3, C, C] on a canvas
+    does. bench/layer_variants.py's --margin passes masks and `colours` [B, 3, C, C] on a canvas
     `margin` pixels wider than the frame on each side; its --template passes the `background`
     the layers are composited over."""
     b, k = masks.shape[:2]
