@@ -15,7 +15,8 @@ actions', arm / object MSE over copy_last's).
       [--moved-weight W] [--start-fraction F [--start-span N]] [--margin P [--margin-replicate]] \
       [--save NET.pt | --load NET.pt | --checkpoint RUN_DIR] [--masks OUT.png] [--ceiling] \
       [--score-from T] [--template T [--template-bias -4]] [--keypoints] [--depth] \
-      [--mlp-width W] [--ema D] [--block-label [--block-front]] [--blur-l1 W] [--carry [PNG]]
+      [--mlp-width W] [--ema D] [--block-label [--block-front | --block-order] [--action-input]] \
+      [--blur-l1 W] [--carry [PNG]]
 
 --mask-noise SIGMA (Gaussian noise on the mask logits in training, grown from 0 over the first
 --noise-ramp of the steps) and --mask-l1 W (W x the layers' mean mask in the loss) are the
@@ -41,8 +42,9 @@ the frame could come from it); --keypoints lets the motion MLP read its features
 points; --depth lets the motion CNN read the given frame's depth image; --mlp-width W makes
 the motion MLP two hidden layers of W units (repeated in session 28: not kept either).
 Session 28: --ema D evaluates an exponential moving average of the weights (not kept);
---block-label [--block-front] adds session 23's upper bound, a layer whose mask is the block's
-true segmentation, with --follow's gates, behind (in front of) the others; --blur-l1 W adds the
+--block-label [--block-front | --block-order] [--action-input] adds session 23's upper bound,
+a layer whose mask is the block's true segmentation, with --follow's gates, behind (in front
+of; either, chosen per step) the others, its motion MLP reading the action too; --blur-l1 W adds the
 L1 of the frames blurred at radii 2, 4 and 8; --carry [PNG] also scores the 8-step windows
 where the block starts to move. The variants' nets are in bench/layer_variants.py.
 --masks writes, for val episodes 0-2, the given frame, each layer's mask, the fill and the
@@ -153,7 +155,7 @@ def carry_score(net, episodes, norm, horizon=8, strip=None):
     """Block MSE over copy_last's (ratio of the means) and arm MSE ratio on carry_windows;
     `strip`: a PNG of each window's real and imagined rows."""
     found, rows = {"model": [], "copy_last": []}, []
-    net.gate_history = []
+    net.gate_history, net.order_history = [], []
     for e, start in carry_windows(episodes, horizon):
         frames, seg, acts = (x[start:] for x in episodes[e])
         pred = wp.goal1.to_uint8(net(frames[:1], torch.tensor(norm(acts[:horizon]))[None])[0])
@@ -170,7 +172,10 @@ def carry_score(net, episodes, norm, horizon=8, strip=None):
         back = torch.stack(net.gate_history)[:, 0, row].view(-1, horizon, net.layers)
         print("  the block layer's follow gates on the carry windows (per step, max over layers):",
               " ".join(f"{g:.3f}" for g in back.amax(-1).mean(0).tolist()))
-    net.gate_history = None
+    if net.order_history:  # --block-order: how far the block's layer is drawn in front
+        print("  the block layer in front on the carry windows (per step):", " ".join(
+            f"{g:.2f}" for g in np.reshape(net.order_history, (-1, horizon)).mean(0)))
+    net.gate_history = net.order_history = None
     return len(found["model"]), r["model"]["obj"] / r["copy_last"]["obj"], \
         r["model"]["arm"] / r["copy_last"]["arm"]
 

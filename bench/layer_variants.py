@@ -129,6 +129,7 @@ class FollowLayerNet(VariantLayerNet):
         inc = super().step_maps(current, first, maps, action)
         handle.remove()
         others = 1 - torch.eye(k)
+        self.hidden = hidden[0]
         self.gates = torch.sigmoid(self.follow_head(hidden[0])).view(b, k, k) * others
         if getattr(self, "gate_history", None) is not None:  # carry_score's report
             self.gate_history.append(self.gates)
@@ -142,19 +143,42 @@ class FollowLayerNet(VariantLayerNet):
 
 class LabelledBlockNet(FollowLayerNet):
     """`--block-label`: the upper bound of a layer for the block (docs/motion.md, session 23),
-    with `--follow`'s gates: one more layer, at the back (in front with `front`), whose mask is the block's true
-    segmentation on the given frame (grown by a pixel), looked up by the given frame."""
+    with `--follow`'s gates: one more layer, at the back (in front with `front`), whose mask is
+    the block's true segmentation on the given frame (grown by a pixel), looked up by the given
+    frame. `order` (with `front`): each step a head chooses between drawing it in front of the
+    other layers and behind them (a blend of the two frames, its logit noisy in training as the
+    masks' are), so that it can pass behind the gripper before a grasp and go with it after."""
 
     def __init__(self, action_dim, layers, channels, follow_bias=-4.0, front=False,
-                 action_input=False, **kw):
+                 action_input=False, order=False, **kw):
         super().__init__(action_dim, layers + 1, channels, follow_bias, **kw)
-        self.labels, self.front, self.action_input = FrameLookup(), front, action_input
+        self.labels, self.front, self.action_input = FrameLookup(), front or order, action_input
         if action_input:  # b and J read the step's action too: whether the gripper is closed
             self.motion_mlp[0] = torch.nn.Linear(mlp_inputs(self) + action_dim, 256)
+        self.order_head = torch.nn.Linear(256, 1) if order else None
+        if order:  # starts behind: the recipe's block is in the background
+            torch.nn.init.zeros_(self.order_head.weight)
+            torch.nn.init.constant_(self.order_head.bias, -2.0)
 
     def step_maps(self, current, first, maps, action):
         self.action = action  # for motion_features
-        return super().step_maps(current, first, maps, action)
+        inc = super().step_maps(current, first, maps, action)
+        if self.order_head is not None:
+            logit = self.order_head(self.hidden)
+            if self.training and self.mask_noise > 0:
+                logit = logit + self.mask_noise * torch.randn_like(logit)
+            self.in_front = torch.sigmoid(logit)[:, :, None, None]
+            if getattr(self, "order_history", None) is not None:  # carry_score's report
+                self.order_history.append(float(self.in_front[0]))
+        return inc
+
+    def render(self, first, masks, fill, maps):
+        front = super().render(first, masks, fill, maps)
+        if self.order_head is None:
+            return front
+        behind = list(range(1, self.layers)) + [0]
+        back = super().render(first, masks[:, behind], fill, maps[:, behind])
+        return self.in_front * front + (1 - self.in_front) * back
 
     def motion_features(self, current, first):
         features = super().motion_features(current, first)
@@ -355,6 +379,9 @@ def add_arguments(ap):
                          "--follow's gates (an upper bound, as session 23's)")
     ap.add_argument("--block-front", action="store_true",
                     help="--block-label's layer in front of the others instead of behind")
+    ap.add_argument("--block-order", action="store_true",
+                    help="with --block-label: each step, the block's layer drawn in front of "
+                         "the others or behind them, as a head chooses")
     ap.add_argument("--action-input", action="store_true",
                     help="with --block-label: the motion MLP reads the step's action too")
 
@@ -366,7 +393,7 @@ def build(args, action_dim, train, val):
     d, k, c = action_dim, args.layers, args.channels
     if args.block_label:
         net = LabelledBlockNet(d, k, c, args.follow_bias, args.block_front, args.action_input,
-                               **mask)
+                               args.block_order, **mask)
         for episodes in (train, val):
             net.add_labels(episodes)
     elif args.follow:
