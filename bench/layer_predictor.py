@@ -15,7 +15,7 @@ actions', arm / object MSE over copy_last's).
       [--moved-weight W] [--start-fraction F [--start-span N]] [--margin P [--margin-replicate]] \
       [--save NET.pt | --load NET.pt | --checkpoint RUN_DIR] [--masks OUT.png] [--ceiling] \
       [--score-from T] [--template T [--template-bias -4]] [--keypoints] [--depth] \
-      [--mlp-width W] [--ema D] [--block-label [--block-front | --block-order] [--action-input]] \
+      [--mlp-width W] [--ema D] [--block-label [--block-front | --block-order] [--action-input] [--memory N]] \
       [--blur-l1 W] [--carry [PNG]]
 
 --mask-noise SIGMA (Gaussian noise on the mask logits in training, grown from 0 over the first
@@ -42,9 +42,10 @@ the frame could come from it); --keypoints lets the motion MLP read its features
 points; --depth lets the motion CNN read the given frame's depth image; --mlp-width W makes
 the motion MLP two hidden layers of W units (repeated in session 28: not kept either).
 Session 28: --ema D evaluates an exponential moving average of the weights (not kept);
---block-label [--block-front | --block-order] [--action-input] adds session 23's upper bound,
-a layer whose mask is the block's true segmentation, with --follow's gates, behind (in front
-of; either, chosen per step) the others, its motion MLP reading the action too; --blur-l1 W adds the
+--block-label [--block-front | --block-order] [--action-input] [--memory N] adds session 23's
+upper bound, a layer whose mask is the block's true segmentation, with --follow's gates, behind
+(in front of; either, chosen per step) the others, its motion MLP reading the action too (a
+GRU state of N units carried across the steps); --blur-l1 W adds the
 L1 of the frames blurred at radii 2, 4 and 8; --carry [PNG] also scores the 8-step windows
 where the block starts to move. The variants' nets are in bench/layer_variants.py.
 --masks writes, for val episodes 0-2, the given frame, each layer's mask, the fill and the

@@ -150,19 +150,31 @@ class LabelledBlockNet(FollowLayerNet):
     masks' are), so that it can pass behind the gripper before a grasp and go with it after."""
 
     def __init__(self, action_dim, layers, channels, follow_bias=-4.0, front=False,
-                 action_input=False, order=False, **kw):
+                 action_input=False, order=False, memory=0, **kw):
         super().__init__(action_dim, layers + 1, channels, follow_bias, **kw)
         self.labels, self.front, self.action_input = FrameLookup(), front or order, action_input
-        if action_input:  # b and J read the step's action too: whether the gripper is closed
-            self.motion_mlp[0] = torch.nn.Linear(mlp_inputs(self) + action_dim, 256)
+        extra = (action_dim if action_input else 0) + memory
+        if extra:  # b and J read the step's action too (whether the gripper is closed), a memory
+            self.motion_mlp[0] = torch.nn.Linear(mlp_inputs(self) + extra, 256)
         self.order_head = torch.nn.Linear(256, 1) if order else None
         if order:  # starts behind: the recipe's block is in the background
             torch.nn.init.zeros_(self.order_head.weight)
             torch.nn.init.constant_(self.order_head.bias, -2.0)
+        # `memory` units carried across a rollout's steps (a GRU over the MLP's output and the
+        # action): whether the block was grasped is not in the imagined frame
+        self.memory = torch.nn.GRUCell(256 + action_dim, memory) if memory else None
+        self.state = None
+
+    def forward(self, first, actions, frames_in=None, fixed=None):
+        if self.memory is not None:
+            self.state = torch.zeros(first.shape[0], self.memory.hidden_size)
+        return super().forward(first, actions, frames_in, fixed)
 
     def step_maps(self, current, first, maps, action):
         self.action = action  # for motion_features
         inc = super().step_maps(current, first, maps, action)
+        if self.memory is not None:
+            self.state = self.memory(torch.cat([self.hidden, action], 1), self.state)
         if self.order_head is not None:
             logit = self.order_head(self.hidden)
             if self.training and self.mask_noise > 0:
@@ -181,8 +193,12 @@ class LabelledBlockNet(FollowLayerNet):
         return self.in_front * front + (1 - self.in_front) * back
 
     def motion_features(self, current, first):
-        features = super().motion_features(current, first)
-        return torch.cat([features, self.action], 1) if self.action_input else features
+        features = [super().motion_features(current, first)]
+        if self.action_input:
+            features.append(self.action)
+        if self.memory is not None:
+            features.append(self.state)
+        return torch.cat(features, 1)
 
     def add_labels(self, episodes, label=2):
         for frames, seg, _ in episodes:
@@ -382,6 +398,9 @@ def add_arguments(ap):
     ap.add_argument("--block-order", action="store_true",
                     help="with --block-label: each step, the block's layer drawn in front of "
                          "the others or behind them, as a head chooses")
+    ap.add_argument("--memory", type=int, default=0, metavar="N",
+                    help="with --block-label: N GRU units carried across a rollout's steps, "
+                         "read by the motion MLP")
     ap.add_argument("--action-input", action="store_true",
                     help="with --block-label: the motion MLP reads the step's action too")
 
@@ -393,7 +412,7 @@ def build(args, action_dim, train, val):
     d, k, c = action_dim, args.layers, args.channels
     if args.block_label:
         net = LabelledBlockNet(d, k, c, args.follow_bias, args.block_front, args.action_input,
-                               args.block_order, **mask)
+                               args.block_order, args.memory, **mask)
         for episodes in (train, val):
             net.add_labels(episodes)
     elif args.follow:
