@@ -15,8 +15,8 @@ actions', arm / object MSE over copy_last's).
       [--moved-weight W] [--start-fraction F [--start-span N]] [--margin P [--margin-replicate]] \
       [--save NET.pt | --load NET.pt | --checkpoint RUN_DIR] [--masks OUT.png] [--ceiling] \
       [--score-from T] [--template T [--template-bias -4]] [--keypoints] [--depth] \
-      [--mlp-width W] [--ema D] [--block-label [--block-front | --block-order] [--action-input] [--memory N]] \
-      [--blur-l1 W] [--carry [PNG]]
+      [--mlp-width W] [--ema D] [--blur-l1 W] [--carry [PNG]] \
+      [--block-label [--block-front | --block-order] [--action-input] [--memory N]]
 
 --mask-noise SIGMA (Gaussian noise on the mask logits in training, grown from 0 over the first
 --noise-ramp of the steps) and --mask-l1 W (W x the layers' mean mask in the loss) are the
@@ -45,9 +45,9 @@ Session 28: --ema D evaluates an exponential moving average of the weights (not 
 --block-label [--block-front | --block-order] [--action-input] [--memory N] adds session 23's
 upper bound, a layer whose mask is the block's true segmentation, with --follow's gates, behind
 (in front of; either, chosen per step) the others, its motion MLP reading the action too (a
-GRU state of N units carried across the steps); --blur-l1 W adds the
-L1 of the frames blurred at radii 2, 4 and 8; --carry [PNG] also scores the 8-step windows
-where the block starts to move. The variants' nets are in bench/layer_variants.py.
+GRU state of N units carried across the steps); --blur-l1 W adds the L1 of the frames blurred
+at radii 2, 4 and 8; --carry [PNG] also scores the 8-step windows where the block starts to
+move. The variants' nets are in bench/layer_variants.py.
 --masks writes, for val episodes 0-2, the given frame, each layer's mask, the fill and the
 layers' cut-out. --ceiling (a diagnostic) also scores each rollout with its per-step maps fitted
 to the real frames by Adam from the predictor's own (the masks and fill kept): the
@@ -160,19 +160,18 @@ def carry_score(net, episodes, norm, horizon=8, strip=None):
     for e, start in carry_windows(episodes, horizon):
         frames, seg, acts = (x[start:] for x in episodes[e])
         pred = wp.goal1.to_uint8(net(frames[:1], torch.tensor(norm(acts[:horizon]))[None])[0])
-        real = wp.goal1.to_uint8(frames[1:horizon + 1])
-        copy = np.repeat(wp.goal1.to_uint8(frames[:1]), horizon, 0)
-        for name, p in (("model", pred), ("copy_last", copy)):
-            found[name].append(wp.scores(real, p, seg[1:horizon + 1]))
+        real, scored = wp.window_scores(frames, seg, {"model": pred})
+        for name, s in scored.items():
+            found[name].append(s)
         rows += [np.concatenate(list(x), 1) for x in (real, pred)]
     if strip:
         wp.write_strip(strip, rows)
     r = wp.means(found)
     if net.gate_history:  # how far the block's layer follows each other, per window step
         row = 0 if getattr(net, "front", False) else -1
-        back = torch.stack(net.gate_history)[:, 0, row].view(-1, horizon, net.layers)
+        gates = torch.stack(net.gate_history)[:, 0, row].view(-1, horizon, net.layers)
         print("  the block layer's follow gates on the carry windows (per step, max over layers):",
-              " ".join(f"{g:.3f}" for g in back.amax(-1).mean(0).tolist()))
+              " ".join(f"{g:.3f}" for g in gates.amax(-1).mean(0).tolist()))
     if net.order_history:  # --block-order: how far the block's layer is drawn in front
         print("  the block layer in front on the carry windows (per step):", " ".join(
             f"{g:.2f}" for g in np.reshape(net.order_history, (-1, horizon)).mean(0)))
@@ -343,11 +342,8 @@ def main():
         fit(net, train, norm, args.steps, args)
     seconds = time.time() - start
     net.eval()
-
-    def imagine(first, a, _):
-        return net(first, a)
     with torch.no_grad():
-        r, rows = wp.score(net, val, norm, imagine, args.score_from)
+        r, rows = wp.score(net, val, norm, lambda first, a, _: net(first, a), args.score_from)
     trained = (args.checkpoint or args.load or
                f"{args.layers} layers, {args.channels} ch, {args.steps} steps, "
                f"unroll {args.unroll}, {seconds:.0f} s")

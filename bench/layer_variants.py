@@ -147,7 +147,9 @@ class LabelledBlockNet(FollowLayerNet):
     the block's true segmentation on the given frame (grown by a pixel), looked up by the given
     frame. `order` (with `front`): each step a head chooses between drawing it in front of the
     other layers and behind them (a blend of the two frames, its logit noisy in training as the
-    masks' are), so that it can pass behind the gripper before a grasp and go with it after."""
+    masks' are), so that it can pass behind the gripper before a grasp and go with it after.
+    `action_input`: the motion MLP also reads the step's action; `memory` N: and a GRU state of N
+    units carried across the rollout's steps."""
 
     def __init__(self, action_dim, layers, channels, follow_bias=-4.0, front=False,
                  action_input=False, order=False, memory=0, **kw):

@@ -73,11 +73,10 @@ def main():
     found, rows = {}, []
     episodes = recipes.load(args.val)[:recipes.ROLLOUTS]
     for k, (frames, seg, _) in enumerate(episodes):
-        real = goal1.to_uint8(frames[1:H + 1])
         preds = {n: goal1.to_uint8(x) for n, x in rollouts(frames, H, args.upscale).items()}
-        preds["copy_last"] = np.repeat(goal1.to_uint8(frames[:1]), H, 0)
-        for name, p in preds.items():
-            found.setdefault(name, []).append(wp.scores(real, p, seg[1:H + 1]))
+        real, scored = wp.window_scores(frames, seg, preds)
+        for name, s in scored.items():
+            found.setdefault(name, []).append(s)
         if k < 3:
             rows += [np.concatenate(list(r), 1)
                      for r in (real, preds["recursive"], preds["from_first"])]

@@ -487,6 +487,15 @@ def scores(real, pred, seg):
             "obj": np.nanmean(goal1.region_mse(real, pred, seg, 2))}
 
 
+def window_scores(frames, seg, preds):
+    """scores() of each of `preds` ({name: uint8 [H, S, S, 3] imagined from frames[0]}) and of
+    copy_last against the real frames 1..H -> (those real frames, {name: scores})."""
+    h = len(next(iter(preds.values())))
+    real = goal1.to_uint8(frames[1:h + 1])
+    preds = dict(preds, copy_last=np.repeat(goal1.to_uint8(frames[:1]), h, 0))
+    return real, {name: scores(real, p, seg[1:h + 1]) for name, p in preds.items()}
+
+
 def score(net, episodes, norm, imagine_fn=None, start=0):
     """Means over val episodes 0..ROLLOUTS-1 of scores() for the net's rollout from frame
     `start` under the logged and the reversed actions and for copy_last, and strip rows of
@@ -505,10 +514,9 @@ def score(net, episodes, norm, imagine_fn=None, start=0):
                           torch.tensor(retrace_actions(raw, norm))[None])
         preds = {name: goal1.to_uint8(imagine_fn(frames[:1], a, r)[0])
                  for name, (a, r) in runs.items()}
-        real = goal1.to_uint8(frames[1:H + 1])
-        preds["copy_last"] = np.repeat(goal1.to_uint8(frames[:1]), H, 0)
-        for name, p in preds.items():
-            found[name].append(scores(real, p, seg[1:H + 1]))
+        real, scored = window_scores(frames, seg, preds)
+        for name, s in scored.items():
+            found[name].append(s)
         if k < 3:
             rows += [np.concatenate(list(r), 1) for r in (real, preds["model"], preds["reversed"])]
     return means(found), rows
