@@ -16,7 +16,8 @@ actions', arm / object MSE over copy_last's).
       [--save NET.pt | --load NET.pt | --checkpoint RUN_DIR] [--masks OUT.png] [--ceiling] \
       [--score-from T] [--template T [--template-bias -4]] [--keypoints] [--depth] \
       [--mlp-width W] [--ema D] [--blur-l1 W] [--carry [PNG]] \
-      [--block-label [--block-front | --block-order] [--action-input] [--memory N]]
+      [--block-label [--block-front | --block-order] [--action-input] [--memory N]] \
+      [--summed [--hybrid] [--no-step-input]] [--peek] [--carry-choice] [--per-episode [PNG]]
 
 --mask-noise SIGMA (Gaussian noise on the mask logits in training, grown from 0 over the first
 --noise-ramp of the steps) and --mask-l1 W (W x the layers' mean mask in the loss) are the
@@ -47,7 +48,13 @@ upper bound, a layer whose mask is the block's true segmentation, with --follow'
 (in front of; either, chosen per step) the others, its motion MLP reading the action too (a
 GRU state of N units carried across the steps); --blur-l1 W adds the L1 of the frames blurred
 at radii 2, 4 and 8; --carry [PNG] also scores the 8-step windows where the block starts to
-move. The variants' nets are in bench/layer_variants.py.
+move. Session 29: --summed reads each layer's map at once from the given frame and the actions
+summed so far (--hybrid: and the imagined frame; --no-step-input: without the step's index);
+--peek, a diagnostic, shows the motion CNN the real frame each step leads to; --carry-choice
+lets a learned layer carry the labelled block from a step on, the carry chosen (winner takes
+all) instead of blended; --per-episode [PNG] prints the arm at step 8 per val episode and over
+the episodes whose given frame shows the arm and the others (PNG: the others' rows). None is
+kept. The variants' nets are in bench/layer_variants.py.
 --masks writes, for val episodes 0-2, the given frame, each layer's mask, the fill and the
 layers' cut-out. --ceiling (a diagnostic) also scores each rollout with its per-step maps fitted
 to the real frames by Adam from the predictor's own (the masks and fill kept): the
@@ -77,8 +84,12 @@ def fit(net, episodes, norm, steps, args):
         net.mask_noise = args.mask_noise * min(1.0, step / max(1, args.noise_ramp * steps))
         clips, actions, _, _, _, _ = wp.batch(episodes, norm, rng, args.unroll,
                                                      args.start_fraction, args.start_span)
+        if hasattr(net, "targets"):  # --carry-choice: the real frames pick the winning carry
+            net.targets = clips[:, 3:]
         pred = net(clips[:, 2], actions[:, 1:])
         loss = frame_loss(pred, clips, args.moved_weight)
+        if getattr(net, "aux_loss", None) is not None:
+            loss = loss + net.aux_loss
         if args.blur_l1 > 0:  # a block moved farther than its size still gets a gradient
             loss = loss + args.blur_l1 * blurred_l1(pred, clips[:, 3:])
         if args.mask_l1 > 0:  # what need not move stays in the background, copied exactly
@@ -93,6 +104,8 @@ def fit(net, episodes, norm, steps, args):
             average.update(net)
     if average is not None:
         average.copy_to(net)
+    if hasattr(net, "carries"):
+        print(f"  training windows won by a carry: {net.carries} of {net.windows}")
 
 
 class WeightAverage:
@@ -178,6 +191,33 @@ def carry_score(net, episodes, norm, horizon=8, strip=None):
     net.gate_history = net.order_history = None
     return len(found["model"]), r["model"]["obj"] / r["copy_last"]["obj"], \
         r["model"]["arm"] / r["copy_last"]["arm"]
+
+
+@torch.no_grad()
+def per_episode(net, episodes, norm, strip=None, hidden=50, horizon=8):
+    """Per scored val episode: the arm's MSE at the last step, the model's and copy_last's,
+    and how many robot pixels the given frame shows; then both sums over the episodes whose
+    given frame shows at least `hidden` robot pixels and over the others. `strip`: a PNG of
+    the others' real rows (from the given frame) over their imagined ones."""
+    sums, rows = {True: np.zeros(2), False: np.zeros(2)}, []
+    for k, (frames, seg, acts) in enumerate(episodes[:wp.recipes.ROLLOUTS]):
+        pred = wp.goal1.to_uint8(net(frames[:1], torch.tensor(norm(acts[:horizon]))[None])[0])
+        _, s = wp.window_scores(frames, seg, {"model": pred})
+        robot = int((seg[0] == 1).sum())
+        arm = np.array([s["model"]["arm8"], s["copy_last"]["arm8"]])
+        sums[robot >= hidden] += arm
+        print(f"  val episode {k}: arm at step {horizon} {arm[0]:.0f} (copy_last {arm[1]:.0f}, "
+              f"ratio {arm[0] / arm[1]:.2f}); robot pixels in the given frame: {robot}")
+        if robot < hidden:
+            given = wp.goal1.to_uint8(frames[:1])
+            rows += [np.concatenate(list(wp.goal1.to_uint8(frames[:horizon + 1])), 1),
+                     np.concatenate(list(given) + list(pred), 1)]
+    for shown, (model, copy) in sums.items():
+        print(f"  episodes whose given frame shows {'at least' if shown else 'under'} {hidden} "
+              f"robot pixels: arm at step {horizon} / copy_last "
+              f"{model / max(copy, 1e-9):.2f} (ratio of sums)")
+    if strip and rows:
+        wp.write_strip(strip, rows)
 
 
 def moved_pixels(clips, levels=30):
@@ -319,6 +359,9 @@ def main():
     ap.add_argument("--carry", metavar="PNG", nargs="?", const="",
                     help="also score the carry windows (block and arm over copy_last's); "
                     "PNG: their real and imagined rows")
+    ap.add_argument("--per-episode", metavar="PNG", nargs="?", const="",
+                    help="also the arm at step 8 per val episode, and over the episodes whose "
+                    "given frame shows the arm and the others; PNG: the others' rows")
     ap.add_argument("--ema", type=float, default=0.0, metavar="D",
                     help="evaluate an exponential moving average of the weights (decay D)")
     ap.add_argument("--save", help="the trained net's state_dict (torch.save)")
@@ -351,6 +394,8 @@ def main():
     if args.carry is not None:
         n, block, arm = carry_score(net, val, norm, strip=args.carry)
         print(f"  carry windows ({n}): object / copy_last {block:.2f}, arm / copy_last {arm:.2f}")
+    if args.per_episode is not None:
+        per_episode(net, val, norm, args.per_episode)
     if args.strip:
         wp.write_strip(args.strip, rows)
     if args.save:

@@ -22,6 +22,14 @@ def mlp_inputs(net):
     return net.motion_mlp[0].in_features
 
 
+def add_block_labels(lookup, episodes, label=2):
+    """The block's true segmentation on each frame of `episodes`, grown by a pixel, into the
+    FrameLookup `lookup` (--block-label, --carry-choice)."""
+    for frames, seg, _ in episodes:
+        block = torch.from_numpy((seg == label).astype(np.float32))[:, None]
+        lookup.add(frames, F.max_pool2d(block, 3, 1, 1))
+
+
 class FrameLookup:
     """Per-frame data that a variant reads beside the given frame (its depth, a label), looked
     up by the frame's bytes, so training windows and scored rollouts from any start get it
@@ -202,11 +210,6 @@ class LabelledBlockNet(FollowLayerNet):
             features.append(self.state)
         return torch.cat(features, 1)
 
-    def add_labels(self, episodes, label=2):
-        for frames, seg, _ in episodes:
-            block = torch.from_numpy((seg == label).astype(np.float32))[:, None]
-            self.labels.add(frames, F.max_pool2d(block, 3, 1, 1))
-
     def sprites(self, first):
         masks, fill = super().sprites(first)
         block = self.labels(first)
@@ -368,6 +371,210 @@ class TemplateLayerNet(LayerNet):
         return lt.render(first, masks, fill, maps[:, :k], s, background=background)
 
 
+class SummedActionNet(LayerNet):
+    """`--summed`: each layer's map after step t is read at once from the given frame and the
+    actions summed over steps 1..t, instead of being composed of increments each read off the
+    imagined frame before it. In the tabletop simulator (as on end-effector-delta robots) the
+    gripper's pose after t steps is its start pose plus the summed actions, so where it is in
+    the image is a function of the given frame and that sum: nothing compounds, and no step
+    reads an imagined frame that may already be wrong. The map keeps the recipe's form, linear
+    in what the step reads (the sum and the step's action) with coefficients that depend on
+    it: p_t = b + J [sum_t, a_t], read about the layer's centroid on the given frame.
+    `hybrid`: the motion CNN reads the imagined frame as well, as the recipe's; `step_input`:
+    the MLP reads the step's index too (t / 8, beyond training's range past its unroll)."""
+
+    SUM_SCALE = 4.0  # normalised actions summed over a few steps, brought back near unit size
+
+    def __init__(self, action_dim, layers, channels, hybrid=False, step_input=True,
+                 linear_scale=0.5, **kw):
+        super().__init__(action_dim, layers, channels, **kw)
+        self.hybrid, self.step_input, self.linear_scale = hybrid, step_input, linear_scale
+        reads = 2 * action_dim  # the sum and the step's action
+        width = self.motion_mlp[0].out_features
+        cells = mlp_inputs(self) - layers * lt.AFFINE
+        self.motion_mlp[0] = torch.nn.Linear(cells + reads + 1, width)
+        self.motion_head = torch.nn.Linear(width, layers * lt.AFFINE * (reads + 1))
+        torch.nn.init.zeros_(self.motion_head.weight)
+        torch.nn.init.zeros_(self.motion_head.bias)
+
+    def forward(self, first, actions, frames_in=None, fixed=None):
+        b, h, d = actions.shape
+        k, reads = self.layers, 2 * d
+        masks, fill = self.sprites(first)
+        self.last_masks = masks
+        centre0 = self.centroids(masks)
+        given = self.motion_cnn(torch.cat([first, first], 1)).flatten(1)
+        summed = torch.cumsum(actions, 1) / self.SUM_SCALE
+        current, out = first, []
+        for t in range(h):
+            feats = (self.motion_cnn(torch.cat([current.detach(), first], 1)).flatten(1)
+                     if self.hybrid else given)
+            read = torch.cat([summed[:, t], actions[:, t]], 1)
+            step = torch.full((b, 1), (t + 1) / 8.0 if self.step_input else 0.0)
+            hidden = self.motion_mlp(torch.cat([feats, read, step], 1))
+            o = self.motion_head(hidden).view(b, k, lt.AFFINE, reads + 1)
+            p = o[..., 0] + (o[..., 1:] * read.view(b, 1, 1, reads)).sum(-1)
+            p = torch.cat([self.linear_scale * torch.tanh(p[..., :4]),
+                           p[..., 4:] * self.flow_scale], -1)
+            frame = self.render(first, masks, fill, lt.increment(p, centre0))
+            out.append(frame)
+            current = frame if frames_in is None else frames_in[:, t]
+        return torch.stack(out, 1)
+
+
+class PeekLayerNet(LayerNet):
+    """`--peek`, a diagnostic (as bench/warp_predictor.py's for the warp kind): the motion CNN
+    reads the real frame each step leads to in place of the imagined frame it starts from, so
+    the answer is in its input. If its rollouts still miss the arm by what the recipe's do,
+    the motion CNN and MLP cannot read a layer's place off a frame precisely enough, whatever
+    the frame holds; if they come near the fitted maps' ceiling, what the recipe lacks is
+    information (rollouts scored with it mean nothing else)."""
+
+    def __init__(self, action_dim, layers, channels, **kw):
+        super().__init__(action_dim, layers, channels, **kw)
+        self.futures = FrameLookup()
+
+    def add_futures(self, episodes, horizon=8):
+        for frames, _, _ in episodes:
+            last = len(frames) - 1
+            self.futures.add(frames, torch.stack([
+                frames[[min(t + s, last) for s in range(1, horizon + 1)]]
+                for t in range(len(frames))]))
+
+    def forward(self, first, actions, frames_in=None, fixed=None):
+        self.peeked, self.step = self.futures(first), 0
+        return super().forward(first, actions, frames_in, fixed)
+
+    def step_maps(self, current, first, maps, action):
+        self.step += 1
+        return super().step_maps(self.peeked[:, self.step - 1], first, maps, action)
+
+
+class CarryChoiceNet(LayerNet):
+    """`--carry-choice`: session 23's labelled block layer (its mask the block's true
+    segmentation on the given frame, behind the learned layers), which never moves by itself
+    but may, from some step on, be carried by one of the learned layers: its map is then that
+    layer's motion since that step. Which carry (none, or layer j from step s) is a choice, not
+    a blend: training renders every choice and learns from the best one per window (winner
+    takes all, as multiple-choice learning), and a head learns, per step, whether a carry
+    starts now and with which layer (cross-entropy to the winner). A deterministic blend of
+    "carried" and "left" is what a frame L1 makes of a gate the model is unsure of: a block
+    that fades or shrinks (session 28). Rollouts take the head's most likely class each step."""
+
+    TIE = 1e-5  # a choice must beat the earlier ones by this much (none first, late carries next)
+
+    def __init__(self, action_dim, layers, channels, **kw):
+        super().__init__(action_dim, layers + 1, channels, **kw)
+        self.labels, self.targets, self.aux_loss = FrameLookup(), None, None
+        width = self.motion_mlp[0].out_features
+        self.carry_head = torch.nn.Linear(width + action_dim, layers + 1)  # not yet, layer j
+        torch.nn.init.zeros_(self.carry_head.weight)
+        with torch.no_grad():  # starts at "not yet" (p = 0.71 against three layers)
+            self.carry_head.bias.copy_(torch.tensor([2.0] + [0.0] * layers))
+
+    def sprites(self, first):
+        masks, fill = super().sprites(first)
+        return torch.cat([masks[:, :-1], self.labels(first)], 1), fill
+
+    def step_maps(self, current, first, maps, action):
+        hidden = self.motion_hidden(current, first, maps)
+        # the head learns from the motion's features, not into them
+        self.carry_logits = self.carry_head(torch.cat([hidden.detach(), action], 1))
+        inc = self.increments(hidden, action, self.layers)
+        return torch.cat([inc[:, :-1], torch.zeros_like(inc[:, -1:])], 1)  # the block: still
+
+    def options(self, h):
+        """[(layer, start step)] the carries a window may take; (None, h): none."""
+        return [(None, h)] + [(j, s) for s in reversed(range(h)) for j in range(self.layers - 1)]
+
+    @staticmethod
+    def carried(history, j, s):
+        """[B, H, 3, 3] the block's maps when layer j carries it from step s."""
+        maps = torch.stack(history, 1)
+        if j is None:
+            return torch.eye(3).expand(maps.shape[0], maps.shape[1], 3, 3)
+        before = torch.eye(3).expand(maps.shape[0], 3, 3) if s == 0 else maps[:, s - 1, j]
+        moved = maps[:, :, j] @ torch.linalg.inv(before)[:, None]
+        steps = torch.arange(maps.shape[1])[None, :, None, None]
+        return torch.where(steps >= s, moved, torch.eye(3))
+
+    def draw(self, first, masks, fill, history, block_maps):
+        """[B, H, 3, S, S] the frames with the block at `block_maps` [B, H, 3, 3]."""
+        return torch.stack([self.render(first, masks, fill, torch.cat(
+            [m[:, :-1], block_maps[:, t, None]], 1)) for t, m in enumerate(history)], 1)
+
+    def forward(self, first, actions, frames_in=None, fixed=None):
+        b, h = actions.shape[:2]
+        masks, fill = self.sprites(first)
+        self.last_masks = masks[:, :-1]
+        centre0 = self.centroids(masks)
+        maps = torch.eye(3).expand(b, self.layers, 3, 3)
+        current, history, logits = first, [], []
+        started = torch.full((b,), -1)  # rollouts: the layer carrying the block, from when
+        since = torch.zeros(b, dtype=torch.long)
+        for t in range(h):
+            inc = self.step_maps(current.detach(), first, maps, actions[:, t])
+            maps = lt.increment(inc, lt.apply(maps, centre0)) @ maps
+            history.append(maps)
+            logits.append(self.carry_logits)
+            if not self.training:
+                choice = self.carry_logits.argmax(1) - 1
+                begin = (started < 0) & (choice >= 0)
+                since = torch.where(begin, torch.full_like(since, t), since)
+                started = torch.where(begin, choice, started)
+            block = self.rollout_carry(history, started, since) if not self.training else \
+                torch.eye(3).expand(b, 1, 3, 3)
+            current = self.render(first, masks, fill, torch.cat([maps[:, :-1], block[:, -1:]], 1))
+        if not self.training:
+            return self.draw(first, masks, fill, history, self.rollout_carry(history, started,
+                                                                             since, all_steps=True))
+        return self.train_choice(first, masks, fill, history, torch.stack(logits, 1))
+
+    def rollout_carry(self, history, started, since, all_steps=False):
+        """[B, T, 3, 3] (the last step's, or every step's) block maps of a rollout's carries."""
+        per_option = {}
+        out = []
+        for i in range(len(started)):
+            j = int(started[i])
+            key = (None, len(history)) if j < 0 else (j, int(since[i]))
+            if key not in per_option:
+                per_option[key] = self.carried(history, *key)
+            out.append(per_option[key][i])
+        maps = torch.stack(out)
+        return maps if all_steps else maps[:, -1:]
+
+    def train_choice(self, first, masks, fill, history, logits):
+        """The winning carry's frames per window; its cross-entropy into self.aux_loss."""
+        h, real = len(history), self.targets
+        options = self.options(h)
+        with torch.no_grad():
+            losses = torch.stack([(self.draw(first, masks, fill, history,
+                                             self.carried(history, j, s)) - real).abs()
+                                  .mean((1, 2, 3, 4)) for j, s in options], 1)
+        best = losses.min(1, keepdim=True).values
+        winner = ((losses <= best + self.TIE).float().cumsum(1) == 0).sum(1)  # first within TIE
+        block = torch.stack([self.carried(history, *options[int(w)])[i]
+                             for i, w in enumerate(winner)])
+        frames = self.draw(first, masks, fill, history, block)
+        target = torch.zeros(len(winner), h, dtype=torch.long)
+        weight = torch.ones(len(winner), h)
+        for i, w in enumerate(winner.tolist()):
+            j, s = options[w]
+            if j is not None:
+                target[i, s] = j + 1
+                weight[i, s + 1:] = 0  # once carried, no more to choose
+        ce = F.cross_entropy(logits.flatten(0, 1), target.flatten(), reduction="none")
+        self.aux_loss = (ce * weight.flatten()).sum() / weight.sum()
+        self.carries = getattr(self, "carries", 0) + int((winner > 0).sum())
+        self.windows = getattr(self, "windows", 0) + len(winner)
+        return frames
+
+
+class PeekKeypointNet(PeekLayerNet, KeypointLayerNet):
+    """`--peek --keypoints`: whether the motion MLP reading feature points places the layers
+    when the answer is in its input."""
+
+
 def add_arguments(ap):
     """The options that pick a variant (build()); without them the net is the recipe's."""
     ap.add_argument("--linear", choices=("affine", "similarity", "scale"), default="affine",
@@ -403,6 +610,18 @@ def add_arguments(ap):
     ap.add_argument("--memory", type=int, default=0, metavar="N",
                     help="with --block-label: N GRU units carried across a rollout's steps, "
                          "read by the motion MLP")
+    ap.add_argument("--summed", action="store_true",
+                    help="each layer's map read at once from the given frame and the actions "
+                         "summed so far, not composed of per-step increments")
+    ap.add_argument("--hybrid", action="store_true",
+                    help="with --summed: the motion CNN reads the imagined frame too")
+    ap.add_argument("--no-step-input", action="store_true",
+                    help="with --summed: the MLP does not read the step's index")
+    ap.add_argument("--peek", action="store_true",
+                    help="a diagnostic: the motion CNN reads the real frame each step leads to")
+    ap.add_argument("--carry-choice", action="store_true",
+                    help="the labelled block layer carried by a learned layer from a step on, "
+                         "chosen (winner takes all), not blended")
     ap.add_argument("--action-input", action="store_true",
                     help="with --block-label: the motion MLP reads the step's action too")
 
@@ -416,7 +635,17 @@ def build(args, action_dim, train, val):
         net = LabelledBlockNet(d, k, c, args.follow_bias, args.block_front, args.action_input,
                                args.block_order, args.memory, **mask)
         for episodes in (train, val):
-            net.add_labels(episodes)
+            add_block_labels(net.labels, episodes)
+    elif args.carry_choice:
+        net = CarryChoiceNet(d, k, c, **mask)
+        for episodes in (train, val):
+            add_block_labels(net.labels, episodes)
+    elif args.peek:
+        net = (PeekKeypointNet if args.keypoints else PeekLayerNet)(d, k, c, **mask)
+        for episodes in (train, val):
+            net.add_futures(episodes)
+    elif args.summed:
+        net = SummedActionNet(d, k, c, args.hybrid, not args.no_step_input, **mask)
     elif args.follow:
         net = FollowLayerNet(d, k, c, args.follow_bias, linear=args.linear,
                              fill_residual=args.fill_residual, **mask)

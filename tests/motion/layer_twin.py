@@ -52,11 +52,18 @@ class LayerNet(nn.Module):
     def step_maps(self, current, first, maps, action):
         """[B, K, 6] affine increments for this step: b + J a (linear part 0.2 tanh(.), translation
         in flow_scale pixels)."""
-        b, k, d = current.shape[0], maps.shape[1], self.action_dim  # k: the layers that move
+        return self.increments(self.motion_hidden(current, first, maps), action, maps.shape[1])
+
+    def motion_hidden(self, current, first, maps):
+        """[B, 256] the motion MLP's output for the layers at `maps` (a hook for variants)."""
         feats = self.motion_features(current, first)
         state = (maps[:, :, :2, :] - torch.eye(3)[:2]).flatten(1)  # [B, K * 6]
-        out = self.motion_head(self.motion_mlp(torch.cat([feats, state * 0.05], 1)))
-        out = out.view(b, k, AFFINE, d + 1)
+        return self.motion_mlp(torch.cat([feats, state * 0.05], 1))
+
+    def increments(self, hidden, action, k):
+        """[B, K, 6] b + J a for `k` layers from the motion MLP's output."""
+        b, d = hidden.shape[0], self.action_dim
+        out = self.motion_head(hidden).view(b, k, AFFINE, d + 1)
         inc = out[..., 0] + (out[..., 1:] * action.view(b, 1, 1, d)).sum(-1)
         # bounded linear part: a step never shrinks or shears a layer to a singular map
         return torch.cat([0.2 * torch.tanh(inc[..., :4]), inc[..., 4:] * self.flow_scale], -1)
