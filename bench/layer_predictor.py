@@ -17,7 +17,8 @@ actions', arm / object MSE over copy_last's).
       [--score-from T] [--template T [--template-bias -4]] [--keypoints] [--depth] \
       [--mlp-width W] [--ema D] [--blur-l1 W] [--carry [PNG]] \
       [--block-label [--block-front | --block-order] [--action-input] [--memory N]] \
-      [--summed [--hybrid] [--no-step-input]] [--peek] [--carry-choice] [--per-episode [PNG]]
+      [--summed [--hybrid] [--no-step-input]] [--peek] [--carry-choice [--carry-learned]] \
+      [--per-episode [PNG]]
 
 --mask-noise SIGMA (Gaussian noise on the mask logits in training, grown from 0 over the first
 --noise-ramp of the steps) and --mask-l1 W (W x the layers' mean mask in the loss) are the
@@ -52,9 +53,9 @@ move. Session 29: --summed reads each layer's map at once from the given frame a
 summed so far (--hybrid: and the imagined frame; --no-step-input: without the step's index);
 --peek, a diagnostic, shows the motion CNN the real frame each step leads to; --carry-choice
 lets a learned layer carry the labelled block from a step on, the carry chosen (winner takes
-all) instead of blended; --per-episode [PNG] prints the arm at step 8 per val episode and over
-the episodes whose given frame shows the arm and the others (PNG: the others' rows). None is
-kept. The variants' nets are in bench/layer_variants.py.
+all) instead of blended (--carry-learned: the carried layer's mask learned, not the label);
+--per-episode [PNG] prints the arm at step 8 per val episode and over the episodes whose given
+frame shows the arm and the others (PNG: the others' rows). None is kept. The variants' nets are in bench/layer_variants.py.
 --masks writes, for val episodes 0-2, the given frame, each layer's mask, the fill and the
 layers' cut-out. --ceiling (a diagnostic) also scores each rollout with its per-step maps fitted
 to the real frames by Adam from the predictor's own (the masks and fill kept): the

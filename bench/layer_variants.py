@@ -463,9 +463,10 @@ class CarryChoiceNet(LayerNet):
 
     TIE = 1e-5  # a choice must beat the earlier ones by this much (none first, late carries next)
 
-    def __init__(self, action_dim, layers, channels, **kw):
+    def __init__(self, action_dim, layers, channels, learned=False, **kw):
         super().__init__(action_dim, layers + 1, channels, **kw)
         self.labels, self.targets, self.aux_loss = FrameLookup(), None, None
+        self.learned = learned
         width = self.motion_mlp[0].out_features
         self.carry_head = torch.nn.Linear(width + action_dim, layers + 1)  # not yet, layer j
         torch.nn.init.zeros_(self.carry_head.weight)
@@ -474,6 +475,8 @@ class CarryChoiceNet(LayerNet):
 
     def sprites(self, first):
         masks, fill = super().sprites(first)
+        if self.learned:  # --carry-learned: the carried layer's mask is learned too
+            return masks, fill
         return torch.cat([masks[:, :-1], self.labels(first)], 1), fill
 
     def step_maps(self, current, first, maps, action):
@@ -506,7 +509,7 @@ class CarryChoiceNet(LayerNet):
     def forward(self, first, actions, frames_in=None, fixed=None):
         b, h = actions.shape[:2]
         masks, fill = self.sprites(first)
-        self.last_masks = masks[:, :-1]
+        self.last_masks = masks if self.learned else masks[:, :-1]
         centre0 = self.centroids(masks)
         maps = torch.eye(3).expand(b, self.layers, 3, 3)
         current, history, logits = first, [], []
@@ -622,6 +625,8 @@ def add_arguments(ap):
     ap.add_argument("--carry-choice", action="store_true",
                     help="the labelled block layer carried by a learned layer from a step on, "
                          "chosen (winner takes all), not blended")
+    ap.add_argument("--carry-learned", action="store_true",
+                    help="with --carry-choice: the carried layer's mask learned, not the label")
     ap.add_argument("--action-input", action="store_true",
                     help="with --block-label: the motion MLP reads the step's action too")
 
@@ -637,7 +642,7 @@ def build(args, action_dim, train, val):
         for episodes in (train, val):
             add_block_labels(net.labels, episodes)
     elif args.carry_choice:
-        net = CarryChoiceNet(d, k, c, **mask)
+        net = CarryChoiceNet(d, k, c, args.carry_learned, **mask)
         for episodes in (train, val):
             add_block_labels(net.labels, episodes)
     elif args.peek:
