@@ -55,7 +55,8 @@ summed so far (--hybrid: and the imagined frame; --no-step-input: without the st
 lets a learned layer carry the labelled block from a step on, the carry chosen (winner takes
 all) instead of blended (--carry-learned: the carried layer's mask learned, not the label);
 --per-episode [PNG] prints the arm at step 8 per val episode and over the episodes whose given
-frame shows the arm and the others (PNG: the others' rows). None is kept. The variants' nets are in bench/layer_variants.py.
+frame shows the arm and the others (PNG: the others' rows). None is kept. The variants' nets
+are in bench/layer_variants.py.
 --masks writes, for val episodes 0-2, the given frame, each layer's mask, the fill and the
 layers' cut-out. --ceiling (a diagnostic) also scores each rollout with its per-step maps fitted
 to the real frames by Adam from the predictor's own (the masks and fill kept): the

@@ -63,8 +63,8 @@ class VariantLayerNet(LayerNet):
         # whatever the masks, so nothing pushes them to 0 or 1 before the layers move
         return masks, (first + fill if self.fill_residual else fill)
 
-    def step_maps(self, current, first, maps, action):
-        inc = super().step_maps(current, first, maps, action)
+    def increments(self, hidden, action, k):
+        inc = super().increments(hidden, action, k)
         if self.linear != "affine":  # [[s, -r], [r, s]]: no shear; "scale": no rotation either
             scale, turn = inc[..., 0], inc[..., 1] * (self.linear == "similarity")
             inc = torch.cat([torch.stack([scale, -turn, turn, scale], -1), inc[..., 4:]], -1)
@@ -132,13 +132,10 @@ class FollowLayerNet(VariantLayerNet):
 
     def step_maps(self, current, first, maps, action):
         b, k = current.shape[0], self.layers
-        hidden = []
-        handle = self.motion_mlp.register_forward_hook(lambda m, i, o: hidden.append(o))
-        inc = super().step_maps(current, first, maps, action)
-        handle.remove()
+        self.hidden = self.motion_hidden(current, first, maps)
+        inc = self.increments(self.hidden, action, maps.shape[1])
         others = 1 - torch.eye(k)
-        self.hidden = hidden[0]
-        self.gates = torch.sigmoid(self.follow_head(hidden[0])).view(b, k, k) * others
+        self.gates = torch.sigmoid(self.follow_head(self.hidden)).view(b, k, k) * others
         if getattr(self, "gate_history", None) is not None:  # carry_score's report
             self.gate_history.append(self.gates)
         return inc
