@@ -328,6 +328,17 @@ def write_masks(path, net, episodes):
     wp.write_strip(path, rows)
 
 
+def add_prior_arguments(ap, pulled):
+    """--motion-prior, --prior-steps (motion_prior_loss on `pulled`) and --moved-weight
+    (frame_loss), as this script and bench/pose_arm.py take them."""
+    ap.add_argument("--motion-prior", type=float, default=0.0, metavar="W",
+                    help=f"W x the cross-entropy of {pulled} against the pixels that change in "
+                    "the window, fading to 0 over --prior-steps")
+    ap.add_argument("--prior-steps", type=float, default=0.3, metavar="FRACTION")
+    ap.add_argument("--moved-weight", type=float, default=0.0, metavar="W",
+                    help="the frame loss weighs the pixels that change in the window 1 + W")
+
+
 def main():
     ap = wp.arguments(__doc__, steps=1500, unroll=4, channels=32)
     ap.add_argument("--layers", type=int, default=3)
@@ -340,16 +351,11 @@ def main():
                     help="W times the layers' mean mask: static pixels stay in the background")
     ap.add_argument("--l1-ramp", type=float, default=0.0, metavar="FRACTION",
                     help="the mask L1 grows linearly from 0 over this fraction of the steps")
-    ap.add_argument("--motion-prior", type=float, default=0.0, metavar="W",
-                    help="W x the cross-entropy of the layers' union against the pixels that "
-                         "change in the window, fading to 0 over --prior-steps")
-    ap.add_argument("--prior-steps", type=float, default=0.3, metavar="FRACTION")
+    add_prior_arguments(ap, "the layers' union")
     ap.add_argument("--prior-layers", type=int, default=0, metavar="N",
                     help="the prior pulls only the union of the first N layers (0: all)")
     ap.add_argument("--static-only", action="store_true",
                     help="the motion prior only keeps the layers off what did not move")
-    ap.add_argument("--moved-weight", type=float, default=0.0, metavar="W",
-                    help="the frame loss weighs the pixels that change in the window 1 + W")
     ap.add_argument("--start-fraction", type=float, default=0.0, metavar="F",
                     help="this fraction of the windows starts in an episode's first frames")
     ap.add_argument("--start-span", type=int, default=0, metavar="N",
