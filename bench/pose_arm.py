@@ -70,13 +70,14 @@ class Renderer(nn.Module):
     Watters et al. 2019's spatial-broadcast decoder): the same function of (pose, position)
     everywhere, so an arm seen at one place can be drawn at another."""
 
-    def __init__(self, pose_dim, width, image_size):
+    def __init__(self, pose_dim, width, image_size, alpha_bias=-3.0):
         super().__init__()
         w = width
         self.mlp = nn.Sequential(nn.Conv2d(pose_dim + 2, w, 1), nn.ReLU(),
                                  nn.Conv2d(w, w, 1), nn.ReLU(), nn.Conv2d(w, w, 1), nn.ReLU(),
                                  nn.Conv2d(w, 4, 1))
         nn.init.constant_(self.mlp[-1].bias, -3.0)  # start transparent: the given frame copied
+        self.mlp[-1].bias.data[3] = alpha_bias  # (--alpha-bias 0: half opaque)
         self.register_buffer("grid", coordinates(image_size), persistent=False)
 
     def forward(self, pose):
@@ -88,10 +89,11 @@ class Renderer(nn.Module):
 
 
 class PoseArmNet(nn.Module):
-    def __init__(self, action_dim, pose_dim=8, channels=32, width=64, image_size=64):
+    def __init__(self, action_dim, pose_dim=8, channels=32, width=64, image_size=64,
+                 alpha_bias=-3.0):
         super().__init__()
         self.encoder = PoseEncoder(pose_dim, channels, image_size)
-        self.renderer = Renderer(pose_dim, width, image_size)
+        self.renderer = Renderer(pose_dim, width, image_size, alpha_bias)
         self.action_map = nn.Linear(action_dim, pose_dim, bias=False)
         self.correction = nn.Sequential(nn.Linear(pose_dim + action_dim, 128), nn.ReLU(),
                                         nn.Linear(128, pose_dim))
@@ -101,6 +103,7 @@ class PoseArmNet(nn.Module):
         # one layer (its mask and fill), never moved
         self.eraser = LayerNet(action_dim, layers=1, channels=channels, image_size=image_size)
         self.erase_label = None  # a FrameLookup of the arm's true mask (--erase-label)
+        self.flat_fill = False
 
     def step(self, pose, action):
         return pose + self.action_map(action) + self.correction(torch.cat([pose, action], 1))
@@ -119,6 +122,10 @@ class PoseArmNet(nn.Module):
             arm = self.erase_label(first)
             masks, fill = self.eraser.sprites(first * (1 - arm))
             masks = 1 - (1 - masks) * (1 - arm)
+            if self.flat_fill:  # only the renderer can draw an arm
+                outside = 1 - masks
+                fill = ((first * outside).sum((2, 3), keepdim=True) /
+                        outside.sum((2, 3), keepdim=True).clamp_min(1)).expand_as(first)
         self.last_masks = masks
         background = first * (1 - masks) + fill * masks
         self.background = background
@@ -185,6 +192,11 @@ def main():
                     help="(a diagnostic) the given frame's arm, by its true segmentation, is "
                     "always erased and the fill's U-Net does not see it: the model can no "
                     "longer copy the given frame's arm")
+    ap.add_argument("--flat-fill", action="store_true",
+                    help="(with --erase-label) the fill is the given frame's mean colour outside "
+                    "what is erased: no U-Net paints the arm back")
+    ap.add_argument("--alpha-bias", type=float, default=-3.0,
+                    help="the renderer's initial alpha logit (-3: transparent, 0: half)")
     ap.add_argument("--autoencode", type=float, default=0.0, metavar="W",
                     help="(with --consistency) W x the L1 of each real frame redrawn from the "
                     "pose the encoder reads off it")
@@ -196,7 +208,9 @@ def main():
     args = ap.parse_args()
     train, val, actions, norm = wp.setup(args)
     torch.set_flush_denormal(True)  # as wm-motion: saturated masks underflow (and slow down)
-    net = PoseArmNet(actions.shape[1], args.pose_dim, args.channels, args.width)
+    net = PoseArmNet(actions.shape[1], args.pose_dim, args.channels, args.width,
+                     alpha_bias=args.alpha_bias)
+    net.flat_fill = args.flat_fill
     if args.erase_label:
         net.erase_label = layer_variants.FrameLookup()
         for episodes in (train, val):
