@@ -29,6 +29,9 @@ Measured in session 30, not kept (docs/motion.md, "An arm drawn from a pose"): i
 the pose-drawn arm never starts; every label-free run ends copying the given frame exactly, and
 with --erase-label (the given frame's arm erased by its true mask, a diagnostic) the fill's
 U-Net paints a blurred static arm instead. --layers shows what the renderer draws.
+Session 31 found why (bench/pose_autoencoder.py): the renderer's colour starts black
+(tanh(-3), saturated), so the alpha takes the blame and dies within 20 steps; and while the
+pose says nothing yet, the L1's best picture is no arm. The defaults here are left as measured.
 """
 import time
 

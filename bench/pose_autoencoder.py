@@ -1,0 +1,303 @@
+#!/usr/bin/python3
+"""Issue 20, goal 2: can an arm be drawn from a pose at all, and can the pose be moved by the
+actions? Session 30's pose arm (bench/pose_arm.py) never started drawing: its alpha went to 0
+and it copied the given frame. Here the renderer is first learned alone, as an autoencoder:
+pose = encoder(x_t), x_t ~ renderer(pose) composited over a background made from another frame
+x_s of the same episode (s drawn independently of t):
+
+  --background cross (no labels): a U-Net of x_s (the layered twin's, one mask and a fill)
+      erases what moves. A background that kept x_s's arm would show it where x_t has none, so
+      the U-Net learns to erase the arm and its shadow, and only the renderer can draw them.
+  --background label (a diagnostic): x_s with its arm (true segmentation, grown by a pixel)
+      painted its median colour.
+
+Scored as the pose model's ceiling: for val episodes 0..7 the frames 1..8 drawn from the poses
+the encoder reads off the real frames ("given": over the given frame's background; "own": over
+each frame's own), against copy_last, as every table in docs/motion.md. With --dynamics-steps
+N, a pose dynamics p_{t+1} = p_t + A a_t + g(p_t, a_t) is then learned on the frozen encoder's
+poses (open-loop rollouts of --horizon steps) and its rollouts from x_0 scored as
+bench/layer_predictor.py scores the layered twin.
+
+  bench/pose_autoencoder.py --train data/demo/shards/train --val data/demo/shards/val \
+      [--steps 2000] [--renderer broadcast|deconv] [--background cross|label] [--pose-dim 8] \
+      [--width 64] [--loss l2|l1] [--l1-from F] [--moved-weight W [--weigh-drawn]] \
+      [--alpha-l1 W] [--dynamics-steps N [--horizon 8] [--per-episode [PNG]]] \
+      [--strip OUT.png] [--layers PNG] [--save NET.pt | --load NET.pt] [--seed S]
+
+Measured in session 31, not kept (docs/motion.md, "An arm drawn from a pose over a background
+learned from other frames"): the cross background erases the arm and its shadow and keeps the
+block, and the rollouts follow the actions and draw an arm entering the frame, but the drawn
+arm is blurred or, when its moving pixels are weighed, drawn with the table repainted around it.
+"""
+import time
+
+import numpy as np
+import torch
+from torch import nn
+
+import warp_predictor as wp
+import layer_predictor as lp
+import layer_variants
+import pose_arm
+from layer_twin import LayerNet
+
+BATCH = 32
+
+
+class DeconvRenderer(nn.Module):
+    """A pose -> colour [B, 3, S, S] in [-1, 1] and alpha [B, 1, S, S], upsampled from a 4x4 map
+    by four (nearest x2, 3x3 convolution) stages whose width halves towards the full size (a
+    DCGAN-style decoder: unlike the spatial-broadcast one it need not compute every pixel from
+    the pose alone; ConvTranspose2d is avoided, it is slow on this CPU)."""
+
+    def __init__(self, pose_dim, width, image_size):
+        super().__init__()
+        self.start, self.width = image_size // 16, width
+        self.fc = nn.Linear(pose_dim, width * self.start ** 2)
+        widths, layers = [width, width, width // 2, width // 4, width // 4], []
+        for i in range(4):
+            layers += [nn.Upsample(scale_factor=2), nn.Conv2d(widths[i], widths[i + 1], 3, 1, 1),
+                       nn.ReLU()]
+        self.up = nn.Sequential(*layers, nn.Conv2d(widths[-1], 4, 3, 1, 1))
+        nn.init.constant_(self.up[-1].bias[3:], -2.0)  # start mostly transparent, not dead
+
+    def forward(self, pose):
+        x = torch.relu(self.fc(pose)).view(-1, self.width, self.start, self.start)
+        out = self.up(x)
+        return torch.tanh(out[:, :3]), torch.sigmoid(out[:, 3:])
+
+
+def erased(frames, seg):
+    """`frames` [T, 3, S, S] with the arm (label 1, grown by a pixel) painted each frame's median
+    colour of the rest."""
+    arm = torch.from_numpy((seg == 1).astype(np.float32))[:, None]
+    arm = torch.nn.functional.max_pool2d(arm, 3, 1, 1)
+    out = frames.clone()
+    for k in range(len(frames)):
+        rest = frames[k][:, arm[k, 0] == 0]
+        colour = rest.median(1).values if rest.shape[1] else torch.zeros(3)
+        out[k] = frames[k] * (1 - arm[k]) + colour[:, None, None] * arm[k]
+    return out
+
+
+class PoseAutoencoder(nn.Module):
+    """frames drawn from their poses over the background of other frames of their episodes:
+    with --background label that frame with its arm erased by the label; with cross a U-Net's
+    (the layered twin's, one mask and a fill) of that frame. Drawn from another frame, a
+    background that kept its arm would show it where the frame drawn has none, so the U-Net
+    learns to erase what moves, and only the renderer can draw it: no labels."""
+
+    def __init__(self, pose_dim, channels, width, renderer, image_size=64):
+        super().__init__()
+        self.encoder = pose_arm.PoseEncoder(pose_dim, channels, image_size)
+        self.renderer = (DeconvRenderer(pose_dim, width, image_size) if renderer == "deconv"
+                         else pose_arm.Renderer(pose_dim, width, image_size, alpha_bias=-2.0))
+        if renderer == "broadcast":  # pose_arm's colour starts black (tanh(-3), saturated), so
+            # the alpha took the blame and died in 20 steps (measured); grey instead
+            nn.init.zeros_(self.renderer.mlp[-1].bias[:3])
+        self.eraser = LayerNet(1, layers=1, channels=channels, image_size=image_size)
+        self.labelled = None  # FrameLookup of the label-erased frames (--background label)
+
+    def background(self, sources):
+        if self.labelled is not None:
+            return self.labelled(sources)
+        masks, fill = self.eraser.sprites(sources)
+        return sources * (1 - masks) + fill * masks
+
+    def forward(self, frames, sources):
+        rgb, alpha = self.renderer(self.encoder(frames))
+        self.alpha, self.last_background = alpha, self.background(sources)
+        return rgb * alpha + (1 - alpha) * self.last_background
+
+
+def fit(net, episodes, args):
+    opt = torch.optim.AdamW(net.parameters(), wp.LR, betas=(0.9, 0.9), weight_decay=0.01)
+    rng = np.random.default_rng(args.seed)
+    for step in range(args.steps):
+        for group in opt.param_groups:
+            group["lr"] = wp.learning_rate(step, args.steps, args.max_lr)
+        picks = [(int(e), *rng.integers(len(episodes[e][0]), size=2))
+                 for e in rng.integers(len(episodes), size=BATCH)]
+        x = torch.stack([episodes[e][0][t] for e, t, _ in picks])
+        sources = torch.stack([episodes[e][0][s] for e, _, s in picks])
+        error = net(x, sources) - x
+        if args.moved_weight > 0:  # where the two frames differ (the arm, its shadow) counts more
+            other = net.last_background.detach() if args.weigh_drawn else sources
+            moved = ((x - other).abs().amax(1, keepdim=True) > 30 / 127.5).float()
+            error = error * (1 + args.moved_weight * moved)
+        # the squared error: while the pose says nothing yet, the L1's best guess at each pixel
+        # is its median, no arm, and the alpha dies at 0 before the pose can learn (measured)
+        squared = args.loss == "l2" and step < args.l1_from * args.steps
+        loss = error.pow(2).mean() if squared else error.abs().mean()
+        loss = loss + args.alpha_l1 * net.alpha.mean()  # the renderer draws what moves, not all
+        wp.optimizer_step(net, opt, loss, step)
+        if step % 250 == 0:
+            print(f"step {step} loss {loss.item():.4f} alpha {net.alpha.mean().item():.3f}",
+                  flush=True)
+
+
+@torch.no_grad()
+def ceiling(net, episodes):
+    """Means over val episodes 0..7 (long enough) of window_scores for the frames drawn from
+    their own poses over the given frame's background ('given') and their own ('own')."""
+    h = wp.recipes.HORIZON
+    found = {k: [] for k in ("given", "own", "copy_last")}
+    rows = []
+    picked = [e for e in range(len(episodes)) if len(episodes[e][0]) > h][:wp.recipes.ROLLOUTS]
+    for e in picked:
+        frames, seg, _ = episodes[e]
+        real = frames[1:h + 1]
+        preds = {"given": net(real, frames[:1].expand(h, -1, -1, -1)), "own": net(real, real)}
+        preds = {k: wp.goal1.to_uint8(v) for k, v in preds.items()}
+        real8, scored = wp.window_scores(frames, seg, preds)
+        for name, s in scored.items():
+            found[name].append(s)
+        if len(rows) < 9:
+            rows += [np.concatenate(list(r), 1) for r in (real8, preds["given"], preds["own"])]
+    return wp.means(found), rows
+
+
+class PoseDynamics(nn.Module):
+    """p_{t+1} = p_t + A a_t + g(p_t, a_t) (pose_arm.py's step: A linear, g a zero-initialised
+    MLP), learned on the poses the frozen encoder reads off the real frames."""
+
+    def __init__(self, pose_dim, action_dim):
+        super().__init__()
+        self.action_map = nn.Linear(action_dim, pose_dim, bias=False)
+        self.correction = nn.Sequential(nn.Linear(pose_dim + action_dim, 128), nn.ReLU(),
+                                        nn.Linear(128, 128), nn.ReLU(), nn.Linear(128, pose_dim))
+        nn.init.zeros_(self.correction[-1].weight)
+        nn.init.zeros_(self.correction[-1].bias)
+
+    def forward(self, pose, actions):
+        """[B, H, P] the poses after each of `actions` [B, H, D] from `pose` [B, P]."""
+        out = []
+        for t in range(actions.shape[1]):
+            a = actions[:, t]
+            pose = pose + self.action_map(a) + self.correction(torch.cat([pose, a], 1))
+            out.append(pose)
+        return torch.stack(out, 1)
+
+
+@torch.no_grad()
+def episode_poses(net, episodes):
+    return [torch.cat([net.encoder(f[k:k + 256]) for k in range(0, len(f), 256)])
+            for f, _, _ in episodes]
+
+
+def fit_dynamics(dyn, poses, episodes, norm, args):
+    """Open-loop pose rollouts of --horizon steps from random frames against the encoder's poses
+    (squared error, scaled by the poses' spread)."""
+    h = args.horizon
+    scale = torch.cat(poses).std(0) + 1e-3
+    starts = [(e, t) for e, p in enumerate(poses) for t in range(len(p) - h)]
+    opt = torch.optim.AdamW(dyn.parameters(), 1e-3, weight_decay=0.01)
+    rng = np.random.default_rng(args.seed)
+    for step in range(args.dynamics_steps):
+        for group in opt.param_groups:
+            group["lr"] = wp.learning_rate(step, args.dynamics_steps, 1e-3)
+        picks = [starts[int(k)] for k in rng.integers(len(starts), size=256)]
+        first = torch.stack([poses[e][t] for e, t in picks])
+        target = torch.stack([poses[e][t + 1:t + h + 1] for e, t in picks])
+        acts = torch.stack([torch.from_numpy(norm(episodes[e][2][t:t + h])) for e, t in picks])
+        loss = ((dyn(first, acts) - target) / scale).pow(2).mean()
+        wp.optimizer_step(dyn, opt, loss, step)
+
+
+@torch.no_grad()
+def write_layers(path, net, episodes, steps=(2, 4, 6, 8)):
+    """Per val episode 0-7 a row: the given frame, its background, and the arm drawn from the
+    poses of real frames `steps` (on white)."""
+    rows = []
+    for frames, _, _ in episodes[:8]:
+        tiles = [frames[0], net.background(frames[:1])[0]]
+        for t in steps:
+            rgb, alpha = net.renderer(net.encoder(frames[min(t, len(frames) - 1)][None]))
+            tiles.append((rgb * alpha + (1 - alpha))[0])
+        rows.append(np.concatenate([wp.goal1.to_uint8(t[None])[0] for t in tiles], 1))
+    wp.write_strip(path, rows)
+
+
+def arguments():
+    ap = wp.arguments(__doc__, steps=2000, unroll=1, channels=32)
+    ap.add_argument("--pose-dim", type=int, default=8)
+    ap.add_argument("--width", type=int, default=64)
+    ap.add_argument("--renderer", choices=("broadcast", "deconv"), default="broadcast")
+    ap.add_argument("--background", choices=("label", "cross"), default="cross",
+                    help="label: each frame's arm erased by its segmentation (a diagnostic); "
+                    "cross: erased by a U-Net that sees another frame (no labels)")
+    ap.add_argument("--loss", choices=("l1", "l2"), default="l2")
+    ap.add_argument("--l1-from", type=float, default=1.0, metavar="F", help="with --loss l2: "
+                    "the L1 from that fraction of the steps on (sharper once the pose is read)")
+    ap.add_argument("--moved-weight", type=float, default=0.0, metavar="W",
+                    help="the pixels where the frame and its background's source differ by "
+                    "over 30 levels count 1 + W times (no labels)")
+    ap.add_argument("--weigh-drawn", action="store_true", help="with --moved-weight: the "
+                    "pixels where the frame differs from the background, not from its source "
+                    "frame (what the renderer must draw, not also what the U-Net erased)")
+    ap.add_argument("--alpha-l1", type=float, default=0.0, metavar="W",
+                    help="W x the renderer's mean alpha in the loss (as the layers' mask L1)")
+    ap.add_argument("--dynamics-steps", type=int, default=0, help="then learn the poses' "
+                    "motion (PoseDynamics) and score its open-loop rollouts")
+    ap.add_argument("--horizon", type=int, default=8, help="the dynamics' training rollouts")
+    ap.add_argument("--per-episode", metavar="PNG", nargs="?", const="",
+                    help="the rollouts' arm at step 8 per val episode (layer_predictor's)")
+    ap.add_argument("--save")
+    ap.add_argument("--load")
+    ap.add_argument("--layers", metavar="PNG", help="per val episode 0-7: the given frame, its "
+                    "background, and the renderer's arm at steps 2, 4, 6, 8 (on white)")
+    return ap.parse_args()
+
+
+@torch.no_grad()
+def score_dynamics(net, train, val, action_dim, norm, args):
+    """PoseDynamics learned on the frozen encoder's poses; its rollouts from x_0 scored."""
+    with torch.enable_grad():
+        dyn = PoseDynamics(args.pose_dim, action_dim)
+        fit_dynamics(dyn, episode_poses(net, train), train, norm, args)
+
+    def imagine(first, acts, _=None):
+        rgb, alpha = net.renderer(dyn(net.encoder(first), acts)[0])
+        return (rgb * alpha + (1 - alpha) * net.background(first))[None]
+    r, rows = wp.score(net, val, norm, imagine)
+    print(f"pose dynamics ({args.dynamics_steps} steps, horizon {args.horizon}): "
+          f"{wp.summary(r)}")
+    if args.strip:
+        wp.write_strip(args.strip.replace(".png", "_rollout.png"), rows)
+    if args.per_episode is not None:
+        lp.per_episode(imagine, val, norm, args.per_episode)
+
+
+def main():
+    args = arguments()
+    train, val, actions, norm = wp.setup(args)
+    torch.set_flush_denormal(True)
+    net = PoseAutoencoder(args.pose_dim, args.channels, args.width, args.renderer)
+    if args.background == "label":
+        net.labelled = layer_variants.FrameLookup()
+        for frames, seg, _ in train + val:
+            net.labelled.add(frames, erased(frames, seg))
+    start = time.time()
+    if args.load:
+        net.load_state_dict(torch.load(args.load))
+    else:
+        fit(net, train, args)
+    if args.save:
+        torch.save(net.state_dict(), args.save)
+    net.eval()
+    r, rows = ceiling(net, val)
+    if args.layers:
+        write_layers(args.layers, net, val)
+    print(f"pose autoencoder ({args.renderer}, {args.background} background, pose "
+          f"{args.pose_dim}, width {args.width}, "
+          f"{args.load or f'{args.steps} steps'}, {time.time() - start:.0f} s)")
+    for name in ("given", "own"):
+        print(f"  {name} background: {wp.summary(r, name)}")
+    if args.strip:
+        wp.write_strip(args.strip, rows)
+    if args.dynamics_steps:
+        score_dynamics(net, train, val, actions.shape[1], norm, args)
+
+
+if __name__ == "__main__":
+    main()
