@@ -28,6 +28,9 @@ Measured in session 31, not kept (docs/motion.md, "An arm drawn from a pose over
 learned from other frames"): the cross background erases the arm and its shadow and keeps the
 block, and the rollouts follow the actions and draw an arm entering the frame, but the drawn
 arm is blurred or, when its moving pixels are weighed, drawn with the table repainted around it.
+With --moved-weight 4 --weigh-drawn --alpha-l1 0.01 (pose 16, deconv, 2500 steps, L1 from 60%)
+the arm is opaque and the block kept (step-8 arm 0.48x copy_last, block 0.90x; one run), but
+it is a smooth shape without fingers, and the PSNR is below the layered recipe's.
 """
 import time
 
