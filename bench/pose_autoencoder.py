@@ -57,6 +57,11 @@ from layer_twin import LayerNet
 BATCH = 32
 
 
+def differs(frames, others):
+    """[B, 1, S, S] 1 where `frames` and `others` differ by over 30 levels in some channel."""
+    return ((frames - others).abs().amax(1, keepdim=True) > 30 / 127.5).float()
+
+
 class DeconvRenderer(nn.Module):
     """A pose -> colour [B, 3, S, S] in [-1, 1] and alpha [B, 1, S, S], upsampled from a 4x4 map
     by four (nearest x2, 3x3 convolution) stages whose width halves towards the full size (a
@@ -112,8 +117,8 @@ class PoseAutoencoder(nn.Module):
             self.renderer = DeconvRenderer(pose_dim, width, image_size)
         else:
             self.renderer = pose_arm.Renderer(pose_dim, width, image_size, alpha_bias=-2.0)
-        if renderer == "broadcast":  # pose_arm's colour starts black (tanh(-3), saturated), so
-            # the alpha took the blame and died in 20 steps (measured); grey instead
+            # pose_arm's colour starts black (tanh(-3), saturated), so the alpha took the blame
+            # and died in 20 steps (measured); grey instead
             nn.init.zeros_(self.renderer.mlp[-1].bias[:3])
         self.eraser = LayerNet(1, layers=1, channels=channels, image_size=image_size)
         self.labelled = None  # FrameLookup of the label-erased frames (--background label)
@@ -143,8 +148,7 @@ def fit(net, episodes, args):
         error = net(x, sources) - x
         if args.moved_weight > 0:  # where the two frames differ (the arm, its shadow) counts more
             other = net.last_background.detach() if args.weigh_drawn else sources
-            moved = ((x - other).abs().amax(1, keepdim=True) > 30 / 127.5).float()
-            error = error * (1 + args.moved_weight * moved)
+            error = error * (1 + args.moved_weight * differs(x, other))
         # the squared error: while the pose says nothing yet, the L1's best guess at each pixel
         # is its median, no arm, and the alpha dies at 0 before the pose can learn (measured)
         squared = args.loss == "l2" and step < args.l1_from * args.steps
@@ -249,8 +253,8 @@ def fit_dynamics_pixels(dyn, net, episodes, norm, args):
         background = background.repeat_interleave(h, 0)
         rgb, alpha = net.renderer(dyn(pose, acts).flatten(0, 1))
         error = rgb * alpha + (1 - alpha) * background - real
-        drawn = ((real - background).abs().amax(1, keepdim=True) > 30 / 127.5).float()
-        wp.optimizer_step(dyn, opt, (error * (1 + args.moved_weight * drawn)).abs().mean(), step)
+        error = error * (1 + args.moved_weight * differs(real, background))
+        wp.optimizer_step(dyn, opt, error.abs().mean(), step)
 
 
 def marked(net, frame):
@@ -332,7 +336,8 @@ def score_dynamics(net, train, val, action_dim, norm, args):
     with torch.enable_grad():
         dyn = PoseDynamics(args.pose_dim, action_dim)
         fit_dynamics(dyn, episode_poses(net, train), train, norm, args)
-        fit_dynamics_pixels(dyn, net, train, norm, args)
+        if args.dynamics_pixels:
+            fit_dynamics_pixels(dyn, net, train, norm, args)
 
     def imagine(first, acts, _=None):
         rgb, alpha = net.renderer(dyn(net.encoder(first), acts)[0])
