@@ -42,29 +42,7 @@ import warp_predictor as wp
 import layer_predictor as lp
 import layer_variants
 from layer_twin import LayerNet
-
-
-def coordinates(size):
-    """[1, 2, S, S] pixel x and y in [-1, 1]."""
-    grid = torch.linspace(-1, 1, size)
-    ys, xs = torch.meshgrid(grid, grid, indexing="ij")
-    return torch.stack([xs, ys])[None]
-
-
-class PoseEncoder(nn.Module):
-    """The given frame (with pixel coordinates, so positions are easy to read out) -> a pose."""
-
-    def __init__(self, pose_dim, c, image_size):
-        super().__init__()
-        layers = [m for i in range(4) for m in wp.warp_twin.down(5 if i == 0 else c, c)]
-        self.cnn = nn.Sequential(*layers)
-        self.head = nn.Sequential(nn.Linear((image_size // 16) ** 2 * c, 256), nn.ReLU(),
-                                  nn.Linear(256, pose_dim))
-        self.register_buffer("grid", coordinates(image_size), persistent=False)
-
-    def forward(self, frame):
-        x = torch.cat([frame, self.grid.expand(frame.shape[0], -1, -1, -1)], 1)
-        return self.head(self.cnn(x).flatten(1))
+from pose_twin import PoseEncoder, coordinates
 
 
 class Renderer(nn.Module):

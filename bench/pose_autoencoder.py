@@ -53,6 +53,7 @@ import layer_variants
 import keypoints
 import pose_arm
 from layer_twin import LayerNet
+from pose_twin import DeconvRenderer, PoseDynamics, erase
 
 BATCH = 32
 
@@ -60,29 +61,6 @@ BATCH = 32
 def differs(frames, others):
     """[B, 1, S, S] 1 where `frames` and `others` differ by over 30 levels in some channel."""
     return ((frames - others).abs().amax(1, keepdim=True) > 30 / 127.5).float()
-
-
-class DeconvRenderer(nn.Module):
-    """A pose -> colour [B, 3, S, S] in [-1, 1] and alpha [B, 1, S, S], upsampled from a 4x4 map
-    by four (nearest x2, 3x3 convolution) stages whose width halves towards the full size (a
-    DCGAN-style decoder: unlike the spatial-broadcast one it need not compute every pixel from
-    the pose alone; ConvTranspose2d is avoided, it is slow on this CPU)."""
-
-    def __init__(self, pose_dim, width, image_size):
-        super().__init__()
-        self.start, self.width = image_size // 16, width
-        self.fc = nn.Linear(pose_dim, width * self.start ** 2)
-        widths, layers = [width, width, width // 2, width // 4, width // 4], []
-        for i in range(4):
-            layers += [nn.Upsample(scale_factor=2), nn.Conv2d(widths[i], widths[i + 1], 3, 1, 1),
-                       nn.ReLU()]
-        self.up = nn.Sequential(*layers, nn.Conv2d(widths[-1], 4, 3, 1, 1))
-        nn.init.constant_(self.up[-1].bias[3:], -2.0)  # start mostly transparent, not dead
-
-    def forward(self, pose):
-        x = torch.relu(self.fc(pose)).view(-1, self.width, self.start, self.start)
-        out = self.up(x)
-        return torch.tanh(out[:, :3]), torch.sigmoid(out[:, 3:])
 
 
 def erased(frames, seg):
@@ -126,8 +104,7 @@ class PoseAutoencoder(nn.Module):
     def background(self, sources):
         if self.labelled is not None:
             return self.labelled(sources)
-        masks, fill = self.eraser.sprites(sources)
-        return sources * (1 - masks) + fill * masks
+        return erase(self.eraser, sources)
 
     def forward(self, frames, sources):
         rgb, alpha = self.renderer(self.encoder(frames))
@@ -178,28 +155,6 @@ def ceiling(net, episodes):
         if len(rows) < 9:
             rows += [np.concatenate(list(r), 1) for r in (real8, preds["given"], preds["own"])]
     return wp.means(found), rows
-
-
-class PoseDynamics(nn.Module):
-    """p_{t+1} = p_t + A a_t + g(p_t, a_t) (pose_arm.py's step: A linear, g a zero-initialised
-    MLP), learned on the poses the frozen encoder reads off the real frames."""
-
-    def __init__(self, pose_dim, action_dim):
-        super().__init__()
-        self.action_map = nn.Linear(action_dim, pose_dim, bias=False)
-        self.correction = nn.Sequential(nn.Linear(pose_dim + action_dim, 128), nn.ReLU(),
-                                        nn.Linear(128, 128), nn.ReLU(), nn.Linear(128, pose_dim))
-        nn.init.zeros_(self.correction[-1].weight)
-        nn.init.zeros_(self.correction[-1].bias)
-
-    def forward(self, pose, actions):
-        """[B, H, P] the poses after each of `actions` [B, H, D] from `pose` [B, P]."""
-        out = []
-        for t in range(actions.shape[1]):
-            a = actions[:, t]
-            pose = pose + self.action_map(a) + self.correction(torch.cat([pose, a], 1))
-            out.append(pose)
-        return torch.stack(out, 1)
 
 
 @torch.no_grad()

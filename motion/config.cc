@@ -20,6 +20,8 @@ void VisitFields(Config& c, F&& f) {
   f("model", "gate_bias", m.gate_bias);
   f("model", "action_jacobian", m.action_jacobian);
   f("model", "layers", m.layers);
+  f("model", "pose_dim", m.pose_dim);
+  f("model", "renderer_width", m.renderer_width);
   auto& t = c.train;
   trainkit::VisitOptimizerFields(t, f);
   trainkit::VisitRunFields(t, f);
@@ -32,6 +34,10 @@ void VisitFields(Config& c, F&& f) {
   f("train", "motion_prior", t.motion_prior);
   f("train", "motion_prior_steps", t.motion_prior_steps);
   f("train", "moved_weight", t.moved_weight);
+  f("train", "squared_until", t.squared_until);
+  f("train", "dynamics_steps", t.dynamics_steps);
+  f("train", "dynamics_batch", t.dynamics_batch);
+  f("train", "dynamics_lr", t.dynamics_lr);
   f("data", "image_key", c.data.image_key);
 }
 
@@ -64,10 +70,14 @@ void ValidateConfig(const MotionConfig& c, const std::string& file) {
           "must be a positive multiple of 8 (three stride-2 levels)");
   require(m.channels > 0, "model.channels", "must be > 0");
   require(m.flow_scale > 0, "model.flow_scale", "must be > 0");
-  require(m.kind == "warp" || m.kind == "layers", "model.kind", "must be warp or layers");
+  require(m.kind == "warp" || m.kind == "layers" || m.kind == "pose", "model.kind",
+          "must be warp, layers or pose");
   require(m.layers >= 1, "model.layers", "must be >= 1");
-  require(m.kind != "layers" || m.image_size % 16 == 0, "model.image_size",
-          "must be a multiple of 16 with model.kind layers (the motion CNN halves it four times)");
+  require(m.kind == "warp" || m.image_size % 16 == 0, "model.image_size",
+          "must be a multiple of 16 with model.kind " + m.kind + " (its CNNs halve it four times)");
+  require(m.pose_dim >= 1, "model.pose_dim", "must be >= 1");
+  require(m.renderer_width >= 4 && m.renderer_width % 4 == 0, "model.renderer_width",
+          "must be a positive multiple of 4");
   const TrainConfig& t = c.train;
   trainkit::ValidateOptimizerFields(t, file);
   trainkit::ValidateRunFields(t, file);
@@ -83,6 +93,10 @@ void ValidateConfig(const MotionConfig& c, const std::string& file) {
   require(t.motion_prior_steps >= 0 && t.motion_prior_steps <= 1, "train.motion_prior_steps",
           "must be in [0, 1]");
   require(t.moved_weight >= 0, "train.moved_weight", "must be >= 0");
+  require(t.squared_until >= 0 && t.squared_until <= 1, "train.squared_until", "must be in [0, 1]");
+  require(t.dynamics_steps >= 0, "train.dynamics_steps", "must be >= 0");
+  require(t.dynamics_batch >= 1, "train.dynamics_batch", "must be >= 1");
+  require(t.dynamics_lr > 0, "train.dynamics_lr", "must be > 0");
   require(!c.data.image_key.empty(), "data.image_key", "must not be empty");
 }
 

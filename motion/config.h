@@ -10,8 +10,9 @@ namespace wm::motion {
 
 struct ModelConfig {
   // "warp": a per-pixel flow resamples the last frame (warp_net.h); "layers": the start frame's
-  // layers move as wholes (layer_net.h). The default is the kind checkpoints written before
-  // this key existed hold; configs/motion/tiny.yaml picks layers.
+  // layers move as wholes (layer_net.h); "pose": the arm drawn from a pose the actions move
+  // (pose_net.h). The default is the kind checkpoints written before this key existed hold;
+  // configs/motion/tiny.yaml picks layers.
   std::string kind = "warp";
   int image_size = 64;    // frames are resized (INTER_AREA) to image_size x image_size
   int channels = 32;      // U-Net width (three stride-2 levels down to image_size / 8)
@@ -21,7 +22,9 @@ struct ModelConfig {
   // multiplicatively (docs/motion.md, "Why the flow is linear in the action"). false = the
   // action is only added to the bottleneck features.
   bool action_jacobian = true;
-  int layers = 3;  // kind layers: moving layers over the static background
+  int layers = 3;           // kind layers: moving layers over the static background
+  int pose_dim = 16;        // kind pose: numbers in the pose
+  int renderer_width = 64;  // kind pose: the renderer's widest convolution (a multiple of 4)
 };
 
 struct TrainConfig {
@@ -58,6 +61,18 @@ struct TrainConfig {
   // moved_weight, the rest 1 (a weighted mean; motion/motion_prior.h): the arm and the block are
   // a few percent of the frame, and what the model is for happens there. 0 = the plain mean.
   double moved_weight = 0;
+  // kind pose: train.steps learn the autoencoder (encoder, renderer, eraser), whose frame loss
+  // is squared for the first squared_until of those steps and L1 after (sharper once the pose is
+  // read; an L1 from the start kills the drawn arm: its best guess at each pixel is the table);
+  // moved_weight then weighs the pixels where the frame differs from the learned background by
+  // over 30 levels, and mask_l1 is the weight of the drawn arm's mean alpha. Then
+  // dynamics_steps learn the pose's motion on the frozen encoder's poses: batches of
+  // dynamics_batch open-loop rollouts of `unroll` steps, AdamW (0.9, 0.999) peaking at
+  // dynamics_lr on the same schedule's shape.
+  double squared_until = 0.6;
+  int64_t dynamics_steps = 3000;
+  int dynamics_batch = 256;
+  double dynamics_lr = 1e-3;
 };
 
 struct DataConfig {

@@ -14,17 +14,6 @@ constexpr double kMaxLinearStep = 0.2;
 constexpr double kMapInputScale = 0.05;
 constexpr int64_t kMotionHidden = 256;
 
-// `levels` halvings (4x4 stride-2 convolutions and ReLUs, `in` then `c` channels) as one flat
-// Sequential: LibTorch cannot nest Sequentials.
-nn::Sequential Downs(int64_t in, int64_t c, int levels) {
-  nn::Sequential stack;
-  for (int level = 0; level < levels; ++level) {
-    stack->push_back(nn::Conv2d(nn::Conv2dOptions(level == 0 ? in : c, c, 4).stride(2).padding(1)));
-    stack->push_back(nn::ReLU());
-  }
-  return stack;
-}
-
 }  // namespace
 
 LayerNetImpl::LayerNetImpl(const ModelConfig& config, int64_t action_dim)

@@ -5,6 +5,8 @@ namespace wm::motion {
 MotionNet::MotionNet(const ModelConfig& config, int64_t action_dim) : action_dim_(action_dim) {
   if (config.kind == "layers") {
     layers_ = LayerNet(config, action_dim);
+  } else if (config.kind == "pose") {
+    pose_ = PoseNet(config, action_dim);
   } else {
     warp_ = WarpNet(config, action_dim);
   }
@@ -12,16 +14,19 @@ MotionNet::MotionNet(const ModelConfig& config, int64_t action_dim) : action_dim
 
 torch::nn::Module& MotionNet::module() {
   if (layered()) return *layers_;
+  if (posed()) return *pose_;
   return *warp_;
 }
 
 Rollout::Rollout(MotionNet& net, const torch::Tensor& first)
     : net_(net), current_(first), previous_(first) {
   if (net_.layered()) layers_ = net_.layers()->Start(first);
+  if (net_.posed()) pose_ = net_.pose()->Start(first);
 }
 
 torch::Tensor Rollout::Next(const torch::Tensor& action) {
   if (net_.layered()) return net_.layers()->Advance(layers_, action).clamp(-1, 1);
+  if (net_.posed()) return net_.pose()->Advance(pose_, action).clamp(-1, 1);
   torch::Tensor next = net_.warp()->forward(current_, previous_, action).next.clamp(-1, 1);
   previous_ = current_;
   current_ = next;

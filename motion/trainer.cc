@@ -15,6 +15,7 @@
 #include "core/tensor_archive.h"
 #include "motion/motion_net.h"
 #include "motion/motion_prior.h"
+#include "motion/pose_trainer.h"
 #include "motion/window_sampler.h"
 #include "trainkit/adamw.h"
 #include "trainkit/module_archive.h"
@@ -36,14 +37,27 @@ constexpr const char* kValMetrics = "val.csv";
 // centroid displacement over the window and the share of the start frame they cover.
 constexpr const char* kWarpMetricsHeader = "step,loss,flow_px,gate,lr,frames_per_s";
 constexpr const char* kLayerMetricsHeader = "step,loss,shift_px,coverage,lr,frames_per_s";
+// alpha, drawn: the pose kind's mean alpha and share of pixels weighed as drawn (pose_trainer.h)
+constexpr const char* kPoseMetricsHeader = "step,loss,alpha,drawn,lr,frames_per_s";
 constexpr const char* kValHeader = "step,psnr,copy_last_psnr,reversed_psnr,delta_tpsnr";
 
 struct TrainState {
   std::unique_ptr<MotionNet> model;
   std::unique_ptr<AdamW> optimizer;
+  std::unique_ptr<AdamW> dynamics_optimizer;  // the pose kind's second phase
   std::unique_ptr<WindowSampler> sampler;
   int64_t step = 0;
 };
+
+// Steps of the whole run: the pose kind's dynamics phase comes after train.steps.
+int64_t TotalSteps(const MotionConfig& c) {
+  return c.train.steps + (c.model.kind == "pose" ? c.train.dynamics_steps : 0);
+}
+
+const char* MetricsHeader(MotionNet& net) {
+  if (net.layered()) return kLayerMetricsHeader;
+  return net.posed() ? kPoseMetricsHeader : kWarpMetricsHeader;
+}
 
 // What a loaded model needs beyond its weights: the action width and how to normalise actions.
 nlohmann::json ActionMeta(const WindowSampler& sampler) {
@@ -64,6 +78,7 @@ void WriteCheckpoint(const TrainOptions& o, const RunDir& run, TrainState& s) {
   TensorArchiveWriter w;
   trainkit::AddModule(w, "model/", s.model->module());
   trainkit::AddAdamW(w, *s.optimizer);
+  if (s.dynamics_optimizer) trainkit::AddAdamW(w, *s.dynamics_optimizer);  // other names
   nlohmann::json meta = {{"model_kind", "motion"},
                          {"step", s.step},
                          {"adamw_step", s.optimizer->step_count()},
@@ -71,6 +86,7 @@ void WriteCheckpoint(const TrainOptions& o, const RunDir& run, TrainState& s) {
                          {"config_hash", ConfigHash(ConfigToJson(o.config))},
                          {"data", s.sampler->DataProvenance()}};
   meta.update(ActionMeta(*s.sampler));
+  if (s.dynamics_optimizer) meta["dynamics_adamw_step"] = s.dynamics_optimizer->step_count();
   w.SetMeta(std::move(meta));
   run.WriteCheckpoint(w, [&] { return Manifest(o, run, s); });
 }
@@ -89,6 +105,9 @@ void LoadCheckpoint(const std::string& path, const nlohmann::json& config, Train
           {.key = "data"});
     trainkit::LoadModule(r, "model/", s.model->module());
     trainkit::LoadAdamW(r, meta.at("adamw_step").get<int64_t>(), *s.optimizer);
+    if (s.dynamics_optimizer) {
+      trainkit::LoadAdamW(r, meta.at("dynamics_adamw_step").get<int64_t>(), *s.dynamics_optimizer);
+    }
     s.step = meta.at("step").get<int64_t>();
   } catch (const Error& e) {
     throw e.WithFile(path);
@@ -106,13 +125,23 @@ TrainState MakeTrainState(const TrainOptions& o, const torch::Device& device) {
   s.model = std::make_unique<MotionNet>(c.model, s.sampler->action_dim());
   s.model->module().to(device);
   std::vector<std::pair<std::string, torch::Tensor>> params;
-  for (const auto& item : s.model->module().named_parameters())
-    params.emplace_back(item.key(), item.value());
+  if (s.model->posed()) {
+    params = s.model->pose()->AutoencoderParameters();
+  } else {
+    for (const auto& item : s.model->module().named_parameters())
+      params.emplace_back(item.key(), item.value());
+  }
   const TrainConfig& t = c.train;
   s.optimizer = std::make_unique<AdamW>(
       std::move(params),
       trainkit::AdamWOptions{
           .lr = t.max_lr, .beta1 = t.beta1, .beta2 = t.beta2, .weight_decay = t.weight_decay});
+  if (s.model->posed()) {  // torch.optim.AdamW's betas, as the bench run docs/motion.md records
+    s.dynamics_optimizer = std::make_unique<AdamW>(
+        s.model->pose()->DynamicsParameters(),
+        trainkit::AdamWOptions{
+            .lr = t.dynamics_lr, .beta1 = 0.9, .beta2 = 0.999, .weight_decay = t.weight_decay});
+  }
   return s;
 }
 
@@ -192,6 +221,7 @@ class MotionStage : public trainkit::TrainingStage {
       : o_(o), cfg_(o.config), run_(run), device_(device), s_(s), val_(val), summary_(summary) {}
 
   void Train(int64_t step, int64_t stop) override {
+    if (s_.model->posed()) return TrainPose(step, stop);
     const int64_t B = cfg_.train.batch_size, U = cfg_.train.unroll, S = cfg_.model.image_size;
     const int64_t D = s_.sampler->action_dim();
     if (!pending_.valid())
@@ -207,11 +237,57 @@ class MotionStage : public trainkit::TrainingStage {
     s_.optimizer->set_lr(lr_);
     s_.optimizer->ZeroGrad();
     loss_ = s_.model->layered() ? LayerLoss(frames, actions, step) : WarpLoss(frames, actions);
+    Update(*s_.optimizer, step);
+  }
+
+  // The pose kind: the autoencoder's steps, then the dynamics' (pose_trainer.h), each phase by
+  // its own optimizer on its own schedule.
+  void TrainPose(int64_t step, int64_t stop) {
+    if (step < cfg_.train.steps) return TrainPoseAutoencoder(step, stop);
+    const TrainConfig& t = cfg_.train;
+    PoseNet& net = s_.model->pose();
+    if (!dynamics_) dynamics_.emplace(net, *s_.sampler, cfg_.model.image_size, device_);
+    lr_ = trainkit::LearningRateAt({.max_lr = t.dynamics_lr,
+                                    .min_lr = t.min_lr,
+                                    .warmup_steps = t.warmup_steps,
+                                    .steps = t.dynamics_steps},
+                                   step - t.steps);
+    s_.dynamics_optimizer->set_lr(lr_);
+    s_.dynamics_optimizer->ZeroGrad();
+    loss_ = dynamics_->Loss(net, t, step);
+    diagnostics_ = {torch::zeros({}), torch::zeros({})};
+    Update(*s_.dynamics_optimizer, step);
+  }
+
+  void TrainPoseAutoencoder(int64_t step, int64_t stop) {
+    const TrainConfig& t = cfg_.train;
+    const int64_t B = t.batch_size, S = cfg_.model.image_size;
+    if (!pending_.valid())
+      pending_ = std::async(std::launch::async, &MotionStage::LoadPairs, this, step);
+    Batch batch = pending_.get();
+    if (step + 1 < std::min(stop, t.steps))
+      pending_ = std::async(std::launch::async, &MotionStage::LoadPairs, this, step + 1);
+    const torch::Tensor pairs =
+        torch::from_blob(batch.frames.data(), {2, B, 3, S, S}).to(device_, true, true);
+    lr_ = trainkit::LearningRateAt(trainkit::ScheduleOf(t), step);
+    s_.optimizer->set_lr(lr_);
+    s_.optimizer->ZeroGrad();
+    PoseDiagnostics d;
+    loss_ = PoseAutoencoderLoss(s_.model->pose(), t, pairs[0], pairs[1], step, d);
+    diagnostics_ = {d.alpha, d.drawn};
+    Update(*s_.optimizer, step);
+  }
+
+  // Backward through loss_, the gradients of `optimizer`'s parameters clipped (only theirs: in
+  // the pose kind's second phase the autoencoder's keep their last, stale gradients), one step.
+  void Update(AdamW& optimizer, int64_t step) {
     loss_.backward();
     if (cfg_.train.grad_clip > 0) {
-      torch::nn::utils::clip_grad_norm_(s_.model->module().parameters(), cfg_.train.grad_clip);
+      std::vector<torch::Tensor> trained;
+      for (const auto& named : optimizer.parameters()) trained.push_back(named.second);
+      torch::nn::utils::clip_grad_norm_(trained, cfg_.train.grad_clip);
     }
-    s_.optimizer->Step();
+    optimizer.Step();
     s_.step = step + 1;
   }
 
@@ -290,7 +366,7 @@ class MotionStage : public trainkit::TrainingStage {
         row = trainkit::MetricsRow{.before = before.str()};
       }
     }
-    if (val_ && trainkit::IsValidationStep(info.step, cfg_.train.steps, cfg_.train.val_every)) {
+    if (val_ && trainkit::IsValidationStep(info.step, TotalSteps(cfg_), cfg_.train.val_every)) {
       summary_.val = val_->Run(*s_.model, device_, info.step);
     }
     return row;
@@ -313,6 +389,16 @@ class MotionStage : public trainkit::TrainingStage {
     return batch;
   }
 
+  // The pose kind's autoencoder: frames then their sources, [2, B, 3, S, S].
+  Batch LoadPairs(int64_t step) const {
+    const int B = cfg_.train.batch_size, S = cfg_.model.image_size;
+    Batch batch;
+    batch.frames.resize(2ull * B * 3 * S * S);
+    s_.sampler->LoadPairs(s_.sampler->DrawPairs(cfg_.train.seed, step, B), batch.frames.data(),
+                          batch.frames.data() + batch.frames.size() / 2);
+    return batch;
+  }
+
   const TrainOptions& o_;
   const MotionConfig& cfg_;
   const RunDir& run_;
@@ -321,6 +407,7 @@ class MotionStage : public trainkit::TrainingStage {
   std::optional<Validation>& val_;
   TrainSummary& summary_;
   std::future<Batch> pending_;
+  std::optional<PoseDynamicsTraining> dynamics_;  // the pose kind's poses, read at its phase 2
   torch::Tensor loss_;
   // metrics.csv's two model columns for the last batch (kWarpMetricsHeader, kLayerMetricsHeader)
   std::pair<torch::Tensor, torch::Tensor> diagnostics_;
@@ -339,23 +426,24 @@ TrainSummary TrainMotion(const TrainOptions& o) {
   // Saturated masks (sigmoid of noisy logits) and their products underflow into denormals,
   // which slowed the layered kind's CPU steps 2x by the end of a run; flushed to zero instead
   // (this thread: train.threads 1 computes here).
-  if (cfg.model.kind == "layers") at::globalContext().setFlushDenormal(true);
+  if (cfg.model.kind != "warp") at::globalContext().setFlushDenormal(true);
   TrainState s = MakeTrainState(o, device);
   if (run.resuming()) {
     LoadCheckpoint(run.checkpoint(), ConfigToJson(cfg), s);
     LogInfo("resuming " + run.checkpoint() + " at step " + std::to_string(s.step));
     run.RefreshManifest(Manifest(o, run, s));  // may describe an older archive
   }
-  trainkit::StepLog metrics(run.File(kMetrics),
-                            s.model->layered() ? kLayerMetricsHeader : kWarpMetricsHeader, s.step);
+  trainkit::StepLog metrics(run.File(kMetrics), MetricsHeader(*s.model), s.step);
   std::optional<Validation> val;
   if (!o.val_dir.empty()) val.emplace(o, run, *s.sampler, s.step);
 
   TrainSummary summary;
   summary.start_step = s.step;
   MotionStage stage(o, run, device, s, val, summary);
+  TrainConfig schedule = cfg.train;
+  schedule.steps = TotalSteps(cfg);
   summary.end_step =
-      trainkit::RunTrainingLoop(trainkit::LoopOptionsOf(cfg.train, s.step, o.max_steps_this_run,
+      trainkit::RunTrainingLoop(trainkit::LoopOptionsOf(schedule, s.step, o.max_steps_this_run,
                                                         o.show_progress ? "motion train" : ""),
                                 stage, &metrics);
   summary.checkpoint_path = run.checkpoint();

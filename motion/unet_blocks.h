@@ -1,6 +1,7 @@
 #pragma once
-// The convolution blocks the motion model's nets are built of (warp_net.cc, layer_net.cc), under
-// the PyTorch twin's module layout (tests/motion/warp_twin.py: down, up). Internal.
+// The convolution blocks the motion model's nets are built of (warp_net.cc, layer_net.cc,
+// pose_net.cc), under the PyTorch twin's module layout (tests/motion/warp_twin.py: down, up).
+// Internal.
 #include <torch/torch.h>
 
 namespace wm::motion {
@@ -18,6 +19,18 @@ inline torch::nn::Sequential Up(int64_t in, int64_t out) {
       torch::nn::ConvTranspose2d(
           torch::nn::ConvTranspose2dOptions(in, out, 4).stride(2).padding(1)),
       torch::nn::ReLU());
+}
+
+// `levels` halvings (4x4 stride-2 convolutions and ReLUs, `in` then `c` channels) as one flat
+// Sequential: LibTorch cannot nest Sequentials.
+inline torch::nn::Sequential Downs(int64_t in, int64_t c, int levels) {
+  torch::nn::Sequential stack;
+  for (int level = 0; level < levels; ++level) {
+    stack->push_back(torch::nn::Conv2d(
+        torch::nn::Conv2dOptions(level == 0 ? in : c, c, 4).stride(2).padding(1)));
+    stack->push_back(torch::nn::ReLU());
+  }
+  return stack;
 }
 
 inline torch::nn::Conv2d Conv3x3(int64_t in, int64_t out) {

@@ -63,21 +63,50 @@ void WindowSampler::Load(const std::vector<WindowRef>& refs, float* frames, floa
   }
 }
 
+std::vector<PairRef> WindowSampler::DrawPairs(uint64_t seed, int64_t step, int batch) const {
+  std::mt19937_64 rng(MixBits(seed ^ MixBits(static_cast<uint64_t>(step))));
+  std::vector<PairRef> refs;
+  for (int b = 0; b < batch; ++b) {
+    const size_t e = rng() % episodes_.size();
+    const uint64_t steps = window_prefix_[e] - (e ? window_prefix_[e - 1] : 0) + unroll_;
+    const auto frame = static_cast<int64_t>(rng() % steps);
+    refs.push_back({episodes_[e], frame, static_cast<int64_t>(rng() % steps)});
+  }
+  return refs;
+}
+
+void WindowSampler::LoadPairs(const std::vector<PairRef>& refs, float* frames,
+                              float* sources) const {
+  const size_t frame_floats = 3ull * size_ * size_;
+  for (size_t b = 0; b < refs.size(); ++b) {
+    const Episode episode = reader_->ReadEpisode(static_cast<size_t>(refs[b].episode));
+    const std::vector<std::string>& encoded = episode.images.at(image_key_).frames;
+    trainkit::DecodeFrame(encoded.at(static_cast<size_t>(refs[b].frame)), size_,
+                          frames + b * frame_floats);
+    trainkit::DecodeFrame(encoded.at(static_cast<size_t>(refs[b].source)), size_,
+                          sources + b * frame_floats);
+  }
+}
+
+EpisodeClip WindowSampler::Clip(int64_t k, int64_t max_frames) const {
+  const size_t frame_floats = 3ull * size_ * size_;
+  const Episode episode = reader_->ReadEpisode(static_cast<size_t>(k));
+  EpisodeClip clip;
+  clip.frames = std::min(episode.num_steps, max_frames);
+  clip.pixels.resize(clip.frames * frame_floats);
+  for (int64_t t = 0; t < clip.frames; ++t) {
+    trainkit::DecodeFrame(episode.images.at(image_key_).frames.at(static_cast<size_t>(t)), size_,
+                          clip.pixels.data() + t * frame_floats);
+  }
+  clip.actions.assign(episode.actions.begin(),
+                      episode.actions.begin() + clip.frames * action_dim());
+  return clip;
+}
+
 std::vector<EpisodeClip> WindowSampler::Episodes(int count, int64_t max_frames) const {
   std::vector<EpisodeClip> clips;
-  const size_t frame_floats = 3ull * size_ * size_;
-  const int64_t D = action_dim();
-  for (size_t k = 0; k < reader_->num_episodes() && clips.size() < size_t(count); ++k) {
-    const Episode episode = reader_->ReadEpisode(k);
-    EpisodeClip& clip = clips.emplace_back();
-    clip.frames = std::min(episode.num_steps, max_frames);
-    clip.pixels.resize(clip.frames * frame_floats);
-    for (int64_t t = 0; t < clip.frames; ++t) {
-      trainkit::DecodeFrame(episode.images.at(image_key_).frames.at(static_cast<size_t>(t)), size_,
-                            clip.pixels.data() + t * frame_floats);
-    }
-    clip.actions.assign(episode.actions.begin(), episode.actions.begin() + clip.frames * D);
-  }
+  for (size_t k = 0; k < reader_->num_episodes() && clips.size() < size_t(count); ++k)
+    clips.push_back(Clip(static_cast<int64_t>(k), max_frames));
   return clips;
 }
 

@@ -24,6 +24,12 @@ struct WindowRef {
   int64_t episode = 0, start = 0;  // frame t of the window is `start`
 };
 
+// Two frames of one episode (the pose kind's autoencoder: a frame, and the one its background is
+// made from).
+struct PairRef {
+  int64_t episode = 0, frame = 0, source = 0;
+};
+
 // Whole episodes in host memory, for validation rollouts.
 struct EpisodeClip {
   int64_t frames = 0;
@@ -40,6 +46,15 @@ class WindowSampler {
   std::vector<WindowRef> Draw(uint64_t seed, int64_t step, int batch) const;
   // frames [B, U + 2, 3, S, S] (t-1, t, ..., t+U); actions [B, U, D] normalised.
   void Load(const std::vector<WindowRef>& refs, float* frames, float* actions) const;
+  // Pairs of frames: each pair's episode uniform over those with more than `unroll` steps, then
+  // its two frames uniform over the episode's, independently; a pure function of (seed, step).
+  std::vector<PairRef> DrawPairs(uint64_t seed, int64_t step, int batch) const;
+  // frames and sources [B, 3, S, S].
+  void LoadPairs(const std::vector<PairRef>& refs, float* frames, float* sources) const;
+  // The episodes windows are drawn from (more than `unroll` steps), as dataset episode numbers.
+  const std::vector<int64_t>& episodes() const { return episodes_; }
+  // Dataset episode `episode`, up to `max_frames` frames.
+  EpisodeClip Clip(int64_t episode, int64_t max_frames) const;
   // The first `count` episodes (fewer when the dataset has fewer), up to `max_frames` frames.
   std::vector<EpisodeClip> Episodes(int count, int64_t max_frames) const;
 

@@ -1,12 +1,14 @@
 // motion_test_tool: fixtures for the Python checks of the motion model.
-//   reference --out FILE [--seed S] [--no-jacobian] [--action-dim D] [--layers]
+//   reference --out FILE [--seed S] [--no-jacobian] [--action-dim D] [--layers | --pose]
 //       a tensor archive with random weights ("model/...", the heads too, so flows are several
 //       pixels), inputs ("input/...") and the C++ outputs ("output/...") of one forward and of a
 //       3-step Imagine, for the PyTorch twin (warp_twin.py); --layers: the layered kind (its
-//       masks, fill and the 3-step Imagine)
+//       masks, fill and the 3-step Imagine); --pose: the pose kind (pose_twin.py: its pose, drawn
+//       colour and alpha, background and the 3-step Imagine)
 //   make-data --out DIR [--episodes N] [--steps T] [--seed S]
 //       a moving-square shard dataset (moving_square.h)
 #include <CLI/CLI.hpp>
+#include <cmath>
 #include <iostream>
 
 #include "core/error.h"
@@ -23,7 +25,18 @@ using namespace wm::motion;
 void RandomizeHeads(MotionNet& net) {
   torch::NoGradGuard no_grad;
   auto params = net.module().named_parameters();
-  if (net.layered()) {
+  if (net.posed()) {  // a drawn arm and a mask that vary, a dynamics MLP that bends the path
+    for (auto& item : params) {  // PyTorch's default init shrinks the pose and what is drawn
+      const std::string& name = item.key();
+      if ((name.rfind("encoder.", 0) == 0 || name.rfind("renderer.", 0) == 0) &&
+          item.value().dim() > 1)
+        item.value().normal_(0, 2 / std::sqrt(item.value()[0].numel()));
+    }
+    params["eraser.sprite_head.weight"].normal_(0, 0.3);
+    params["eraser.sprite_head.bias"].normal_(0, 1.0);
+    params["dynamics.correction.4.weight"].normal_(0, 0.3);
+    params["dynamics.correction.4.bias"].normal_(0, 0.3);
+  } else if (net.layered()) {
     params["sprite_head.weight"].normal_(0, 0.3);
     params["sprite_head.bias"].normal_(0, 1.0);
     params["motion_head.weight"].normal_(0, 0.05);
@@ -35,11 +48,13 @@ void RandomizeHeads(MotionNet& net) {
 }
 
 void WriteReference(const std::string& path, uint64_t seed, bool jacobian, int action_dim,
-                    bool layers) {
+                    const std::string& kind) {
   MotionConfig c = test::TestConfig();
   c.model.channels = 8;
   c.model.action_jacobian = jacobian;
-  if (layers) c.model.kind = "layers";
+  c.model.kind = kind;
+  c.model.pose_dim = 6;
+  c.model.renderer_width = 16;
   torch::manual_seed(seed);
   MotionNet net(c.model, action_dim);
   RandomizeHeads(net);
@@ -55,7 +70,15 @@ void WriteReference(const std::string& path, uint64_t seed, bool jacobian, int a
       {"input/actions", actions},
       {"output/imagined", Imagine(net, current, actions)}};
   torch::NoGradGuard no_grad;
-  if (layers) {
+  if (net.posed()) {
+    PoseNet& pose = net.pose();
+    const torch::Tensor p = pose->encoder()->forward(current);
+    const Drawn drawn = pose->renderer()->forward(p);
+    tensors.insert(tensors.end(), {{"output/pose", p},
+                                   {"output/rgb", drawn.rgb},
+                                   {"output/alpha", drawn.alpha},
+                                   {"output/background", pose->Background(current)}});
+  } else if (net.layered()) {
     const Sprites sprites = net.layers()->sprites(current);
     tensors.insert(tensors.end(), {{"output/masks", sprites.masks}, {"output/fill", sprites.fill}});
   } else {
@@ -78,7 +101,7 @@ int main(int argc, char** argv) {
   app.require_subcommand(1);
   std::string out;
   uint64_t seed = 3;
-  bool no_jacobian = false, layers = false;
+  bool no_jacobian = false, layers = false, pose = false;
   int action_dim = 7, episodes = 24, steps = 12;
   CLI::App* ref = app.add_subcommand("reference", "Weights, inputs and C++ outputs");
   ref->add_option("--out", out)->required();
@@ -86,6 +109,7 @@ int main(int argc, char** argv) {
   ref->add_flag("--no-jacobian", no_jacobian);
   ref->add_option("--action-dim", action_dim);
   ref->add_flag("--layers", layers);
+  ref->add_flag("--pose", pose)->excludes("--layers");
   CLI::App* data = app.add_subcommand("make-data", "A moving-square shard dataset");
   data->add_option("--out", out)->required();
   data->add_option("--episodes", episodes);
@@ -93,7 +117,11 @@ int main(int argc, char** argv) {
   data->add_option("--seed", seed);
   CLI11_PARSE(app, argc, argv);
   try {
-    if (ref->parsed()) WriteReference(out, seed, !no_jacobian, action_dim, layers);
+    if (ref->parsed())
+      WriteReference(out, seed, !no_jacobian, action_dim,
+                     pose     ? "pose"
+                     : layers ? "layers"
+                              : "warp");
     if (data->parsed()) test::WriteMovingSquares(out, episodes, steps, seed);
   } catch (const std::exception& e) {
     std::cerr << "motion_test_tool: " << e.what() << "\n";

@@ -3,7 +3,8 @@
 (3-step imaginations to 1e-4, below):
 the warp kind (motion/warp_net.cc, warp_twin.py) its flow, gate, next frame and 3-step
 imagination; the layered kind (motion/layer_net.cc, layer_twin.py) its masks, fill and 3-step
-imagination. motion_test_tool writes random weights (non-zero heads, so flows and layer moves
+imagination; the pose kind (motion/pose_net.cc, pose_twin.py) its pose, drawn colour and alpha,
+background and 3-step imagination. motion_test_tool writes random weights (non-zero heads, so flows and layer moves
 are pixels long), inputs and its outputs into a tensor archive; the twin loads the weights
 strictly and recomputes."""
 import os
@@ -18,6 +19,7 @@ HERE = os.path.dirname(os.path.abspath(__file__))
 sys.path.insert(0, HERE)
 sys.path.insert(0, os.path.join(HERE, "..", "train"))
 import layer_twin  # noqa: E402
+import pose_twin  # noqa: E402
 import warp_twin  # noqa: E402
 from dynamics_twin import read_archive  # noqa: E402
 
@@ -99,6 +101,35 @@ def check_layers(tool, tmp):
     return compare.failures
 
 
+def check_pose(tool, tmp):
+    flags = ["--pose"]
+    tensors, meta, t = load_reference(tool, flags, tmp)
+    m = meta["config"]["model"]
+    net = load_weights(pose_twin.PoseNet(meta["action_dim"], m["pose_dim"], m["channels"],
+                                         m["renderer_width"], m["image_size"]), tensors)
+    compare = Comparison(flags)
+    with torch.no_grad():
+        pose = net.encoder(t["current"])
+        compare("pose", pose, tensors["output/pose"])
+        rgb, alpha = net.renderer(pose)
+        compare("rgb", rgb, tensors["output/rgb"])
+        compare("alpha", alpha, tensors["output/alpha"])
+        compare("background", pose_twin.erase(net.eraser, t["current"]),
+                tensors["output/background"])
+        compare("imagined", net.imagine(t["current"], t["actions"]).clamp(-1, 1),
+                tensors["output/imagined"], IMAGINED_TOL)
+    # Able to fail: the alpha differs from pixel to pixel, the eraser changes the frame, and
+    # the imagined frames change from step to step (the dynamics moves the pose).
+    imagined = tensors["output/imagined"]
+    spread = float(tensors["output/alpha"].std())
+    erased = float(np.abs(tensors["output/background"] - tensors["input/current"]).mean())
+    change = float(np.abs(imagined[:, -1] - imagined[:, 0]).mean())
+    if spread < 0.01 or erased < 0.05 or change < 0.01:
+        compare.failures.append("pose: reference too tame (alpha std %.3f, erased %.3f, "
+                                "change %.3f)" % (spread, erased, change))
+    return compare.failures
+
+
 def main():
     tool = os.path.join(os.environ.get("WM_BIN_DIR", "build/bin"), "motion_test_tool")
     torch.set_num_threads(1)
@@ -107,6 +138,7 @@ def main():
         for flags in ([], ["--no-jacobian"], ["--action-dim", "26"]):
             failures += check_case(tool, flags, tmp)
         failures += check_layers(tool, tmp)
+        failures += check_pose(tool, tmp)
     if failures:
         print("FAIL:", "; ".join(failures))
         return 1

@@ -30,9 +30,10 @@ std::string WithoutThroughput(const std::string& csv) {
   return out;
 }
 
-// Every test of the trainer and the API runs for both model kinds (model.kind), and for the
+// Every test of the trainer and the API runs for each model kind (model.kind), and for the
 // layered kind with the motion prior on a textured background (configs/motion/textured.yaml's
-// case): the prior's weight changes over the steps, so resume is checked across it.
+// case): the prior's weight changes over the steps, so resume is checked across it. The pose
+// kind runs as many dynamics steps (3-step rollouts) after its autoencoder's.
 class MotionTrainTest : public ::testing::TestWithParam<std::string> {
  protected:
   void SetUp() override {
@@ -55,6 +56,11 @@ class MotionTrainTest : public ::testing::TestWithParam<std::string> {
       o.config.train.moved_weight = 4;  // and its weighted frame loss
     }
     o.config.train.steps = steps;
+    if (GetParam() == "pose") {
+      o.config.train.dynamics_steps = steps;
+      o.config.train.unroll = 3;
+      o.config.train.moved_weight = 4;  // configs/motion/pose.yaml's (without, the alpha dies)
+    }
     o.data_dir = dir_ / "train";
     o.out_dir = dir_ / out;
     o.show_progress = false;
@@ -80,11 +86,16 @@ TEST_P(MotionTrainTest, KilledRunResumesBitIdentically) {
   // not a checkpoint_every multiple (the stop writes one), inside the motion prior's 6 steps
   part.max_steps_this_run = 3;
   EXPECT_EQ(TrainMotion(part).end_step, 3);
-  part.max_steps_this_run = 0;
   part.resume = true;
+  const int64_t end = GetParam() == "pose" ? 60 : 30;
+  if (GetParam() == "pose") {  // and stopped again inside the dynamics' phase
+    part.max_steps_this_run = 40;
+    EXPECT_EQ(TrainMotion(part).end_step, 43);
+  }
+  part.max_steps_this_run = 0;
   const TrainSummary rest = TrainMotion(part);
-  EXPECT_EQ(rest.start_step, 3);
-  EXPECT_EQ(rest.end_step, 30);
+  EXPECT_EQ(rest.start_step, GetParam() == "pose" ? 43 : 3);
+  EXPECT_EQ(rest.end_step, end);
   EXPECT_EQ(Sha256File(dir_ / "whole/checkpoint.wmt"), Sha256File(dir_ / "parts/checkpoint.wmt"));
   EXPECT_EQ(WithoutThroughput(ReadFile(dir_ / "whole/metrics.csv")),
             WithoutThroughput(ReadFile(dir_ / "parts/metrics.csv")));
@@ -114,6 +125,10 @@ TEST(MotionConfigTest, ErrorsNameTheKey) {
       {"model:\n  kind: sprites\n", "model.kind"},
       // the layered kind's motion CNN halves the frame four times
       {"model:\n  kind: layers\n  image_size: 40\n", "model.image_size"},
+      {"model:\n  kind: pose\n  image_size: 40\n", "model.image_size"},
+      {"model:\n  renderer_width: 6\n", "model.renderer_width"},
+      {"train:\n  squared_until: 1.5\n", "train.squared_until"},
+      {"train:\n  dynamics_batch: 0\n", "train.dynamics_batch"},
       {"train:\n  mask_noise_ramp: 2\n", "train.mask_noise_ramp"},
       {"train:\n  motion_prior_steps: 1.5\n", "train.motion_prior_steps"},
       {"train:\n  motion_prior: -1\n", "train.motion_prior"},
@@ -154,9 +169,12 @@ TEST(MotionPriorTrainTest, OnATexturedBackgroundThePriorIsWhatMakesTheLayersMove
 // Issue 20's motion test, small: a model trained for 300 steps (seconds) imagines 6 frames from
 // a val episode's first frame that (1) beat copying it by more than 1 dB, (2) are worse with the
 // actions reversed by more than 1 dB (the actions, not a blur, carry the gain), and (3) on the
-// pixels that really moved are closer to the true frame than to the first frame.
+// pixels that really moved are closer to the true frame than to the first frame. The pose
+// kind's autoencoder needs 1000 steps (measured: after 300 the pose does not yet say where the
+// square is, and the frames do not follow the actions; after 1000, 31.0 dB vs copying's 27.5).
 TEST_P(MotionTrainTest, LearnsMotionThatFollowsTheActions) {
   TrainOptions o = Options("learn", 300);
+  if (GetParam() == "pose") o.config.train.steps = 1000;
   o.val_dir = dir_ / "val";
   const TrainSummary s = TrainMotion(o);
   ASSERT_TRUE(s.val.has_value());
@@ -195,7 +213,7 @@ TEST_P(MotionTrainTest, ModelApiRejectsWrongActionWidth) {
 }
 
 INSTANTIATE_TEST_SUITE_P(Kinds, MotionTrainTest,
-                         ::testing::Values("warp", "layers", "textured_prior"),
+                         ::testing::Values("warp", "layers", "textured_prior", "pose"),
                          [](const auto& info) { return info.param; });
 
 }  // namespace

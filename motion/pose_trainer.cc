@@ -1,0 +1,80 @@
+#include "motion/pose_trainer.h"
+
+#include <limits>
+
+namespace wm::motion {
+namespace {
+
+// Frames the frozen encoder reads at once when it reads the training episodes.
+constexpr int64_t kEncodeChunk = 256;
+
+}  // namespace
+
+torch::Tensor Differs(const torch::Tensor& frames, const torch::Tensor& others, double levels) {
+  return ((frames - others).abs().amax(1, /*keepdim=*/true) > levels / 127.5)
+      .to(frames.scalar_type());
+}
+
+torch::Tensor PoseAutoencoderLoss(PoseNet& net, const TrainConfig& train,
+                                  const torch::Tensor& frames, const torch::Tensor& sources,
+                                  int64_t step, PoseDiagnostics& diagnostics) {
+  const Drawn drawn = net->renderer()->forward(net->encoder()->forward(frames));
+  const torch::Tensor background = net->Background(sources);
+  torch::Tensor error = drawn.Over(background) - frames;
+  // What the renderer must draw (the arm, its shadow) counts more, but not what the eraser
+  // removed from x_s: weighing that too made the renderer repaint the table (measured).
+  const torch::Tensor weighed = Differs(frames, background.detach());
+  if (train.moved_weight > 0) error = error * (1 + train.moved_weight * weighed);
+  // Squared first: while the pose says nothing yet, the L1's best guess at each pixel is its
+  // median, no arm, and the alpha dies before the pose can learn (measured).
+  const bool squared = static_cast<double>(step) < train.squared_until * train.steps;
+  const torch::Tensor alpha = drawn.alpha.mean();
+  diagnostics = {alpha.detach(), weighed.mean()};
+  return (squared ? error.square().mean() : error.abs().mean()) + train.mask_l1 * alpha;
+}
+
+PoseDynamicsTraining::PoseDynamicsTraining(PoseNet& net, const WindowSampler& sampler,
+                                           int64_t image_size, const torch::Device& device)
+    : sampler_(sampler) {
+  torch::NoGradGuard no_grad;
+  const int64_t D = sampler.action_dim();
+  std::vector<torch::Tensor> all;
+  for (const int64_t k : sampler.episodes()) {
+    EpisodeClip clip = sampler.Clip(k, std::numeric_limits<int64_t>::max());
+    const int64_t T = clip.frames, S = image_size;
+    const torch::Tensor frames = torch::from_blob(clip.pixels.data(), {T, 3, S, S}).to(device);
+    std::vector<torch::Tensor> chunks;
+    for (int64_t t = 0; t < T; t += kEncodeChunk)
+      chunks.push_back(net->encoder()->forward(frames.slice(0, t, t + kEncodeChunk)));
+    std::vector<float> normed(static_cast<size_t>(T * D));
+    sampler.action_norm().Apply(clip.actions.data(), normed.data(), T);
+    if (poses_.size() <= static_cast<size_t>(k)) poses_.resize(k + 1), actions_.resize(k + 1);
+    poses_[k] = torch::cat(chunks);
+    actions_[k] = torch::from_blob(normed.data(), {T, D}).to(device).clone();
+    all.push_back(poses_[k]);
+  }
+  // Each number's spread: a pose number that barely moves must not be drowned by one that does.
+  scale_ = torch::cat(all).std(0) + 1e-3;
+}
+
+torch::Tensor PoseDynamicsTraining::Loss(PoseNet& net, const TrainConfig& train,
+                                         int64_t step) const {
+  const int64_t H = train.unroll;
+  std::vector<torch::Tensor> first, targets, actions;
+  for (const WindowRef& w : sampler_.Draw(train.seed, step, train.dynamics_batch)) {
+    const torch::Tensor& poses = poses_[static_cast<size_t>(w.episode)];
+    first.push_back(poses[w.start]);
+    targets.push_back(poses.slice(0, w.start + 1, w.start + H + 1));
+    actions.push_back(actions_[static_cast<size_t>(w.episode)].slice(0, w.start, w.start + H));
+  }
+  torch::Tensor pose = torch::stack(first);
+  const torch::Tensor target = torch::stack(targets), action = torch::stack(actions);
+  torch::Tensor loss = torch::zeros({}, pose.options());
+  for (int64_t h = 0; h < H; ++h) {
+    pose = net->dynamics()->forward(pose, action.select(1, h));
+    loss = loss + ((pose - target.select(1, h)) / scale_).square().mean() / static_cast<double>(H);
+  }
+  return loss;
+}
+
+}  // namespace wm::motion

@@ -1,0 +1,51 @@
+#pragma once
+// The pose kind's two training phases (pose_net.h; docs/motion.md, "The pose kind"), the losses
+// trainer.cc's loop minimises: train.steps of the autoencoder, then train.dynamics_steps of the
+// dynamics on the frozen encoder's poses. Internal (includes torch).
+#include <torch/torch.h>
+
+#include <vector>
+
+#include "motion/config.h"
+#include "motion/pose_net.h"
+#include "motion/window_sampler.h"
+
+namespace wm::motion {
+
+// metrics.csv's model columns for a step: the drawn arm's mean alpha and the share of pixels
+// weighed as drawn (0 in the dynamics' steps).
+struct PoseDiagnostics {
+  torch::Tensor alpha, drawn;
+};
+
+// [B, 1, S, S]: 1 where `frames` and `others` [B, 3, S, S] differ by over `levels` (of 255) in
+// some channel.
+torch::Tensor Differs(const torch::Tensor& frames, const torch::Tensor& others, double levels = 30);
+
+// frames x_t and sources x_s [B, 3, S, S] of the same episodes: x_t drawn from its pose over
+// x_s's background; the squared error for the first train.squared_until of train.steps, the L1
+// after, the pixels where x_t differs from the (detached) background weighed 1 +
+// train.moved_weight; plus train.mask_l1 x the mean alpha.
+torch::Tensor PoseAutoencoderLoss(PoseNet& net, const TrainConfig& train,
+                                  const torch::Tensor& frames, const torch::Tensor& sources,
+                                  int64_t step, PoseDiagnostics& diagnostics);
+
+// The dynamics' phase: every training episode's poses, read once by the frozen encoder, and
+// batches of open-loop pose rollouts of train.unroll steps against them.
+class PoseDynamicsTraining {
+ public:
+  PoseDynamicsTraining(PoseNet& net, const WindowSampler& sampler, int64_t image_size,
+                       const torch::Device& device);
+  // Rollouts from the windows WindowSampler::Draw(seed, step, train.dynamics_batch) gives: the
+  // mean squared error of the poses, each number's error divided by its spread over the
+  // training poses.
+  torch::Tensor Loss(PoseNet& net, const TrainConfig& train, int64_t step) const;
+
+ private:
+  const WindowSampler& sampler_;
+  std::vector<torch::Tensor> poses_;    // per dataset episode: [T, P] (undefined: not drawn)
+  std::vector<torch::Tensor> actions_;  // per dataset episode: [T, D] normalised
+  torch::Tensor scale_;                 // [P]
+};
+
+}  // namespace wm::motion
