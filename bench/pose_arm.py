@@ -42,7 +42,7 @@ import warp_predictor as wp
 import layer_predictor as lp
 import layer_variants
 from layer_twin import LayerNet
-from pose_twin import PoseEncoder, coordinates
+from pose_twin import PoseEncoder, coordinates, over
 
 
 class Renderer(nn.Module):
@@ -92,7 +92,7 @@ class PoseArmNet(nn.Module):
     def draw(self, pose, background):
         rgb, alpha = self.renderer(pose)
         self.alphas.append(alpha[:, 0])
-        return rgb * alpha + (1 - alpha) * background
+        return over(rgb, alpha, background)
 
     def forward(self, first, actions, keep_given=False):
         """Frames [B, H, 3, S, S] after `first` under normalised actions [B, H, D]; the poses
@@ -157,7 +157,7 @@ def write_layers(path, net, episodes, norm, steps=(0, 2, 4, 6, 8)):
         tiles = [frames[0], net.background[0]]
         for t in steps:
             rgb, alpha = net.renderer(net.poses[:, t])
-            tiles.append((rgb * alpha + (1 - alpha))[0])
+            tiles.append(over(rgb, alpha, 1)[0])
         rows.append(wp.np.concatenate([wp.goal1.to_uint8(t[None])[0] for t in tiles], 1))
     wp.write_strip(path, rows)
 

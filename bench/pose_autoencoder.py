@@ -53,7 +53,7 @@ import layer_variants
 import keypoints
 import pose_arm
 from layer_twin import LayerNet
-from pose_twin import DeconvRenderer, PoseDynamics, erase
+from pose_twin import DeconvRenderer, PoseDynamics, erase, over
 
 BATCH = 32
 
@@ -109,7 +109,7 @@ class PoseAutoencoder(nn.Module):
     def forward(self, frames, sources):
         rgb, alpha = self.renderer(self.encoder(frames))
         self.alpha, self.last_background = alpha, self.background(sources)
-        return rgb * alpha + (1 - alpha) * self.last_background
+        return over(rgb, alpha, self.last_background)
 
 
 def fit(net, episodes, args):
@@ -207,7 +207,7 @@ def fit_dynamics_pixels(dyn, net, episodes, norm, args):
             pose, background = net.encoder(first), net.background(first)
         background = background.repeat_interleave(h, 0)
         rgb, alpha = net.renderer(dyn(pose, acts).flatten(0, 1))
-        error = rgb * alpha + (1 - alpha) * background - real
+        error = over(rgb, alpha, background) - real
         error = error * (1 + args.moved_weight * differs(real, background))
         wp.optimizer_step(dyn, opt, error.abs().mean(), step)
 
@@ -236,7 +236,7 @@ def write_layers(path, net, episodes, steps=(2, 4, 6, 8)):
         tiles = [marked(net, frames[0]), net.background(frames[:1])[0]]
         for t in steps:
             rgb, alpha = net.renderer(net.encoder(frames[min(t, len(frames) - 1)][None]))
-            tiles.append((rgb * alpha + (1 - alpha))[0])
+            tiles.append(over(rgb, alpha, 1)[0])
         rows.append(np.concatenate([wp.goal1.to_uint8(t[None])[0] for t in tiles], 1))
     wp.write_strip(path, rows)
 
@@ -295,8 +295,7 @@ def score_dynamics(net, train, val, action_dim, norm, args):
             fit_dynamics_pixels(dyn, net, train, norm, args)
 
     def imagine(first, acts, _=None):
-        rgb, alpha = net.renderer(dyn(net.encoder(first), acts)[0])
-        return (rgb * alpha + (1 - alpha) * net.background(first))[None]
+        return over(*net.renderer(dyn(net.encoder(first), acts)[0]), net.background(first))[None]
     r, rows = wp.score(net, val, norm, imagine)
     print(f"pose dynamics ({args.dynamics_steps} steps, {args.dynamics_pixels} through the "
           f"renderer, horizon {args.horizon}): "

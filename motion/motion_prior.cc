@@ -2,10 +2,14 @@
 
 namespace wm::motion {
 
+torch::Tensor Differs(const torch::Tensor& frames, const torch::Tensor& others, double levels) {
+  return ((frames - others).abs().amax(-3, /*keepdim=*/true) > levels / 127.5)
+      .to(frames.scalar_type());
+}
+
 torch::Tensor MovedPixels(const torch::Tensor& frames, int64_t given, double levels) {
   const torch::Tensor later = frames.narrow(1, given + 1, frames.size(1) - given - 1);
-  const torch::Tensor change = (later - frames.narrow(1, given, 1)).abs().amax({1, 2});
-  const torch::Tensor moved = change.gt(levels / 127.5).to(torch::kFloat32).unsqueeze(1);
+  const torch::Tensor moved = Differs(later, frames.narrow(1, given, 1), levels).amax(1);
   return torch::max_pool2d(moved, 3, 1, 1).squeeze(1);
 }
 

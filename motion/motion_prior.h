@@ -13,6 +13,10 @@
 
 namespace wm::motion {
 
+// [..., 1, S, S]: 1 where `frames` and `others` [..., 3, S, S] (in [-1, 1]) differ by more than
+// `levels` (of 255) in some channel, else 0.
+torch::Tensor Differs(const torch::Tensor& frames, const torch::Tensor& others, double levels = 30);
+
 // frames [B, W, 3, S, S] in [-1, 1] with the given frame at index `given`: [B, S, S], 1 where a
 // later frame of the window differs from the given one by more than `levels` (of 255) in some
 // channel, grown by one pixel (3x3 max), else 0. Earlier frames are ignored.

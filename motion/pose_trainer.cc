@@ -2,6 +2,8 @@
 
 #include <limits>
 
+#include "motion/motion_prior.h"
+
 namespace wm::motion {
 namespace {
 
@@ -9,11 +11,6 @@ namespace {
 constexpr int64_t kEncodeChunk = 256;
 
 }  // namespace
-
-torch::Tensor Differs(const torch::Tensor& frames, const torch::Tensor& others, double levels) {
-  return ((frames - others).abs().amax(1, /*keepdim=*/true) > levels / 127.5)
-      .to(frames.scalar_type());
-}
 
 torch::Tensor PoseAutoencoderLoss(PoseNet& net, const TrainConfig& train,
                                   const torch::Tensor& frames, const torch::Tensor& sources,

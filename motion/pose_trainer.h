@@ -18,10 +18,6 @@ struct PoseDiagnostics {
   torch::Tensor alpha, drawn;
 };
 
-// [B, 1, S, S]: 1 where `frames` and `others` [B, 3, S, S] differ by over `levels` (of 255) in
-// some channel.
-torch::Tensor Differs(const torch::Tensor& frames, const torch::Tensor& others, double levels = 30);
-
 // frames x_t and sources x_s [B, 3, S, S] of the same episodes: x_t drawn from its pose over
 // x_s's background; the squared error for the first train.squared_until of train.steps, the L1
 // after, the pixels where x_t differs from the (detached) background weighed 1 +

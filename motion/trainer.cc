@@ -224,11 +224,7 @@ class MotionStage : public trainkit::TrainingStage {
     if (s_.model->posed()) return TrainPose(step, stop);
     const int64_t B = cfg_.train.batch_size, U = cfg_.train.unroll, S = cfg_.model.image_size;
     const int64_t D = s_.sampler->action_dim();
-    if (!pending_.valid())
-      pending_ = std::async(std::launch::async, &MotionStage::Load, this, step);
-    Batch batch = pending_.get();
-    if (step + 1 < stop)
-      pending_ = std::async(std::launch::async, &MotionStage::Load, this, step + 1);
+    Batch batch = Prefetched(&MotionStage::Load, step, stop);
     const torch::Tensor frames =
         torch::from_blob(batch.frames.data(), {B, U + 2, 3, S, S}).to(device_, true, true);
     const torch::Tensor actions =
@@ -262,11 +258,7 @@ class MotionStage : public trainkit::TrainingStage {
   void TrainPoseAutoencoder(int64_t step, int64_t stop) {
     const TrainConfig& t = cfg_.train;
     const int64_t B = t.batch_size, S = cfg_.model.image_size;
-    if (!pending_.valid())
-      pending_ = std::async(std::launch::async, &MotionStage::LoadPairs, this, step);
-    Batch batch = pending_.get();
-    if (step + 1 < std::min(stop, t.steps))
-      pending_ = std::async(std::launch::async, &MotionStage::LoadPairs, this, step + 1);
+    Batch batch = Prefetched(&MotionStage::LoadPairs, step, std::min(stop, t.steps));
     const torch::Tensor pairs =
         torch::from_blob(batch.frames.data(), {2, B, 3, S, S}).to(device_, true, true);
     lr_ = trainkit::LearningRateAt(trainkit::ScheduleOf(t), step);
@@ -386,6 +378,15 @@ class MotionStage : public trainkit::TrainingStage {
     batch.actions.resize(static_cast<size_t>(B) * U * s_.sampler->action_dim());
     s_.sampler->Load(s_.sampler->Draw(cfg_.train.seed, step, B), batch.frames.data(),
                      batch.actions.data());
+    return batch;
+  }
+
+  // Step `step`'s batch from `load`, and step + 1's started on another thread (decoded while
+  // this one trains) when step + 1 < `end`.
+  Batch Prefetched(Batch (MotionStage::*load)(int64_t) const, int64_t step, int64_t end) {
+    if (!pending_.valid()) pending_ = std::async(std::launch::async, load, this, step);
+    Batch batch = pending_.get();
+    if (step + 1 < end) pending_ = std::async(std::launch::async, load, this, step + 1);
     return batch;
   }
 

@@ -80,6 +80,11 @@ class PoseDynamics(nn.Module):
         return torch.stack(out, 1)
 
 
+def over(rgb, alpha, background):
+    """The drawn arm (colour, alpha) composited over `background` (a frame, or 1: white)."""
+    return rgb * alpha + (1 - alpha) * background
+
+
 def erase(eraser, frames):
     """`frames` with what moves erased by a one-layer LayerNet's mask and fill."""
     masks, fill = eraser.sprites(frames)
@@ -101,6 +106,5 @@ class PoseNet(nn.Module):
         background = erase(self.eraser, first)
         frames = []
         for pose in self.dynamics(self.encoder(first), actions).unbind(1):
-            rgb, alpha = self.renderer(pose)
-            frames.append(rgb * alpha + (1 - alpha) * background)
+            frames.append(over(*self.renderer(pose), background))
         return torch.stack(frames, 1)

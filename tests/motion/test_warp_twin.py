@@ -4,9 +4,9 @@
 the warp kind (motion/warp_net.cc, warp_twin.py) its flow, gate, next frame and 3-step
 imagination; the layered kind (motion/layer_net.cc, layer_twin.py) its masks, fill and 3-step
 imagination; the pose kind (motion/pose_net.cc, pose_twin.py) its pose, drawn colour and alpha,
-background and 3-step imagination. motion_test_tool writes random weights (non-zero heads, so flows and layer moves
-are pixels long), inputs and its outputs into a tensor archive; the twin loads the weights
-strictly and recomputes."""
+background and 3-step imagination. motion_test_tool writes random weights (non-zero heads, so
+flows and layer moves are pixels long), inputs and its outputs into a tensor archive; the twin
+loads the weights strictly and recomputes."""
 import os
 import subprocess
 import sys
