@@ -29,6 +29,7 @@ import torch
 
 import warp_predictor as wp
 import layer_predictor as lp
+from motion_run import load_run
 
 SCALE = lp.INCREMENT_SCALE
 
@@ -113,7 +114,7 @@ def main():
     torch.set_num_threads(args.threads)
     torch.manual_seed(args.seed)
     torch.set_flush_denormal(True)
-    net, norm = lp.from_checkpoint(args.checkpoint)
+    net, norm = load_run(args.checkpoint, "layers")
     net.eval()
     train, val = wp.recipes.load(args.train), wp.recipes.load(args.val)
     where = windows(train, args.horizon, args.stride)

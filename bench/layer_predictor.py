@@ -62,17 +62,15 @@ layers' cut-out. --ceiling (a diagnostic) also scores each rollout with its per-
 to the real frames by Adam from the predictor's own (the masks and fill kept): the
 representation's error without the motion predictor's.
 """
-import os
 import time
 
 import numpy as np
 import torch
 
 import warp_predictor as wp
-from dynamics_twin import read_archive
 import layer_twin as lt
-from layer_twin import LayerNet
 import layer_variants
+from motion_run import load_run
 
 
 def fit(net, episodes, norm, steps, args):
@@ -297,20 +295,6 @@ def ceiling(net, episodes, norm, iterations=300):
         return wp.score(net, episodes, norm, imagine)
 
 
-def from_checkpoint(run_dir):
-    """The twin with a wm-motion run's weights, and its action normaliser."""
-    tensors, meta = read_archive(os.path.join(run_dir, "checkpoint.wmt"))
-    m = meta["config"]["model"]
-    assert m["kind"] == "layers", "%s holds a %s model" % (run_dir, m["kind"])
-    net = LayerNet(meta["action_dim"], m["layers"], m["channels"], m["flow_scale"],
-                   image_size=m["image_size"])
-    net.load_state_dict({k[len("model/"):]: torch.from_numpy(v) for k, v in tensors.items()
-                         if k.startswith("model/")}, strict=True)
-    stats = next(iter(meta["action_norms"].values()))
-    mean, std = np.array(stats["mean"], np.float32), np.array(stats["std"], np.float32)
-    return net, lambda a: ((a - mean) / std).astype(np.float32)
-
-
 @torch.no_grad()
 def write_masks(path, net, episodes):
     """Per val episode 0-2 a row: the given frame, each layer's mask (white = in the layer), the
@@ -386,7 +370,7 @@ def main():
     net = layer_variants.build(args, actions.shape[1], train, val)
     start = time.time()
     if args.checkpoint:
-        net, norm = from_checkpoint(args.checkpoint)
+        net, norm = load_run(args.checkpoint, "layers")
     elif args.load:
         net.load_state_dict(torch.load(args.load))
     else:

@@ -30,22 +30,10 @@ import dynamics_token_recipes as recipes  # noqa: E402
 import tokenizer_goal1 as goal1  # noqa: E402
 import vqvae_twin  # noqa: E402
 import warp_predictor  # noqa: E402
-import warp_twin  # noqa: E402
-from dynamics_twin import read_archive  # noqa: E402
+from motion_run import load_run  # noqa: E402
 
 MODES = ("plain", "project", "project_feed", "blend_feed")
 HORIZON, ROLLOUTS = 8, 8
-
-
-def load_motion(run_dir):
-    """(twin in eval mode, raw action -> normalised action) of a wm-motion run."""
-    tensors, meta = read_archive(os.path.join(run_dir, "checkpoint.wmt"))
-    net = warp_twin.WarpNet(meta["config"]["model"], meta["action_dim"])
-    net.load_state_dict({k[len("model/"):]: torch.from_numpy(v) for k, v in tensors.items()
-                         if k.startswith("model/")}, strict=True)
-    norms = next(iter(meta["action_norms"].values()))
-    mean, std = (np.array(norms[k], np.float32) for k in ("mean", "std"))
-    return net.eval(), lambda a: ((a - mean) / std).astype(np.float32)
 
 
 @torch.no_grad()
@@ -70,7 +58,7 @@ def main():
     ap.add_argument("--strips", help="directory for one PNG per mode (real / imagined rows)")
     args = ap.parse_args()
     torch.set_num_threads(1)
-    net, norm = load_motion(os.path.join(args.demo, "run", "motion"))
+    net, norm = load_run(os.path.join(args.demo, "run", "motion"), "warp")
     tokenizer = vqvae_twin.load_checkpoint(os.path.join(args.demo, "run", "tokenizer"))[0]
     val = recipes.load(os.path.join(args.demo, "shards", "val"))
     for mode in MODES:
