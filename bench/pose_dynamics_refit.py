@@ -131,7 +131,9 @@ def main():
         torch.manual_seed(args.seed)
         dynamics = PoseDynamics(net.dynamics.action_map.out_features,
                                           net.dynamics.action_map.in_features)
-        net.dynamics = widened(dynamics, args.hidden) if args.hidden != 128 else dynamics
+        if args.hidden != dynamics.correction[0].out_features:  # the twin's own otherwise
+            dynamics = widened(dynamics, args.hidden)
+        net.dynamics = dynamics
         with torch.enable_grad():
             fit(net.dynamics.requires_grad_(True), episode_poses(net, train), train, norm, args)
     net.eval()

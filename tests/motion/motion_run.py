@@ -1,6 +1,7 @@
 #!/usr/bin/python3
-"""A wm-motion run directory's checkpoint as its PyTorch twin (any model.kind), with the action
-normaliser the run trained with: what bench scripts score a C++ run through."""
+"""A wm-motion tensor archive as its PyTorch twin (any model.kind): a run directory's
+checkpoint with the action normaliser the run trained with (what bench scripts score a C++ run
+through), or motion_test_tool's references (test_warp_twin.py)."""
 import os
 
 import numpy as np
@@ -23,6 +24,13 @@ def twin_of(model, action_dim):
     return WarpNet(model, action_dim)
 
 
+def load_weights(net, tensors):
+    """`net` with a tensor archive's model/ tensors loaded strictly."""
+    net.load_state_dict({k[len("model/"):]: torch.from_numpy(v) for k, v in tensors.items()
+                         if k.startswith("model/")}, strict=True)
+    return net
+
+
 def load_run(run_dir, kind=None):
     """(twin with the run's weights, in eval mode; raw action -> normalised float32 action).
     `kind`, when given, is the model.kind the caller needs."""
@@ -30,9 +38,7 @@ def load_run(run_dir, kind=None):
     model = meta["config"]["model"]
     if kind is not None and model["kind"] != kind:
         raise ValueError("%s holds a %s model, not %s" % (run_dir, model["kind"], kind))
-    net = twin_of(model, meta["action_dim"])
-    net.load_state_dict({k[len("model/"):]: torch.from_numpy(v) for k, v in tensors.items()
-                         if k.startswith("model/")}, strict=True)
+    net = load_weights(twin_of(model, meta["action_dim"]), tensors)
     stats = next(iter(meta["action_norms"].values()))
     mean, std = (np.array(stats[k], np.float32) for k in ("mean", "std"))
     return net.eval(), lambda a: ((a - mean) / std).astype(np.float32)

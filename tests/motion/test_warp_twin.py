@@ -18,10 +18,10 @@ import torch
 HERE = os.path.dirname(os.path.abspath(__file__))
 sys.path.insert(0, HERE)
 sys.path.insert(0, os.path.join(HERE, "..", "train"))
-import layer_twin  # noqa: E402
 import pose_twin  # noqa: E402
 import warp_twin  # noqa: E402
 from dynamics_twin import read_archive  # noqa: E402
+from motion_run import load_weights, twin_of  # noqa: E402
 
 TOL = 1e-5
 # Multi-step imagination resamples each imagined frame at flows of several pixels, so a rounding
@@ -42,12 +42,6 @@ def load_reference(tool, flags, tmp):
     return tensors, meta, inputs
 
 
-def load_weights(net, tensors):
-    net.load_state_dict({k[len("model/"):]: torch.from_numpy(v) for k, v in tensors.items()
-                         if k.startswith("model/")}, strict=True)
-    return net
-
-
 class Comparison:
     def __init__(self, flags):
         self.flags, self.failures = flags, []
@@ -61,7 +55,7 @@ class Comparison:
 
 def check_case(tool, flags, tmp):
     tensors, meta, t = load_reference(tool, flags, tmp)
-    net = load_weights(warp_twin.WarpNet(meta["config"]["model"], meta["action_dim"]), tensors)
+    net = load_weights(twin_of(meta["config"]["model"], meta["action_dim"]), tensors)
     compare = Comparison(flags)
     with torch.no_grad():
         nxt, flow, gate = net(t["current"], t["previous"], t["action"])
@@ -82,9 +76,7 @@ def check_case(tool, flags, tmp):
 def check_layers(tool, tmp):
     flags = ["--layers"]
     tensors, meta, t = load_reference(tool, flags, tmp)
-    m = meta["config"]["model"]
-    net = load_weights(layer_twin.LayerNet(meta["action_dim"], m["layers"], m["channels"],
-                                           m["flow_scale"], image_size=m["image_size"]), tensors)
+    net = load_weights(twin_of(meta["config"]["model"], meta["action_dim"]), tensors)
     compare = Comparison(flags)
     with torch.no_grad():
         masks, fill = net.eval().sprites(t["current"])
@@ -104,9 +96,7 @@ def check_layers(tool, tmp):
 def check_pose(tool, tmp):
     flags = ["--pose"]
     tensors, meta, t = load_reference(tool, flags, tmp)
-    m = meta["config"]["model"]
-    net = load_weights(pose_twin.PoseNet(meta["action_dim"], m["pose_dim"], m["channels"],
-                                         m["renderer_width"], m["image_size"]), tensors)
+    net = load_weights(twin_of(meta["config"]["model"], meta["action_dim"]), tensors)
     compare = Comparison(flags)
     with torch.no_grad():
         pose = net.encoder(t["current"])
