@@ -3,7 +3,8 @@
 # whole pipeline: generate -> ingest (train, val) -> verify -> tokenizer -> token datasets ->
 # dynamics model (an early and a final checkpoint) -> wm-eval -> wm-report compare + plots, with
 # the pixel-space motion model (wm-motion) trained beside the tokenizer and dynamics model on the
-# other core. About 10 minutes on 2 cores; every stage is rerunnable and resumes.
+# other core. 10-12 minutes on 2 cores (README); every stage is rerunnable and resumes (delete OUT to
+# start over: a finished stage is reused as it is, whatever the settings now).
 set -euo pipefail
 BIN=${1:-build/bin}
 OUT=${2:-data/demo}
@@ -14,21 +15,33 @@ LOOK=${LOOK:-plain}  # varied: textured tables, harder (README, "Known limits")
 # Intra-op threads of the dynamics model. 1 by default: 2 are faster only on a quiet machine,
 # but run about 6x slower when other work shares the cores (spinning threads).
 DYN_THREADS=${DYN_THREADS:-1}
-# The motion model's recipe: on textured tables (LOOK=varied) the one with the motion prior,
-# without which it copies there; on the plain look tiny.yaml (docs/motion.md, "The motion prior").
-DEFAULT_MOTION_CONFIG=configs/motion/tiny.yaml
-[ "$LOOK" = varied ] && DEFAULT_MOTION_CONFIG=configs/motion/textured.yaml
-MOTION_CONFIG=${MOTION_CONFIG:-$DEFAULT_MOTION_CONFIG}
+# 1000 training episodes: on fewer the pose kind's dynamics overfits (docs/motion.md, session
+# 34), and the token model's steps cost the same on any number (encoding them takes seconds).
+TRAIN_EPISODES=${TRAIN_EPISODES:-1000}
+MOTION_CONFIG=${MOTION_CONFIG:-$(bash scripts/demo_motion_config.sh "$LOOK")}
 RAW=$OUT/raw
 SHARDS=$OUT/shards
 start=$(date +%s)
 
 echo "== 1/6 generate the synthetic tabletop dataset (RLDS/TFDS layout) -> $RAW"
 if [ ! -f "$RAW/wm_tabletop/1.0.0/dataset_info.json" ]; then
-  # 64x64 like the tiny tokenizer; 200 training episodes (fewer and the dynamics model overfits)
-  "$BIN/wm-gen-tabletop" --out "$RAW" --seed "$SEED" --size 64 --train-episodes 200 \
-    --val-episodes 16 --look "$LOOK"
+  # 64x64 like the tiny tokenizer
+  "$BIN/wm-gen-tabletop" --out "$RAW" --seed "$SEED" --size 64 \
+    --train-episodes "$TRAIN_EPISODES" --val-episodes 16 --look "$LOOK"
 else
+  # One made with other settings (an older demo's 200 episodes) would change every result below.
+  /usr/bin/python3 - "$RAW/wm_tabletop/1.0.0/dataset_info.json" "$TRAIN_EPISODES" "$SEED" \
+    "$LOOK" <<'PY'
+import json, re, sys
+path, episodes, seed, look = sys.argv[1], int(sys.argv[2]), sys.argv[3], sys.argv[4]
+info = json.load(open(path))
+train = sum(int(n) for s in info["splits"] if s["name"] == "train" for n in s["shardLengths"])
+made = re.search(r"seed (\d+),.* (\w+) look", info["description"])
+if train != episodes or not made or made.groups() != (seed, look):
+    sys.exit(f"demo: {path} was generated with {train} training episodes, "
+             f"seed {made and made.group(1)}, {made and made.group(2)} look; this run asks for "
+             f"{episodes}, seed {seed}, {look} look: delete {path.split('/raw/')[0]} to start over")
+PY
   echo "already generated"
 fi
 

@@ -12,7 +12,8 @@
 # held-out first frames the world models start from, the demo's whole val split), HORIZON (40:
 # policy steps, as the simulator's), ROLLOUTS (1 per start), POLICIES (the policy list),
 # DYN_THREADS (1: the token model's intra-op threads here and in scripts/demo.sh; 2 on a quiet
-# machine), MOTION_CONFIG (configs/motion/tiny.yaml), SUCCESS_CONFIG (configs/success/tiny.yaml).
+# machine), MOTION_CONFIG (the demo's: scripts/demo_motion_config.sh plain), SUCCESS_CONFIG
+# (configs/success/tiny.yaml).
 set -euo pipefail
 BIN=${1:-build/bin}
 OUT=${2:-data/wpe}
@@ -21,7 +22,7 @@ STARTS=${STARTS:-16}
 HORIZON=${HORIZON:-40}
 ROLLOUTS=${ROLLOUTS:-1}
 POLICIES=${POLICIES:-configs/policies/tabletop.yaml}
-MOTION_CONFIG=${MOTION_CONFIG:-configs/motion/tiny.yaml}
+MOTION_CONFIG=${MOTION_CONFIG:-$(bash scripts/demo_motion_config.sh plain)}
 SUCCESS_CONFIG=${SUCCESS_CONFIG:-configs/success/tiny.yaml}
 DEMO=$OUT/demo
 start=$(date +%s)
