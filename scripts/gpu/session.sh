@@ -4,13 +4,16 @@
 # Work that shares nothing runs side by side: the motion model variants on the GPU from the
 # moment wm-motion is built, the tests on the CPU cores, and the presets, NCCL and the numerics
 # check one after another on the GPU.
-#   [BUDGET=520] [MOTION_S=...] bash scripts/gpu/session.sh   (carry: data/demo/shards, gpu-data)
+#   [BUDGET=520] [MOTION_S=...] [TABLETOP64=data/demo/shards] bash scripts/gpu/session.sh
+# (carry: TABLETOP64's folder and gpu-data). The demo's shards are 78 MB since it makes 1000
+# training episodes, over a device call's 64 MiB carry: give a 200-episode set as TABLETOP64
+# (docs/gpu.md, "What a next GPU session should run first").
 set -uo pipefail
 BUDGET=${BUDGET:-520}
 OUT=${OUT:-gpu-out}
 LOGS=/tmp/gpu-logs
 mkdir -p "$OUT" "$LOGS" gpu-data
-[ -e gpu-data/tabletop64 ] || ln -s ../data/demo/shards gpu-data/tabletop64
+[ -e gpu-data/tabletop64 ] || ln -s "../${TABLETOP64:-data/demo/shards}" gpu-data/tabletop64
 left() { echo $((BUDGET - SECONDS - 30)); }  # 30 s for the archives at the end
 # run.sh's stages with logs in LOGS/NAME, stopped after CAP seconds or when the budget ends.
 run() {  # CAP NAME STAGE...
