@@ -84,7 +84,10 @@ stage_nccl() {
     --tokens gpu-runs/meta64/tokens/train --out "$run" --device cuda --steps 10 2>&1 | grep -v '%'
 }
 
-stage_motion() { bash scripts/gpu/motion_runs.sh "$BUILD/bin" "${TABLETOP64:-data/demo/shards}" "$LOG_DIR" "${MOTION_S:-300}"; }
+stage_motion() {
+  bash scripts/gpu/motion_runs.sh "$BUILD/bin" "${TABLETOP64:-data/demo/shards}" "$LOG_DIR" \
+    "${MOTION_S:-300}"
+}
 
 stage_check() {
   "$PYTHON" scripts/gpu/check.py --bin "$BUILD/bin" --out "$LOG_DIR" \
