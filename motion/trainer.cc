@@ -395,8 +395,8 @@ class MotionStage : public trainkit::TrainingStage {
     const int B = cfg_.train.batch_size, S = cfg_.model.image_size;
     Batch batch;
     batch.frames.resize(2ull * B * 3 * S * S);
-    s_.sampler->LoadPairs(s_.sampler->DrawPairs(cfg_.train.seed, step, B), batch.frames.data(),
-                          batch.frames.data() + batch.frames.size() / 2);
+    s_.sampler->LoadPairs(s_.sampler->DrawPairs(cfg_.train.seed, step, B, cfg_.train.pair_window),
+                          batch.frames.data(), batch.frames.data() + batch.frames.size() / 2);
     return batch;
   }
 

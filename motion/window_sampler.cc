@@ -63,14 +63,20 @@ void WindowSampler::Load(const std::vector<WindowRef>& refs, float* frames, floa
   }
 }
 
-std::vector<PairRef> WindowSampler::DrawPairs(uint64_t seed, int64_t step, int batch) const {
+std::vector<PairRef> WindowSampler::DrawPairs(uint64_t seed, int64_t step, int batch,
+                                              int window) const {
   std::mt19937_64 rng(MixBits(seed ^ MixBits(static_cast<uint64_t>(step))));
   std::vector<PairRef> refs;
   for (int b = 0; b < batch; ++b) {
     const size_t e = rng() % episodes_.size();
-    const uint64_t steps = window_prefix_[e] - (e ? window_prefix_[e - 1] : 0) + unroll_;
-    const auto frame = static_cast<int64_t>(rng() % steps);
-    refs.push_back({episodes_[e], frame, static_cast<int64_t>(rng() % steps)});
+    const auto steps =
+        static_cast<int64_t>(window_prefix_[e] - (e ? window_prefix_[e - 1] : 0)) + unroll_;
+    const auto frame = static_cast<int64_t>(rng() % static_cast<uint64_t>(steps));
+    const int64_t first = window > 0 ? std::max<int64_t>(frame - window, 0) : 0;
+    const int64_t last = window > 0 ? std::min<int64_t>(frame + window, steps - 1) : steps - 1;
+    const auto source =
+        first + static_cast<int64_t>(rng() % static_cast<uint64_t>(last - first + 1));
+    refs.push_back({episodes_[e], frame, source});
   }
   return refs;
 }

@@ -47,8 +47,9 @@ class WindowSampler {
   // frames [B, U + 2, 3, S, S] (t-1, t, ..., t+U); actions [B, U, D] normalised.
   void Load(const std::vector<WindowRef>& refs, float* frames, float* actions) const;
   // Pairs of frames: each pair's episode uniform over those with more than `unroll` steps, then
-  // its two frames uniform over the episode's, independently; a pure function of (seed, step).
-  std::vector<PairRef> DrawPairs(uint64_t seed, int64_t step, int batch) const;
+  // its frame uniform over the episode's and its source uniform over those at most `window`
+  // steps from it (0: over the whole episode, independently); a pure function of (seed, step).
+  std::vector<PairRef> DrawPairs(uint64_t seed, int64_t step, int batch, int window = 0) const;
   // frames and sources [B, 3, S, S].
   void LoadPairs(const std::vector<PairRef>& refs, float* frames, float* sources) const;
   // The episodes windows are drawn from (more than `unroll` steps), as dataset episode numbers.

@@ -133,11 +133,36 @@ TEST(MotionConfigTest, ErrorsNameTheKey) {
       {"train:\n  motion_prior_steps: 1.5\n", "train.motion_prior_steps"},
       {"train:\n  motion_prior: -1\n", "train.motion_prior"},
       {"train:\n  moved_weight: -0.5\n", "train.moved_weight"},
+      {"train:\n  pair_window: -1\n", "train.pair_window"},
   };
   for (const Case& c : cases) {
     const std::string error = wm::test::ErrorText([&] { ParseMotionConfig(c.yaml, "m.yaml"); });
     EXPECT_NE(error.find(c.named), std::string::npos) << c.yaml << " -> " << error;
   }
+}
+
+// The pose kind's autoencoder pairs (train.pair_window): within the window when one is set,
+// spread over the whole episode when not, and a pure function of (seed, step) either way.
+TEST(WindowSamplerTest, PairsLieWithinTheWindow) {
+  wm::test::TempDir dir;
+  test::WriteMovingSquares(dir / "d", 8, 30, 3, "moving_square", false);
+  const WindowSampler sampler(dir / "d", "image", 32, 1);
+  int64_t widest_windowed = 0, widest_free = 0;
+  for (int64_t step = 0; step < 50; ++step) {
+    for (const PairRef& p : sampler.DrawPairs(7, step, 16, 3)) {
+      ASSERT_GE(p.source, 0);
+      ASSERT_LT(p.source, 30);
+      widest_windowed = std::max(widest_windowed, std::abs(p.frame - p.source));
+    }
+    for (const PairRef& p : sampler.DrawPairs(7, step, 16))
+      widest_free = std::max(widest_free, std::abs(p.frame - p.source));
+  }
+  EXPECT_EQ(widest_windowed, 3);  // reached, never passed
+  EXPECT_GT(widest_free, 20);
+  const std::vector<PairRef> a = sampler.DrawPairs(7, 4, 16, 3), b = sampler.DrawPairs(7, 4, 16, 3);
+  for (size_t i = 0; i < a.size(); ++i)
+    EXPECT_TRUE(a[i].episode == b[i].episode && a[i].frame == b[i].frame &&
+                a[i].source == b[i].source);
 }
 
 // Why configs/motion/textured.yaml exists, small: on squares over a checkerboard the layered
