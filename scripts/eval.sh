@@ -5,6 +5,9 @@
 # Extra wm-eval flags: EVAL_ARGS in the environment (e.g. EVAL_ARGS="--horizon 8 --masks files
 # --seg-config configs/segmentation/tabletop.yaml"), extra wm-report compare flags in
 # COMPARE_ARGS (e.g. COMPARE_ARGS="--metrics psnr,ssim"). The first checkpoint is the baseline.
+# To score some checkpoints while others still train: REPORT=0 scores without comparing; a later
+# call with SCORED="NAME..." (report names already in REPORTS) scores only the others, then
+# compares and plots them all.
 set -euo pipefail
 if [ $# -lt 6 ]; then
   sed -n '2,7p' "$0" >&2
@@ -18,10 +21,23 @@ for ckpt in "$@"; do
   [ "$name" = dynamics ] && name=$(basename "$(dirname "$ckpt")")  # RUN/dynamics -> RUN
   names+=("$name")
 done
-echo "== wm-eval ${names[*]} on $VAL -> $REPORTS"
-# shellcheck disable=SC2086
-"$BIN/wm-eval" --checkpoint "$@" --name "${names[@]}" --tokenizer "$TOKENIZER" --data "$VAL" \
-  --tokens "$VAL_TOKENS" --out "$REPORTS" ${EVAL_ARGS:-}
+to_score=() score_names=()
+for i in "${!names[@]}"; do
+  case " ${SCORED:-} " in
+    *" ${names[$i]} "*) [ -f "$REPORTS/${names[$i]}/manifest.json" ] || {
+      echo "eval.sh: SCORED names ${names[$i]}, but $REPORTS/${names[$i]}/manifest.json is missing" >&2
+      exit 1
+    } ;;
+    *) to_score+=("${@:i+1:1}") score_names+=("${names[$i]}") ;;
+  esac
+done
+if [ ${#to_score[@]} -gt 0 ]; then
+  echo "== wm-eval ${score_names[*]} on $VAL -> $REPORTS"
+  # shellcheck disable=SC2086
+  "$BIN/wm-eval" --checkpoint "${to_score[@]}" --name "${score_names[@]}" --tokenizer "$TOKENIZER" \
+    --data "$VAL" --tokens "$VAL_TOKENS" --out "$REPORTS" ${EVAL_ARGS:-}
+fi
+[ "${REPORT:-1}" = 0 ] && exit 0
 dirs=()
 for n in "${names[@]}"; do dirs+=("$REPORTS/$n"); done
 echo "== wm-report compare -> $REPORTS/compare.csv"

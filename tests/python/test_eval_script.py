@@ -1,0 +1,91 @@
+#!/usr/bin/python3
+"""scripts/eval.sh's split of scoring and comparing (make demo scores the token model while
+the motion model trains): REPORT=0 scores without comparing; SCORED="NAME..." skips the
+scoring of reports already written, still comparing them, in the order given (the first is
+the baseline); a SCORED name without its report is refused. Runs eval.sh against a BIN of
+recording shell scripts in place of wm-eval and wm-report (the tools have their own tests);
+well under a second."""
+import os
+import stat
+import subprocess
+import tempfile
+import unittest
+
+SRC = os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "..")
+
+# Appends its name and arguments to $CALLS; wm-eval writes each --name's manifest and
+# wm-report its --markdown table, as the real ones do.
+RECORDER = """#!/usr/bin/env bash
+echo "$(basename "$0") $*" >> "$CALLS"
+if [ "$(basename "$0")" = wm-eval ]; then
+  out="" names=() in_names=0
+  while [ $# -gt 0 ]; do
+    case "$1" in
+      --out) out=$2; shift; in_names=0 ;;
+      --name) in_names=1 ;;
+      --*) in_names=0 ;;
+      *) [ $in_names = 1 ] && names+=("$1") ;;
+    esac
+    shift
+  done
+  for n in "${names[@]}"; do mkdir -p "$out/$n" && echo '{}' > "$out/$n/manifest.json"; done
+fi
+while [ $# -gt 0 ]; do
+  [ "$1" = --markdown ] && echo "| table |" > "$2"
+  shift
+done
+"""
+
+
+class EvalScriptTest(unittest.TestCase):
+    def setUp(self):
+        self.tmp = tempfile.TemporaryDirectory()
+        self.bin = os.path.join(self.tmp.name, "bin")
+        os.mkdir(self.bin)
+        for tool in ("wm-eval", "wm-report"):
+            path = os.path.join(self.bin, tool)
+            with open(path, "w") as f:
+                f.write(RECORDER)
+            os.chmod(path, os.stat(path).st_mode | stat.S_IEXEC)
+        self.calls = os.path.join(self.tmp.name, "calls")
+        self.reports = os.path.join(self.tmp.name, "reports")
+
+    def tearDown(self):
+        self.tmp.cleanup()
+
+    def eval_sh(self, checkpoints, **env):
+        open(self.calls, "w").close()
+        out = subprocess.run(["bash", "scripts/eval.sh", self.bin, self.reports, "tok", "val",
+                              "val_tokens", *checkpoints], cwd=SRC, capture_output=True,
+                             text=True, env={**os.environ, "CALLS": self.calls, **env})
+        with open(self.calls) as f:
+            return out, f.read().splitlines()
+
+    def test_report_0_scores_without_comparing(self):
+        out, calls = self.eval_sh(["r/early/dynamics", "r/dynamics"], REPORT="0")
+        self.assertEqual(out.returncode, 0, out.stderr)
+        self.assertEqual(len(calls), 1)
+        self.assertIn("--checkpoint r/early/dynamics r/dynamics --name early r", calls[0])
+
+    def test_scored_reports_are_compared_not_scored_again(self):
+        self.eval_sh(["r/early/dynamics", "r/dynamics"], REPORT="0")
+        out, calls = self.eval_sh(["r/early/dynamics", "r/dynamics", "r/motion"],
+                                  SCORED="early r")
+        self.assertEqual(out.returncode, 0, out.stderr)
+        self.assertTrue(calls[0].startswith("wm-eval --checkpoint r/motion --name motion "),
+                        calls[0])
+        compare = [c for c in calls if c.startswith("wm-report compare")]
+        self.assertEqual(len(compare), 1)
+        r = self.reports
+        self.assertIn(f"compare {r}/early {r}/r {r}/motion --baseline early", compare[0])
+
+    def test_a_scored_name_without_its_report_is_refused(self):
+        out, calls = self.eval_sh(["r/early/dynamics", "r/motion"], SCORED="early")
+        self.assertNotEqual(out.returncode, 0)
+        self.assertIn("SCORED names early", out.stderr)
+        self.assertIn("manifest.json is missing", out.stderr)
+        self.assertEqual(calls, [])
+
+
+if __name__ == "__main__":
+    unittest.main()
