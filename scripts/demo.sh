@@ -3,7 +3,7 @@
 # whole pipeline: generate -> ingest (train, val) -> verify -> tokenizer -> token datasets ->
 # dynamics model (an early and a final checkpoint) -> wm-eval -> wm-report compare + plots, with
 # the pixel-space motion model (wm-motion) trained beside the tokenizer and dynamics model on the
-# other core. 10-12 minutes on 2 cores (README); every stage is rerunnable and resumes (delete
+# other core. 8-9 minutes on 2 cores (README); every stage is rerunnable and resumes (delete
 # OUT to start over: a finished stage is reused as it is, whatever the settings now).
 set -euo pipefail
 BIN=${1:-build/bin}
