@@ -108,8 +108,10 @@ DYNAMICS_ARGS="$DYN" bash scripts/train.sh "$BIN" "$RUN" "$SHARDS/train" "$SHARD
 echo
 echo "== 6/6 evaluate the checkpoints on val (plain + retracing rollouts, baselines) and compare:" \
   "the token model's now, while the motion model trains, then the motion model's"
-export COMPARE_ARGS="--metrics psnr,ssim,lpips_style,mse_arm,mse_object,delta_tpsnr,moved_error_ratio"
-export EVAL_ARGS="--horizon 8 --episodes 8 --temperature 0 --masks files --seg-config configs/segmentation/tabletop.yaml --resamples 500"
+export COMPARE_ARGS="--metrics psnr,ssim,lpips_style,mse_arm,mse_object,delta_tpsnr"
+COMPARE_ARGS+=",moved_error_ratio"
+export EVAL_ARGS="--horizon 8 --episodes 8 --temperature 0 --masks files"
+EVAL_ARGS+=" --seg-config configs/segmentation/tabletop.yaml --resamples 500"
 EVAL=(bash scripts/eval.sh "$BIN" "$OUT/reports" "$RUN/tokenizer" "$SHARDS/val" "$RUN/tokens/val")
 REPORT=0 "${EVAL[@]}" "$RUN/early/dynamics" "$RUN/dynamics"
 

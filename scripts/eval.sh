@@ -24,10 +24,12 @@ done
 to_score=() score_names=()
 for i in "${!names[@]}"; do
   case " ${SCORED:-} " in
-    *" ${names[$i]} "*) [ -f "$REPORTS/${names[$i]}/manifest.json" ] || {
-      echo "eval.sh: SCORED names ${names[$i]}, but $REPORTS/${names[$i]}/manifest.json is missing" >&2
-      exit 1
-    } ;;
+    *" ${names[$i]} "*)
+      manifest=$REPORTS/${names[$i]}/manifest.json
+      if [ ! -f "$manifest" ]; then
+        echo "eval.sh: SCORED names ${names[$i]}, but $manifest is missing" >&2
+        exit 1
+      fi ;;
     *) to_score+=("${@:i+1:1}") score_names+=("${names[$i]}") ;;
   esac
 done
