@@ -72,8 +72,9 @@ std::vector<PairRef> WindowSampler::DrawPairs(uint64_t seed, int64_t step, int b
     const auto steps =
         static_cast<int64_t>(window_prefix_[e] - (e ? window_prefix_[e - 1] : 0)) + unroll_;
     const auto frame = static_cast<int64_t>(rng() % static_cast<uint64_t>(steps));
-    const int64_t first = window > 0 ? std::max<int64_t>(frame - window, 0) : 0;
-    const int64_t last = window > 0 ? std::min<int64_t>(frame + window, steps - 1) : steps - 1;
+    const int64_t reach = window > 0 ? window : steps;  // no window: the whole episode
+    const int64_t first = std::max<int64_t>(frame - reach, 0);
+    const int64_t last = std::min<int64_t>(frame + reach, steps - 1);
     const auto source =
         first + static_cast<int64_t>(rng() % static_cast<uint64_t>(last - first + 1));
     refs.push_back({episodes_[e], frame, source});

@@ -15,22 +15,18 @@ if [ $# -lt 6 ]; then
 fi
 BIN=$1 REPORTS=$2 TOKENIZER=$3 VAL=$4 VAL_TOKENS=$5
 shift 5
-names=()
+names=() to_score=() score_names=()
 for ckpt in "$@"; do
   name=$(basename "$ckpt")
   [ "$name" = dynamics ] && name=$(basename "$(dirname "$ckpt")")  # RUN/dynamics -> RUN
   names+=("$name")
-done
-to_score=() score_names=()
-for i in "${!names[@]}"; do
   case " ${SCORED:-} " in
-    *" ${names[$i]} "*)
-      manifest=$REPORTS/${names[$i]}/manifest.json
-      if [ ! -f "$manifest" ]; then
-        echo "eval.sh: SCORED names ${names[$i]}, but $manifest is missing" >&2
+    *" $name "*)
+      if [ ! -f "$REPORTS/$name/manifest.json" ]; then
+        echo "eval.sh: SCORED names $name, but $REPORTS/$name/manifest.json is missing" >&2
         exit 1
       fi ;;
-    *) to_score+=("${@:i+1:1}") score_names+=("${names[$i]}") ;;
+    *) to_score+=("$ckpt") score_names+=("$name") ;;
   esac
 done
 if [ ${#to_score[@]} -gt 0 ]; then
