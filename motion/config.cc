@@ -36,6 +36,7 @@ void VisitFields(Config& c, F&& f) {
   f("train", "moved_weight", t.moved_weight);
   f("train", "squared_until", t.squared_until);
   f("train", "pair_window", t.pair_window);
+  f("train", "edge_weight", t.edge_weight);
   f("train", "dynamics_steps", t.dynamics_steps);
   f("train", "dynamics_batch", t.dynamics_batch);
   f("train", "dynamics_lr", t.dynamics_lr);
@@ -96,6 +97,7 @@ void ValidateConfig(const MotionConfig& c, const std::string& file) {
   require(t.moved_weight >= 0, "train.moved_weight", "must be >= 0");
   require(t.squared_until >= 0 && t.squared_until <= 1, "train.squared_until", "must be in [0, 1]");
   require(t.pair_window >= 0, "train.pair_window", "must be >= 0");
+  require(t.edge_weight >= 0, "train.edge_weight", "must be >= 0");
   require(t.dynamics_steps >= 0, "train.dynamics_steps", "must be >= 0");
   require(t.dynamics_batch >= 1, "train.dynamics_batch", "must be >= 1");
   require(t.dynamics_lr > 0, "train.dynamics_lr", "must be > 0");

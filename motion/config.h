@@ -76,6 +76,10 @@ struct TrainConfig {
   // within 8 steps (7% of such pairs in the demo's data, 23% over the whole episode), so it keeps
   // the block instead of half-erasing it.
   int pair_window = 0;
+  // kind pose: the autoencoder's loss adds edge_weight x the same norm of the image-gradient
+  // difference between the drawn frame and x_t (pose_trainer.h, GradientDifference): a blurred
+  // arm keeps the frame's mean colour but not its edges. 0 = off, as checkpoints written before.
+  double edge_weight = 0;
   int64_t dynamics_steps = 3000;
   int dynamics_batch = 256;
   double dynamics_lr = 1e-3;

@@ -12,12 +12,20 @@ constexpr int64_t kEncodeChunk = 256;
 
 }  // namespace
 
+std::vector<torch::Tensor> GradientDifference(const torch::Tensor& predicted,
+                                              const torch::Tensor& target) {
+  const auto dx = [](const torch::Tensor& x) { return x.slice(3, 1) - x.slice(3, 0, -1); };
+  const auto dy = [](const torch::Tensor& x) { return x.slice(2, 1) - x.slice(2, 0, -1); };
+  return {dx(predicted) - dx(target), dy(predicted) - dy(target)};
+}
+
 torch::Tensor PoseAutoencoderLoss(PoseNet& net, const TrainConfig& train,
                                   const torch::Tensor& frames, const torch::Tensor& sources,
                                   int64_t step, PoseDiagnostics& diagnostics) {
   const Drawn drawn = net->renderer()->forward(net->encoder()->forward(frames));
   const torch::Tensor background = net->Background(sources);
-  torch::Tensor error = drawn.Over(background) - frames;
+  const torch::Tensor composed = drawn.Over(background);
+  torch::Tensor error = composed - frames;
   // What the renderer must draw (the arm, its shadow) counts more, but not what the eraser
   // removed from x_s: weighing that too made the renderer repaint the table (measured).
   const torch::Tensor weighed = Differs(frames, background.detach());
@@ -25,9 +33,16 @@ torch::Tensor PoseAutoencoderLoss(PoseNet& net, const TrainConfig& train,
   // Squared first: while the pose says nothing yet, the L1's best guess at each pixel is its
   // median, no arm, and the alpha dies before the pose can learn (measured).
   const bool squared = static_cast<double>(step) < train.squared_until * train.steps;
+  const auto norm = [squared](const torch::Tensor& e) {
+    return squared ? e.square().mean() : e.abs().mean();
+  };
   const torch::Tensor alpha = drawn.alpha.mean();
   diagnostics = {alpha.detach(), weighed.mean()};
-  return (squared ? error.square().mean() : error.abs().mean()) + train.mask_l1 * alpha;
+  torch::Tensor loss = norm(error) + train.mask_l1 * alpha;
+  if (train.edge_weight > 0)
+    for (const torch::Tensor& e : GradientDifference(composed, frames))
+      loss = loss + train.edge_weight * norm(e);
+  return loss;
 }
 
 PoseDynamicsTraining::PoseDynamicsTraining(PoseNet& net, const WindowSampler& sampler,

@@ -21,10 +21,18 @@ struct PoseDiagnostics {
 // frames x_t and sources x_s [B, 3, S, S] of the same episodes: x_t drawn from its pose over
 // x_s's background; the squared error for the first train.squared_until of train.steps, the L1
 // after, the pixels where x_t differs from the (detached) background weighed 1 +
-// train.moved_weight; plus train.mask_l1 x the mean alpha.
+// train.moved_weight; plus train.mask_l1 x the mean alpha; plus train.edge_weight x the same norm
+// of GradientDifference(drawn frame, x_t) along x and along y.
 torch::Tensor PoseAutoencoderLoss(PoseNet& net, const TrainConfig& train,
                                   const torch::Tensor& frames, const torch::Tensor& sources,
                                   int64_t step, PoseDiagnostics& diagnostics);
+
+// The image-gradient difference of Mathieu et al. 2016 ("Deep multi-scale video prediction beyond
+// mean square error"): {horizontal, vertical} differences of neighbouring pixels of `predicted`
+// minus those of `target` [B, C, H, W]: [B, C, H, W-1] and [B, C, H-1, W]. A blurred arm can
+// match a frame's colours on average, not its edges.
+std::vector<torch::Tensor> GradientDifference(const torch::Tensor& predicted,
+                                              const torch::Tensor& target);
 
 // The dynamics' phase: every training episode's poses, read once by the frozen encoder, and
 // batches of open-loop pose rollouts of train.unroll steps against them.

@@ -134,6 +134,7 @@ TEST(MotionConfigTest, ErrorsNameTheKey) {
       {"train:\n  motion_prior: -1\n", "train.motion_prior"},
       {"train:\n  moved_weight: -0.5\n", "train.moved_weight"},
       {"train:\n  pair_window: -1\n", "train.pair_window"},
+      {"train:\n  edge_weight: -1\n", "train.edge_weight"},
   };
   for (const Case& c : cases) {
     const std::string error = wm::test::ErrorText([&] { ParseMotionConfig(c.yaml, "m.yaml"); });
