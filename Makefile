@@ -125,6 +125,7 @@ scaling: build
 	@/usr/bin/python3 scripts/scaling.py --bin $(BIN) --config $(SCALING_CONFIG) --out $(SCALING_DIR)
 
 bench: build
+	@cmake --build $(BUILD) -j $(JOBS) --target benchmarks
 	@bash bench/run.sh $(BIN)
 
 format:
