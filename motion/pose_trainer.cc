@@ -14,9 +14,8 @@ constexpr int64_t kEncodeChunk = 256;
 
 std::vector<torch::Tensor> GradientDifference(const torch::Tensor& predicted,
                                               const torch::Tensor& target) {
-  const auto dx = [](const torch::Tensor& x) { return x.slice(3, 1) - x.slice(3, 0, -1); };
-  const auto dy = [](const torch::Tensor& x) { return x.slice(2, 1) - x.slice(2, 0, -1); };
-  return {dx(predicted) - dx(target), dy(predicted) - dy(target)};
+  return {torch::diff(predicted, 1, 3) - torch::diff(target, 1, 3),
+          torch::diff(predicted, 1, 2) - torch::diff(target, 1, 2)};
 }
 
 torch::Tensor PoseAutoencoderLoss(PoseNet& net, const TrainConfig& train,
