@@ -142,6 +142,7 @@ TEST(TokenizerConfig, PresetsLoad) {
   TokenizerConfig t16 = LoadTokenizerConfig(test::SourceDir() + "/configs/tokenizer/tiny16.yaml");
   EXPECT_EQ(t16.model.image_size / t16.model.patch_size, 16);
   EXPECT_EQ(ConfigFromJson(ConfigToJson(t16)).model.detail_weight, 4.0);  // the key round-trips
+  EXPECT_TRUE(t16.model.anchor_decoder);  // goal 1's recipe: 16x16 tokens decoded with an anchor
 }
 
 TEST(TokenizerConfig, ErrorsNameFileAndKey) {
