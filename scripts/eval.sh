@@ -7,7 +7,8 @@
 # COMPARE_ARGS (e.g. COMPARE_ARGS="--metrics psnr,ssim"). The first checkpoint is the baseline.
 # To score some checkpoints while others still train: REPORT=0 scores without comparing; a later
 # call with SCORED="NAME..." (report names already in REPORTS) scores only the others, then
-# compares and plots them all.
+# compares and plots them all; a SCORED report must be of the checkpoint given now (the sha256
+# its manifest records).
 set -euo pipefail
 if [ $# -lt 6 ]; then
   sed -n '2,7p' "$0" >&2
@@ -16,6 +17,22 @@ fi
 BIN=$1 REPORTS=$2 TOKENIZER=$3 VAL=$4 VAL_TOKENS=$5
 shift 5
 names=() to_score=() score_names=()
+# The sha256 of CHECKPOINT's file (a run directory's checkpoint.wmt), as wm-eval records it.
+checkpoint_sha() {
+  local file=$1
+  [ -d "$file" ] && file=$file/checkpoint.wmt
+  sha256sum "$file" | cut -d' ' -f1
+}
+# The checkpoint sha256 that the report manifest $1 records.
+report_sha() {
+  /usr/bin/python3 - "$1" <<'PY'
+import json, sys
+try:
+    print(json.load(open(sys.argv[1]))["checkpoint"]["sha256"])
+except (OSError, ValueError, KeyError, TypeError) as e:
+    sys.exit(f"eval.sh: {sys.argv[1]}: no checkpoint sha256 ({e!r}): not a wm-eval manifest")
+PY
+}
 for ckpt in "$@"; do
   name=$(basename "$ckpt")
   [ "$name" = dynamics ] && name=$(basename "$(dirname "$ckpt")")  # RUN/dynamics -> RUN
@@ -24,6 +41,14 @@ for ckpt in "$@"; do
     *" $name "*)
       if [ ! -f "$REPORTS/$name/manifest.json" ]; then
         echo "eval.sh: SCORED names $name, but $REPORTS/$name/manifest.json is missing" >&2
+        exit 1
+      fi
+      # A report left by an earlier run of the same name would be compared as this one's.
+      scored=$(report_sha "$REPORTS/$name/manifest.json")
+      now=$(checkpoint_sha "$ckpt")
+      if [ "$scored" != "$now" ]; then
+        echo "eval.sh: SCORED names $name, but $REPORTS/$name/manifest.json scored checkpoint" \
+          "sha256 $scored, and $ckpt is now $now: drop $name from SCORED to score it again" >&2
         exit 1
       fi ;;
     *) to_score+=("$ckpt") score_names+=("$name") ;;

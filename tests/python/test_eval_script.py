@@ -2,7 +2,8 @@
 """scripts/eval.sh's split of scoring and comparing (make demo scores the token model while
 the motion model trains): REPORT=0 scores without comparing; SCORED="NAME..." skips the
 scoring of reports already written, still comparing them, in the order given (the first is
-the baseline); a SCORED name without its report is refused. Runs eval.sh against a BIN of
+the baseline); a SCORED name without its report, or whose report scored another checkpoint
+(a retrained one), is refused. Runs eval.sh against a BIN of
 recording shell scripts in place of wm-eval and wm-report (the tools have their own tests);
 well under a second."""
 import os
@@ -13,22 +14,27 @@ import unittest
 
 SRC = os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "..")
 
-# Appends its name and arguments to $CALLS; wm-eval writes each --name's manifest and
-# wm-report its --markdown table, as the real ones do.
+# Appends its name and arguments to $CALLS; wm-eval writes each --name's manifest with its
+# checkpoint's sha256 and wm-report its --markdown table, as the real ones do.
 RECORDER = """#!/usr/bin/env bash
 echo "$(basename "$0") $*" >> "$CALLS"
 if [ "$(basename "$0")" = wm-eval ]; then
-  out="" names=() in_names=0
+  out="" names=() checkpoints=() list=""
   while [ $# -gt 0 ]; do
     case "$1" in
-      --out) out=$2; shift; in_names=0 ;;
-      --name) in_names=1 ;;
-      --*) in_names=0 ;;
-      *) [ $in_names = 1 ] && names+=("$1") ;;
+      --out) out=$2; shift; list="" ;;
+      --name) list=names ;;
+      --checkpoint) list=checkpoints ;;
+      --*) list="" ;;
+      *) [ "$list" = names ] && names+=("$1"); [ "$list" = checkpoints ] && checkpoints+=("$1") ;;
     esac
     shift
   done
-  for n in "${names[@]}"; do mkdir -p "$out/$n" && echo '{}' > "$out/$n/manifest.json"; done
+  for i in "${!names[@]}"; do
+    sha=$(sha256sum "${checkpoints[$i]}/checkpoint.wmt" | cut -d' ' -f1)
+    mkdir -p "$out/${names[$i]}"
+    echo "{\\"checkpoint\\": {\\"sha256\\": \\"$sha\\"}}" > "$out/${names[$i]}/manifest.json"
+  done
 fi
 while [ $# -gt 0 ]; do
   [ "$1" = --markdown ] && echo "| table |" > "$2"
@@ -49,14 +55,23 @@ class EvalScriptTest(unittest.TestCase):
             os.chmod(path, os.stat(path).st_mode | stat.S_IEXEC)
         self.calls = os.path.join(self.tmp.name, "calls")
         self.reports = os.path.join(self.tmp.name, "reports")
+        for run in ("r/early/dynamics", "r/dynamics", "r/motion"):
+            self.write_checkpoint(run, run)
+
+    def write_checkpoint(self, run, content):
+        os.makedirs(os.path.join(self.tmp.name, run), exist_ok=True)
+        with open(os.path.join(self.tmp.name, run, "checkpoint.wmt"), "w") as f:
+            f.write(content)
 
     def tearDown(self):
         self.tmp.cleanup()
 
     def eval_sh(self, checkpoints, **env):
         open(self.calls, "w").close()
-        out = subprocess.run(["bash", "scripts/eval.sh", self.bin, self.reports, "tok", "val",
-                              "val_tokens", *checkpoints], cwd=SRC, capture_output=True,
+        # The checkpoints as relative paths, from the directory that holds them.
+        script = os.path.join(SRC, "scripts", "eval.sh")
+        out = subprocess.run(["bash", script, self.bin, self.reports, "tok", "val",
+                              "val_tokens", *checkpoints], cwd=self.tmp.name, capture_output=True,
                              text=True, env={**os.environ, "CALLS": self.calls, **env})
         with open(self.calls) as f:
             return out, f.read().splitlines()
@@ -84,6 +99,16 @@ class EvalScriptTest(unittest.TestCase):
         self.assertNotEqual(out.returncode, 0)
         self.assertIn("SCORED names early", out.stderr)
         self.assertIn("manifest.json is missing", out.stderr)
+        self.assertEqual(calls, [])
+
+    def test_a_scored_report_of_another_checkpoint_is_refused(self):
+        self.eval_sh(["r/early/dynamics", "r/dynamics"], REPORT="0")
+        self.write_checkpoint("r/dynamics", "retrained")
+        out, calls = self.eval_sh(["r/early/dynamics", "r/dynamics", "r/motion"],
+                                  SCORED="early r")
+        self.assertNotEqual(out.returncode, 0)
+        self.assertIn("SCORED names r, but", out.stderr)
+        self.assertIn("drop r from SCORED", out.stderr)
         self.assertEqual(calls, [])
 
 
