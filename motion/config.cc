@@ -22,8 +22,6 @@ void VisitFields(Config& c, F&& f) {
   f("model", "layers", m.layers);
   f("model", "pose_dim", m.pose_dim);
   f("model", "renderer_width", m.renderer_width);
-  f("model", "renderer_shade", m.renderer_shade);
-  f("model", "renderer_warp", m.renderer_warp);
   auto& t = c.train;
   trainkit::VisitOptimizerFields(t, f);
   trainkit::VisitRunFields(t, f);

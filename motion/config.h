@@ -25,14 +25,6 @@ struct ModelConfig {
   int layers = 3;           // kind layers: moving layers over the static background
   int pose_dim = 16;        // kind pose: numbers in the pose
   int renderer_width = 64;  // kind pose: the renderer's widest convolution (a multiple of 4)
-  // kind pose: the renderer also draws a shade in (0, 1) that multiplies what its alpha leaves
-  // of the background, as a shadow darkens whatever it falls on (a block keeps its colour under
-  // it). false: the shade is 1, as checkpoints written before this key were.
-  bool renderer_shade = false;
-  // kind pose: the start frame's moving pixels (the eraser's mask) also move to each pose by a
-  // flow linear in the pose's change (PoseMover), under what the renderer draws: the arm the
-  // given frame shows keeps its edges. false: as checkpoints written before this key were.
-  bool renderer_warp = false;
 };
 
 struct TrainConfig {

@@ -6,10 +6,7 @@
 //   pose_0   = encoder(first)                       4 halvings of (first, pixel x, y), an MLP
 //   pose_t+1 = pose_t + A a_t + g(pose_t, a_t)      A linear, g an MLP that starts at zero
 //   frame_t  = rgb(pose_t) alpha(pose_t) + (1 - alpha(pose_t)) background(first)
-//              (model.renderer_shade: the background's light times shade(pose_t), a shadow)
 //   background(x) = x (1 - m) + fill m              m, fill: a one-layer LayerNet's sprites
-//   (model.renderer_warp: first x m, m moved to pose_t by PoseMover's flow, over the background,
-//   under what the renderer draws)
 //
 // The renderer upsamples a 4x4 map of the pose by four (nearest x2, 3x3 convolution) stages.
 // It is learned first as an autoencoder (trainer.cc): a frame x_t drawn from its own pose over
@@ -25,30 +22,18 @@
 
 namespace wm::motion {
 
-// What the renderer draws: colour [B, 3, S, S] in (-1, 1), alpha [B, 1, S, S] in (0, 1), and
-// with model.renderer_shade a shade [B, 1, S, S] in (0, 1) (undefined without: 1). The shade
-// multiplies the background's light, not its colour: frames are in [-1, 1], black is -1.
+// What the renderer draws: colour [B, 3, S, S] in (-1, 1), alpha [B, 1, S, S] in (0, 1).
 struct Drawn {
-  torch::Tensor rgb, alpha, shade;
+  torch::Tensor rgb, alpha;
   torch::Tensor Over(const torch::Tensor& background) const {
-    const torch::Tensor lit = shade.defined() ? (background + 1) * shade - 1 : background;
-    return rgb * alpha + (1 - alpha) * lit;
+    return rgb * alpha + (1 - alpha) * background;
   }
 };
 
-// One open-loop rollout's state: what the start frame gives every frame drawn from it, and the
-// pose now.
+// One open-loop rollout's state: the start frame's background and the pose now.
 struct PoseRollout {
   torch::Tensor background;  // [B, 3, S, S]
-  torch::Tensor moving;      // [B, 4, S, S] model.renderer_warp: its colour x mask, and the mask
-  torch::Tensor start_pose;  // [B, P] model.renderer_warp
   torch::Tensor pose;        // [B, P]
-};
-
-// A frame drawn from a rollout's state, with what the renderer drew (the trainer's penalty).
-struct PoseFrame {
-  torch::Tensor frame;  // [B, 3, S, S]
-  Drawn drawn;
 };
 
 // A frame [B, 3, S, S] and each pixel's x and y in [-1, 1] -> its pose [B, P]: four 4x4 stride-2
@@ -66,40 +51,19 @@ TORCH_MODULE(PoseEncoder);
 // A pose -> Drawn: a linear map to a 4x4 grid of `width` channels at S / 16, then four (nearest
 // x2, 3x3 convolution, ReLU) stages of width, width / 2, width / 4, width / 4, and a 3x3
 // convolution to colour and alpha logits (alpha's bias -2: mostly transparent at the start, but
-// not dead), and with `shade` a shade logit (bias +2: 0.88, lit but not saturated). A
-// DCGAN-style decoder: unlike a spatial-broadcast one it need not compute every pixel from the
-// pose alone (ConvTranspose2d avoided: slow on CPUs).
+// not dead). A DCGAN-style decoder: unlike a spatial-broadcast one it need not compute every
+// pixel from the pose alone (ConvTranspose2d avoided: slow on CPUs).
 class DeconvRendererImpl : public torch::nn::Module {
  public:
-  DeconvRendererImpl(int64_t pose_dim, int64_t width, int64_t image_size, bool shade = false);
+  DeconvRendererImpl(int64_t pose_dim, int64_t width, int64_t image_size);
   Drawn forward(const torch::Tensor& pose);
 
  private:
   int64_t start_, width_;
-  bool shade_;
   torch::nn::Linear fc{nullptr};
   torch::nn::Sequential up{nullptr};
 };
 TORCH_MODULE(DeconvRenderer);
-
-// model.renderer_warp: a start pose p_s and a pose p -> the backward flow [B, 2, S, S] in pixels
-// that moves the start frame's moving layer to p: flow_scale x sum_i J_i(p_s) (p - p_s)_i, the
-// per-pixel J upsampled from p_s as the renderer upsamples (its last convolution starts at zero:
-// nothing moves). Linear in the pose's change, as the warp kind's flow is in the action
-// (docs/motion.md, "Why the flow is linear in the action"): learned on near frames, it holds for
-// far ones, where a warp's own gradient (the image's, where the flow points) cannot reach.
-class PoseMoverImpl : public torch::nn::Module {
- public:
-  PoseMoverImpl(int64_t pose_dim, int64_t width, int64_t image_size, double flow_scale);
-  torch::Tensor forward(const torch::Tensor& start_pose, const torch::Tensor& pose);
-
- private:
-  int64_t pose_dim_, start_, width_;
-  double flow_scale_;
-  torch::nn::Linear fc{nullptr};
-  torch::nn::Sequential up{nullptr};
-};
-TORCH_MODULE(PoseMover);
 
 // pose_t+1 = pose_t + A a_t + g(pose_t, a_t): A linear (no bias), g an MLP of two hidden layers
 // of 128 whose last layer starts at zero.
@@ -125,9 +89,6 @@ class PoseNetImpl : public torch::nn::Module {
   torch::Tensor Background(const torch::Tensor& frames);
 
   PoseRollout Start(const torch::Tensor& first);
-  // The frame of `r`'s pose: with model.renderer_warp the start frame's moving layer moved to it
-  // over the background, then what the renderer draws over that.
-  PoseFrame Draw(const PoseRollout& r);
   // The next frame [B, 3, S, S] under `action` [B, D] (normalised); advances `r`.
   torch::Tensor Advance(PoseRollout& r, const torch::Tensor& action);
 
@@ -143,7 +104,6 @@ class PoseNetImpl : public torch::nn::Module {
   // model (bench/pose_autoencoder.py) whose results docs/motion.md records.
   LayerNet eraser_{nullptr};
   PoseDynamics dynamics_{nullptr};
-  PoseMover mover_{nullptr};  // model.renderer_warp only
 };
 TORCH_MODULE(PoseNet);
 

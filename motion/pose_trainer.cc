@@ -21,12 +21,9 @@ std::vector<torch::Tensor> GradientDifference(const torch::Tensor& predicted,
 torch::Tensor PoseAutoencoderLoss(PoseNet& net, const TrainConfig& train,
                                   const torch::Tensor& frames, const torch::Tensor& sources,
                                   int64_t step, PoseDiagnostics& diagnostics) {
-  PoseRollout source = net->Start(sources);
-  source.pose = net->encoder()->forward(frames);
-  const PoseFrame drawn_frame = net->Draw(source);
-  const Drawn& drawn = drawn_frame.drawn;
-  const torch::Tensor& background = source.background;
-  const torch::Tensor& composed = drawn_frame.frame;
+  const Drawn drawn = net->renderer()->forward(net->encoder()->forward(frames));
+  const torch::Tensor background = net->Background(sources);
+  const torch::Tensor composed = drawn.Over(background);
   torch::Tensor error = composed - frames;
   // What the renderer must draw (the arm, its shadow) counts more, but not what the eraser
   // removed from x_s: weighing that too made the renderer repaint the table (measured).

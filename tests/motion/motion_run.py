@@ -20,8 +20,7 @@ def twin_of(model, action_dim):
                         image_size=model["image_size"])
     if model["kind"] == "pose":
         return PoseNet(action_dim, model["pose_dim"], model["channels"], model["renderer_width"],
-                       model["image_size"], model.get("renderer_shade", False),
-                       model["flow_scale"] if model.get("renderer_warp", False) else None)
+                       model["image_size"])
     return WarpNet(model, action_dim)
 
 

@@ -34,8 +34,6 @@ void RandomizeHeads(MotionNet& net) {
     }
     params["eraser.sprite_head.weight"].normal_(0, 0.3);
     params["eraser.sprite_head.bias"].normal_(0, 1.0);
-    if (params.contains("mover.up.12.weight"))  // its last convolution: flows of pixels
-      params["mover.up.12.weight"].normal_(0, 0.5);
     params["dynamics.correction.4.weight"].normal_(0, 0.3);
     params["dynamics.correction.4.bias"].normal_(0, 0.3);
   } else if (net.layered()) {
@@ -50,15 +48,13 @@ void RandomizeHeads(MotionNet& net) {
 }
 
 void WriteReference(const std::string& path, uint64_t seed, bool jacobian, int action_dim,
-                    const std::string& kind, bool shade, bool warp) {
+                    const std::string& kind) {
   MotionConfig c = test::TestConfig();
   c.model.channels = 8;
   c.model.action_jacobian = jacobian;
   c.model.kind = kind;
   c.model.pose_dim = 6;
   c.model.renderer_width = 16;
-  c.model.renderer_shade = shade;
-  c.model.renderer_warp = warp;
   torch::manual_seed(seed);
   MotionNet net(c.model, action_dim);
   RandomizeHeads(net);
@@ -81,7 +77,6 @@ void WriteReference(const std::string& path, uint64_t seed, bool jacobian, int a
     tensors.insert(tensors.end(), {{"output/pose", p},
                                    {"output/rgb", drawn.rgb},
                                    {"output/alpha", drawn.alpha},
-                                   {"output/shade", shade ? drawn.shade : torch::ones({1})},
                                    {"output/background", pose->Background(current)}});
   } else if (net.layered()) {
     const Sprites sprites = net.layers()->sprites(current);
@@ -106,7 +101,7 @@ int main(int argc, char** argv) {
   app.require_subcommand(1);
   std::string out;
   uint64_t seed = 3;
-  bool no_jacobian = false, layers = false, pose = false, shade = false, warp = false;
+  bool no_jacobian = false, layers = false, pose = false;
   int action_dim = 7, episodes = 24, steps = 12;
   CLI::App* ref = app.add_subcommand("reference", "Weights, inputs and C++ outputs");
   ref->add_option("--out", out)->required();
@@ -115,8 +110,6 @@ int main(int argc, char** argv) {
   ref->add_option("--action-dim", action_dim);
   ref->add_flag("--layers", layers);
   ref->add_flag("--pose", pose)->excludes("--layers");
-  ref->add_flag("--shade", shade, "model.renderer_shade (with --pose)")->needs("--pose");
-  ref->add_flag("--warp", warp, "model.renderer_warp (with --pose)")->needs("--pose");
   CLI::App* data = app.add_subcommand("make-data", "A moving-square shard dataset");
   data->add_option("--out", out)->required();
   data->add_option("--episodes", episodes);
@@ -128,8 +121,7 @@ int main(int argc, char** argv) {
       WriteReference(out, seed, !no_jacobian, action_dim,
                      pose     ? "pose"
                      : layers ? "layers"
-                              : "warp",
-                     shade, warp);
+                              : "warp");
     if (data->parsed()) test::WriteMovingSquares(out, episodes, steps, seed);
   } catch (const std::exception& e) {
     std::cerr << "motion_test_tool: " << e.what() << "\n";
