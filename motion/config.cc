@@ -37,6 +37,7 @@ void VisitFields(Config& c, F&& f) {
   f("train", "squared_until", t.squared_until);
   f("train", "pair_window", t.pair_window);
   f("train", "edge_weight", t.edge_weight);
+  f("train", "calibrate_alpha", t.calibrate_alpha);
   f("train", "dynamics_steps", t.dynamics_steps);
   f("train", "dynamics_batch", t.dynamics_batch);
   f("train", "dynamics_lr", t.dynamics_lr);

@@ -80,6 +80,11 @@ struct TrainConfig {
   // difference between the drawn frame and x_t (pose_trainer.h, GradientDifference): a blurred
   // arm keeps the frame's mean colour but not its edges. 0 = off, as checkpoints written before.
   double edge_weight = 0;
+  // kind pose: after the last step, the drawn alpha's logit is shifted by the one number that
+  // draws the training episodes' open-loop rollouts with the least plain squared error
+  // (pose_trainer.h, FitAlphaShift): the loss's weights (moved_weight, mask_l1) are for learning
+  // to draw, not for how opaque to draw. false: as checkpoints written before this key.
+  bool calibrate_alpha = false;
   int64_t dynamics_steps = 3000;
   int dynamics_batch = 256;
   double dynamics_lr = 1e-3;

@@ -55,17 +55,27 @@ DeconvRendererImpl::DeconvRendererImpl(int64_t pose_dim, int64_t width, int64_t 
     stages->push_back(Conv3x3(widths[i], widths[i + 1]));
     stages->push_back(nn::ReLU());
   }
-  nn::Conv2d out = Conv3x3(widths[4], 4);
-  stages->push_back(out);
+  out_ = Conv3x3(widths[4], 4);
+  stages->push_back(out_);
   up = register_module("up", stages);
   torch::NoGradGuard no_grad;
-  out->bias.slice(0, 3).fill_(kAlphaBias);
+  out_->bias.slice(0, 3).fill_(kAlphaBias);
+}
+
+Drawn DeconvRendererImpl::Logits(const torch::Tensor& pose) {
+  const torch::Tensor x = torch::relu(fc->forward(pose)).view({-1, width_, start_, start_});
+  const torch::Tensor out = up->forward(x);
+  return {torch::tanh(out.slice(1, 0, 3)), out.slice(1, 3)};
 }
 
 Drawn DeconvRendererImpl::forward(const torch::Tensor& pose) {
-  const torch::Tensor x = torch::relu(fc->forward(pose)).view({-1, width_, start_, start_});
-  const torch::Tensor out = up->forward(x);
-  return {torch::tanh(out.slice(1, 0, 3)), torch::sigmoid(out.slice(1, 3))};
+  const Drawn drawn = Logits(pose);
+  return {drawn.rgb, torch::sigmoid(drawn.alpha)};
+}
+
+void DeconvRendererImpl::ShiftAlpha(double shift) {
+  torch::NoGradGuard no_grad;
+  out_->bias.slice(0, 3).add_(shift);
 }
 
 PoseDynamicsImpl::PoseDynamicsImpl(int64_t pose_dim, int64_t action_dim) {

@@ -57,11 +57,17 @@ class DeconvRendererImpl : public torch::nn::Module {
  public:
   DeconvRendererImpl(int64_t pose_dim, int64_t width, int64_t image_size);
   Drawn forward(const torch::Tensor& pose);
+  // The colour and the alpha's logit [B, 1, S, S]: forward's alpha is its sigmoid.
+  Drawn Logits(const torch::Tensor& pose);
+  // Adds `shift` to the alpha's logit at every pixel (the last convolution's alpha bias): the
+  // calibration fitted after training (pose_trainer.h, FitAlphaShift).
+  void ShiftAlpha(double shift);
 
  private:
   int64_t start_, width_;
   torch::nn::Linear fc{nullptr};
   torch::nn::Sequential up{nullptr};
+  torch::nn::Conv2d out_{nullptr};  // up's last module
 };
 TORCH_MODULE(DeconvRenderer);
 

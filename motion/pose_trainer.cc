@@ -2,6 +2,7 @@
 
 #include <limits>
 
+#include "core/error.h"
 #include "motion/motion_prior.h"
 
 namespace wm::motion {
@@ -9,8 +10,38 @@ namespace {
 
 // Frames the frozen encoder reads at once when it reads the training episodes.
 constexpr int64_t kEncodeChunk = 256;
+// FitAlphaShift's episodes and the shifts it tries: -2 to 2 in steps of 1/8.
+constexpr int kCalibrationEpisodes = 64;
+constexpr int kShiftSteps = 32;
+constexpr double kShiftMin = -2, kShiftMax = 2;
+
+// One training episode's open-loop rollout, drawn: colour, alpha logit, the start frame's
+// background, and the real frames it should match.
+struct DrawnRollout {
+  Drawn drawn;
+  torch::Tensor background, real;
+};
+
+DrawnRollout DrawRollout(PoseNet& net, const EpisodeClip& clip, const trainkit::ActionNorm& norm,
+                         int64_t image_size, const torch::Device& device) {
+  const int64_t T = clip.frames, S = image_size, D = norm.dim();
+  // cloned: on the CPU to() would alias the clip, which dies before the rollout is scored
+  const torch::Tensor frames =
+      torch::from_blob(const_cast<float*>(clip.pixels.data()), {T, 3, S, S}).to(device).clone();
+  std::vector<float> normed(static_cast<size_t>((T - 1) * D));
+  norm.Apply(clip.actions.data(), normed.data(), T - 1);
+  const torch::Tensor actions = torch::from_blob(normed.data(), {T - 1, D}).to(device);
+  PoseRollout r = net->Start(frames.slice(0, 0, 1));
+  std::vector<torch::Tensor> poses;
+  for (int64_t t = 0; t + 1 < T; ++t) {
+    r.pose = net->dynamics()->forward(r.pose, actions.slice(0, t, t + 1));
+    poses.push_back(r.pose);
+  }
+  return {net->renderer()->Logits(torch::cat(poses)), r.background, frames.slice(0, 1)};
+}
 
 }  // namespace
+
 
 std::vector<torch::Tensor> GradientDifference(const torch::Tensor& predicted,
                                               const torch::Tensor& target) {
@@ -86,6 +117,36 @@ torch::Tensor PoseDynamicsTraining::Loss(PoseNet& net, const TrainConfig& train,
     loss = loss + ((pose - target.select(1, h)) / scale_).square().mean() / static_cast<double>(H);
   }
   return loss;
+}
+
+AlphaShiftFit FitAlphaShift(PoseNet& net, const WindowSampler& sampler, int64_t unroll,
+                            int64_t image_size, const torch::Device& device) {
+  torch::NoGradGuard no_grad;
+  std::vector<DrawnRollout> rollouts;
+  for (const EpisodeClip& clip : sampler.Episodes(kCalibrationEpisodes, unroll + 1)) {
+    if (clip.frames < 2) continue;
+    rollouts.push_back(DrawRollout(net, clip, sampler.action_norm(), image_size, device));
+  }
+  Check(!rollouts.empty(), "no training episode has two frames to calibrate the alpha on");
+  const auto mse = [&](double shift) {
+    double sum = 0;
+    int64_t count = 0;
+    for (const DrawnRollout& r : rollouts) {
+      const Drawn d{r.drawn.rgb, torch::sigmoid(r.drawn.alpha + shift)};
+      sum += (d.Over(r.background) - r.real).square().sum().item<double>();
+      count += r.real.numel();
+    }
+    return sum / static_cast<double>(count);
+  };
+  AlphaShiftFit fit{.mse_before = mse(0), .episodes = static_cast<int64_t>(rollouts.size())};
+  fit.mse_after = fit.mse_before;
+  for (int i = 0; i <= kShiftSteps; ++i) {
+    const double shift = kShiftMin + (kShiftMax - kShiftMin) * i / kShiftSteps;
+    const double e = mse(shift);
+    if (e < fit.mse_after) fit = {shift, fit.mse_before, e, fit.episodes};
+  }
+  net->renderer()->ShiftAlpha(fit.shift);
+  return fit;
 }
 
 }  // namespace wm::motion

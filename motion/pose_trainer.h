@@ -34,6 +34,20 @@ torch::Tensor PoseAutoencoderLoss(PoseNet& net, const TrainConfig& train,
 std::vector<torch::Tensor> GradientDifference(const torch::Tensor& predicted,
                                               const torch::Tensor& target);
 
+// train.calibrate_alpha: the renderer's alpha logit shifted (DeconvRenderer::ShiftAlpha) by the
+// value of kAlphaShifts whose open-loop rollouts of the first kCalibrationEpisodes training
+// episodes (train.unroll steps from their first frame) have the least plain squared error. The
+// training loss weighs the pixels that differ from the background 1 + moved_weight, which makes
+// drawing there cheaper than not drawing: the arm ends too opaque where the renderer is unsure,
+// a grey blob over the table and the block (docs/motion.md, session 41).
+struct AlphaShiftFit {
+  double shift = 0;
+  double mse_before = 0, mse_after = 0;  // mean squared error on [-1, 1] values
+  int64_t episodes = 0;
+};
+AlphaShiftFit FitAlphaShift(PoseNet& net, const WindowSampler& sampler, int64_t unroll,
+                            int64_t image_size, const torch::Device& device);
+
 // The dynamics' phase: every training episode's poses, read once by the frozen encoder, and
 // batches of open-loop pose rollouts of train.unroll steps against them.
 class PoseDynamicsTraining {

@@ -221,7 +221,11 @@ class MotionStage : public trainkit::TrainingStage {
       : o_(o), cfg_(o.config), run_(run), device_(device), s_(s), val_(val), summary_(summary) {}
 
   void Train(int64_t step, int64_t stop) override {
-    if (s_.model->posed()) return TrainPose(step, stop);
+    if (s_.model->posed()) {
+      TrainPose(step, stop);
+      if (cfg_.train.calibrate_alpha && step + 1 == TotalSteps(cfg_)) CalibrateAlpha();
+      return;
+    }
     const int64_t B = cfg_.train.batch_size, U = cfg_.train.unroll, S = cfg_.model.image_size;
     const int64_t D = s_.sampler->action_dim();
     Batch batch = Prefetched(&MotionStage::Load, step, stop);
@@ -253,6 +257,18 @@ class MotionStage : public trainkit::TrainingStage {
     loss_ = dynamics_->Loss(net, t, step);
     diagnostics_ = {torch::zeros({}), torch::zeros({})};
     Update(*s_.dynamics_optimizer, step);
+  }
+
+  // After the last step, before its checkpoint: a run resumed from that checkpoint has no step
+  // left and does not shift twice.
+  void CalibrateAlpha() {
+    const AlphaShiftFit fit = FitAlphaShift(s_.model->pose(), *s_.sampler, cfg_.train.unroll,
+                                            cfg_.model.image_size, device_);
+    std::ostringstream line;
+    line << "calibrated the drawn alpha on " << fit.episodes
+         << " training episodes' rollouts: logit shift " << fit.shift << ", mean squared error "
+         << fit.mse_before << " -> " << fit.mse_after;
+    LogInfo(line.str());
   }
 
   void TrainPoseAutoencoder(int64_t step, int64_t stop) {

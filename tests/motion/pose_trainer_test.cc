@@ -1,8 +1,15 @@
 // The pose kind's edge term (motion/pose_trainer.h, GradientDifference; train.edge_weight):
-// neighbouring-pixel differences of the drawn frame against the real one, worked out by hand.
+// neighbouring-pixel differences of the drawn frame against the real one, worked out by hand;
+// and the alpha's calibration (FitAlphaShift) against rollouts through the model's own Advance.
 #include "motion/pose_trainer.h"
 
 #include <gtest/gtest.h>
+
+#include <limits>
+
+#include "motion/pose_net.h"
+#include "tests/core/test_util.h"
+#include "tests/motion/moving_square.h"
 
 namespace wm::motion {
 namespace {
@@ -49,6 +56,67 @@ TEST(GradientDifference, ChargesABlurredEdgeWhatItLostOfTheStep) {
   EXPECT_NEAR(AbsSum(blurred - real), 1.0 * 3 * kSize, 1e-5);
   EXPECT_NEAR(AbsSum(GradientDifference(VerticalEdge(-0.5, 0.5, 5), real)[0]), 2.0 * 3 * kSize,
               1e-5);
+}
+
+// A pose net of the moving-square test config, the same weights for the same seed.
+PoseNet SquaresPoseNet(int64_t action_dim) {
+  torch::manual_seed(3);
+  ModelConfig model = test::TestConfig().model;
+  model.kind = "pose";
+  model.pose_dim = 4;
+  model.renderer_width = 8;
+  return PoseNet(model, action_dim);
+}
+
+// The mean squared error of `net`'s rollouts from the episodes' first frames, through Advance.
+double RolloutMse(PoseNet& net, const WindowSampler& sampler, const std::vector<EpisodeClip>& clips) {
+  torch::NoGradGuard no_grad;
+  const int64_t S = 32, D = sampler.action_dim();
+  double sum = 0;
+  int64_t count = 0;
+  for (const EpisodeClip& clip : clips) {
+    const int64_t T = clip.frames;
+    const torch::Tensor frames =
+        torch::from_blob(const_cast<float*>(clip.pixels.data()), {T, 3, S, S});
+    std::vector<float> normed(static_cast<size_t>((T - 1) * D));
+    sampler.action_norm().Apply(clip.actions.data(), normed.data(), T - 1);
+    const torch::Tensor actions = torch::from_blob(normed.data(), {T - 1, D});
+    PoseRollout r = net->Start(frames.slice(0, 0, 1));
+    for (int64_t t = 1; t < T; ++t) {
+      const torch::Tensor next = net->Advance(r, actions.slice(0, t - 1, t));
+      sum += (next - frames.slice(0, t, t + 1)).square().sum().item<double>();
+      count += next.numel();
+    }
+  }
+  return sum / static_cast<double>(count);
+}
+
+// The shift it keeps is the one, of -2 to 2 in eighths, whose rollouts (the model's Advance,
+// with the shift applied to a fresh copy of the net) match the episodes best; the net is left
+// shifted by it, and its rollouts then score what the fit reports.
+TEST(FitAlphaShift, KeepsTheShiftWhoseRolloutsMatchBest) {
+  wm::test::TempDir dir;
+  test::WriteMovingSquares(dir / "train", 6, 9, 1);
+  const int64_t unroll = 4;
+  const WindowSampler sampler(dir / "train", "image", 32, unroll);
+  const std::vector<EpisodeClip> clips = sampler.Episodes(64, unroll + 1);
+  double best_shift = 0, best_mse = std::numeric_limits<double>::infinity(), unshifted = 0;
+  for (int i = 0; i <= 32; ++i) {
+    const double shift = -2 + i / 8.0;
+    PoseNet net = SquaresPoseNet(sampler.action_dim());
+    net->renderer()->ShiftAlpha(shift);
+    const double mse = RolloutMse(net, sampler, clips);
+    if (shift == 0) unshifted = mse;
+    if (mse < best_mse) best_shift = shift, best_mse = mse;
+  }
+  PoseNet net = SquaresPoseNet(sampler.action_dim());
+  const AlphaShiftFit fit = FitAlphaShift(net, sampler, unroll, 32, torch::kCPU);
+  EXPECT_EQ(fit.episodes, 6);
+  EXPECT_DOUBLE_EQ(fit.shift, best_shift);
+  EXPECT_NEAR(fit.mse_before, unshifted, 1e-6);
+  EXPECT_NEAR(fit.mse_after, best_mse, 1e-6);
+  EXPECT_NEAR(RolloutMse(net, sampler, clips), best_mse, 1e-6);
+  EXPECT_LT(fit.mse_after, fit.mse_before);  // a random renderer is not calibrated
 }
 
 }  // namespace

@@ -60,6 +60,7 @@ class MotionTrainTest : public ::testing::TestWithParam<std::string> {
       o.config.train.dynamics_steps = steps;
       o.config.train.unroll = 3;
       o.config.train.moved_weight = 4;  // configs/motion/pose.yaml's (without, the alpha dies)
+      o.config.train.calibrate_alpha = true;  // after the last step: resumed runs must match
     }
     o.data_dir = dir_ / "train";
     o.out_dir = dir_ / out;
@@ -99,6 +100,10 @@ TEST_P(MotionTrainTest, KilledRunResumesBitIdentically) {
   EXPECT_EQ(Sha256File(dir_ / "whole/checkpoint.wmt"), Sha256File(dir_ / "parts/checkpoint.wmt"));
   EXPECT_EQ(WithoutThroughput(ReadFile(dir_ / "whole/metrics.csv")),
             WithoutThroughput(ReadFile(dir_ / "parts/metrics.csv")));
+  // A finished run resumed has no step left: nothing changes (the alpha is not shifted twice).
+  const std::string finished = Sha256File(dir_ / "parts/checkpoint.wmt");
+  EXPECT_EQ(TrainMotion(part).end_step, end);
+  EXPECT_EQ(Sha256File(dir_ / "parts/checkpoint.wmt"), finished);
 
   TrainOptions other_data = Options("parts", 30);
   other_data.resume = true;
