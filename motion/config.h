@@ -82,8 +82,9 @@ struct TrainConfig {
   double edge_weight = 0;
   // kind pose: after the last step, the drawn alpha's logit is shifted by the one number that
   // draws the training episodes' open-loop rollouts with the least plain squared error
-  // (pose_trainer.h, FitAlphaShift): the loss's weights (moved_weight, mask_l1) are for learning
-  // to draw, not for how opaque to draw. false: as checkpoints written before this key.
+  // (pose_trainer.h, FitAlphaShift): the loss's moved_weight is for learning to draw the arm,
+  // and leaves it too opaque where the renderer is unsure. false: as checkpoints written before
+  // this key.
   bool calibrate_alpha = false;
   int64_t dynamics_steps = 3000;
   int dynamics_batch = 256;

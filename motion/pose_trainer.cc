@@ -42,7 +42,6 @@ DrawnRollout DrawRollout(PoseNet& net, const EpisodeClip& clip, const trainkit::
 
 }  // namespace
 
-
 std::vector<torch::Tensor> GradientDifference(const torch::Tensor& predicted,
                                               const torch::Tensor& target) {
   return {torch::diff(predicted, 1, 3) - torch::diff(target, 1, 3),

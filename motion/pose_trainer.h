@@ -35,8 +35,8 @@ std::vector<torch::Tensor> GradientDifference(const torch::Tensor& predicted,
                                               const torch::Tensor& target);
 
 // train.calibrate_alpha: the renderer's alpha logit shifted (DeconvRenderer::ShiftAlpha) by the
-// value of kAlphaShifts whose open-loop rollouts of the first kCalibrationEpisodes training
-// episodes (train.unroll steps from their first frame) have the least plain squared error. The
+// value of -2 to 2 in eighths whose open-loop rollouts of the first 64 training episodes
+// (`unroll` steps from their first frame) have the least plain squared error. The
 // training loss weighs the pixels that differ from the background 1 + moved_weight, which makes
 // drawing there cheaper than not drawing: the arm ends too opaque where the renderer is unsure,
 // a grey blob over the table and the block (docs/motion.md, session 41).
