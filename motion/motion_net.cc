@@ -42,4 +42,13 @@ torch::Tensor Imagine(MotionNet& net, const torch::Tensor& first, const torch::T
   return torch::stack(frames, 1);
 }
 
+ClipTensors RolloutTensors(const EpisodeClip& clip, const trainkit::ActionNorm& norm,
+                           int64_t image_size) {
+  const int64_t T = clip.frames, S = image_size, D = norm.dim();
+  std::vector<float> normed(static_cast<size_t>((T - 1) * D));
+  norm.Apply(clip.actions.data(), normed.data(), T - 1);
+  return {torch::from_blob(const_cast<float*>(clip.pixels.data()), {T, 3, S, S}).clone(),
+          torch::from_blob(normed.data(), {T - 1, D}).clone()};
+}
+
 }  // namespace wm::motion

@@ -8,6 +8,7 @@
 #include "motion/layer_net.h"
 #include "motion/pose_net.h"
 #include "motion/warp_net.h"
+#include "motion/window_sampler.h"
 
 namespace wm::motion {
 
@@ -51,5 +52,14 @@ class Rollout {
 // Open-loop imagination: actions.size(1) frames after `first` under normalised actions
 // [B, H, D]: a Rollout's frames stacked, [B, H, 3, S, S]. No gradient.
 torch::Tensor Imagine(MotionNet& net, const torch::Tensor& first, const torch::Tensor& actions);
+
+// An episode clip as an open-loop rollout's input and target: its frames [T, 3, S, S] (frame 0
+// the start, the rest the real frames to match) and the T - 1 actions between them, normalised
+// by `norm` [T - 1, D]. Both own their memory (the clip may die first).
+struct ClipTensors {
+  torch::Tensor frames, actions;
+};
+ClipTensors RolloutTensors(const EpisodeClip& clip, const trainkit::ActionNorm& norm,
+                           int64_t image_size);
 
 }  // namespace wm::motion

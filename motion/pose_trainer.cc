@@ -3,6 +3,7 @@
 #include <limits>
 
 #include "core/error.h"
+#include "motion/motion_net.h"
 #include "motion/motion_prior.h"
 
 namespace wm::motion {
@@ -24,16 +25,12 @@ struct DrawnRollout {
 
 DrawnRollout DrawRollout(PoseNet& net, const EpisodeClip& clip, const trainkit::ActionNorm& norm,
                          int64_t image_size, const torch::Device& device) {
-  const int64_t T = clip.frames, S = image_size, D = norm.dim();
-  // cloned: on the CPU to() would alias the clip, which dies before the rollout is scored
-  const torch::Tensor frames =
-      torch::from_blob(const_cast<float*>(clip.pixels.data()), {T, 3, S, S}).to(device).clone();
-  std::vector<float> normed(static_cast<size_t>((T - 1) * D));
-  norm.Apply(clip.actions.data(), normed.data(), T - 1);
-  const torch::Tensor actions = torch::from_blob(normed.data(), {T - 1, D}).to(device);
+  const ClipTensors clip_tensors = RolloutTensors(clip, norm, image_size);
+  const torch::Tensor frames = clip_tensors.frames.to(device);
+  const torch::Tensor actions = clip_tensors.actions.to(device);
   PoseRollout r = net->Start(frames.slice(0, 0, 1));
   std::vector<torch::Tensor> poses;
-  for (int64_t t = 0; t + 1 < T; ++t) {
+  for (int64_t t = 0; t < actions.size(0); ++t) {
     r.pose = net->dynamics()->forward(r.pose, actions.slice(0, t, t + 1));
     poses.push_back(r.pose);
   }

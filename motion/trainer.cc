@@ -168,12 +168,10 @@ class Validation {
     const int S = c.model.image_size;
     for (EpisodeClip& clip : val.Episodes(c.train.val_episodes, c.train.val_horizon + 1)) {
       if (clip.frames < 2) continue;
-      const int64_t H = clip.frames - 1, D = train.action_dim();
-      std::vector<float> normed(static_cast<size_t>(H * D));
-      train.action_norm().Apply(clip.actions.data(), normed.data(), H);
+      const ClipTensors t = RolloutTensors(clip, train.action_norm(), S);
       Clip& v = clips_.emplace_back();
-      v.frames = torch::from_blob(clip.pixels.data(), {1, clip.frames, 3, S, S}).clone();
-      v.actions = torch::from_blob(normed.data(), {1, H, D}).clone();
+      v.frames = t.frames.unsqueeze(0);
+      v.actions = t.actions.unsqueeze(0);
       const torch::Tensor real = v.frames.slice(1, 1);
       copy_last_psnr_ += MeanPsnr(v.frames.select(1, 0).unsqueeze(1).expand_as(real), real);
     }

@@ -7,6 +7,7 @@
 
 #include <limits>
 
+#include "motion/motion_net.h"
 #include "motion/pose_net.h"
 #include "tests/core/test_util.h"
 #include "tests/motion/moving_square.h"
@@ -58,6 +59,9 @@ TEST(GradientDifference, ChargesABlurredEdgeWhatItLostOfTheStep) {
               1e-5);
 }
 
+// The moving-square test config's frame size (test::TestConfig).
+const int64_t kSquaresSize = test::TestConfig().model.image_size;
+
 // A pose net of the moving-square test config, the same weights for the same seed.
 PoseNet SquaresPoseNet(int64_t action_dim) {
   torch::manual_seed(3);
@@ -71,20 +75,14 @@ PoseNet SquaresPoseNet(int64_t action_dim) {
 // The mean squared error of `net`'s rollouts from the episodes' first frames, through Advance.
 double RolloutMse(PoseNet& net, const WindowSampler& sampler, const std::vector<EpisodeClip>& clips) {
   torch::NoGradGuard no_grad;
-  const int64_t S = 32, D = sampler.action_dim();
   double sum = 0;
   int64_t count = 0;
   for (const EpisodeClip& clip : clips) {
-    const int64_t T = clip.frames;
-    const torch::Tensor frames =
-        torch::from_blob(const_cast<float*>(clip.pixels.data()), {T, 3, S, S});
-    std::vector<float> normed(static_cast<size_t>((T - 1) * D));
-    sampler.action_norm().Apply(clip.actions.data(), normed.data(), T - 1);
-    const torch::Tensor actions = torch::from_blob(normed.data(), {T - 1, D});
-    PoseRollout r = net->Start(frames.slice(0, 0, 1));
-    for (int64_t t = 1; t < T; ++t) {
-      const torch::Tensor next = net->Advance(r, actions.slice(0, t - 1, t));
-      sum += (next - frames.slice(0, t, t + 1)).square().sum().item<double>();
+    const ClipTensors t = RolloutTensors(clip, sampler.action_norm(), kSquaresSize);
+    PoseRollout r = net->Start(t.frames.slice(0, 0, 1));
+    for (int64_t i = 0; i < t.actions.size(0); ++i) {
+      const torch::Tensor next = net->Advance(r, t.actions.slice(0, i, i + 1));
+      sum += (next - t.frames.slice(0, i + 1, i + 2)).square().sum().item<double>();
       count += next.numel();
     }
   }
@@ -98,7 +96,7 @@ TEST(FitAlphaShift, KeepsTheShiftWhoseRolloutsMatchBest) {
   wm::test::TempDir dir;
   test::WriteMovingSquares(dir / "train", 6, 9, 1);
   const int64_t unroll = 4;
-  const WindowSampler sampler(dir / "train", "image", 32, unroll);
+  const WindowSampler sampler(dir / "train", "image", kSquaresSize, unroll);
   const std::vector<EpisodeClip> clips = sampler.Episodes(64, unroll + 1);
   double best_shift = 0, best_mse = std::numeric_limits<double>::infinity(), unshifted = 0;
   for (int i = 0; i <= 32; ++i) {
@@ -110,7 +108,7 @@ TEST(FitAlphaShift, KeepsTheShiftWhoseRolloutsMatchBest) {
     if (mse < best_mse) best_shift = shift, best_mse = mse;
   }
   PoseNet net = SquaresPoseNet(sampler.action_dim());
-  const AlphaShiftFit fit = FitAlphaShift(net, sampler, unroll, 32, torch::kCPU);
+  const AlphaShiftFit fit = FitAlphaShift(net, sampler, unroll, kSquaresSize, torch::kCPU);
   EXPECT_EQ(fit.episodes, 6);
   EXPECT_DOUBLE_EQ(fit.shift, best_shift);
   EXPECT_NEAR(fit.mse_before, unshifted, 1e-6);
