@@ -9,6 +9,8 @@
 #   5. closed-loop imagination: the batched, cached path of wm-eval --policy vs one episode at a
 #      time (needs the demo's models: make demo; DEMO_DIR, IMAGINE_THREADS), for the token model,
 #      then the motion model with a success classifier (make wpe's: WPE_DIR)
+#   6. the motion nets' upsampling (UpConv, phase by phase) vs ATen's conv_transpose2d, forward
+#      and backward at the eraser's shapes on one thread
 set -euo pipefail
 BIN=${1:-build/bin}
 WORK=${BENCH_DIR:-/tmp/wmkit-bench}
@@ -59,3 +61,5 @@ if [ -f "$DEMO/motion/checkpoint.wmt" ] && [ -f "$SUCCESS/checkpoint.wmt" ]; the
 else
   echo "skipped: no $DEMO/motion or $SUCCESS (run make wpe first)"
 fi
+echo "== motion: UpConv vs ATen's conv_transpose2d (forward + backward, 1 thread)"
+"$BIN/motion_blocks_bench"

@@ -13,12 +13,24 @@ inline torch::nn::Sequential Down(int64_t in, int64_t out) {
       torch::nn::ReLU());
 }
 
-// A 4x4 stride-2 transposed convolution and a ReLU: doubles it.
+// PyTorch's ConvTranspose2d(in, out, 4, stride 2, padding 1): its parameters (the same names,
+// shapes and initial values), its sums. On a CPU each of the four output pixel phases is a 2x2
+// convolution of the input, interleaved: LibTorch 1.13 has no MKL-DNN transposed convolution,
+// and its fallback took 3.3x as long forward and backward at the eraser's largest (bench/
+// motion_blocks_bench.cc). Results equal ConvTranspose2d's to float rounding, not bit for bit.
+class UpConvImpl : public torch::nn::Module {
+ public:
+  UpConvImpl(int64_t in, int64_t out);
+  torch::Tensor forward(const torch::Tensor& x);
+
+  torch::Tensor weight;  // [in, out, 4, 4], ConvTranspose2d's layout
+  torch::Tensor bias;    // [out]
+};
+TORCH_MODULE(UpConv);
+
+// A 4x4 stride-2 transposed convolution (UpConv) and a ReLU: doubles the resolution.
 inline torch::nn::Sequential Up(int64_t in, int64_t out) {
-  return torch::nn::Sequential(
-      torch::nn::ConvTranspose2d(
-          torch::nn::ConvTranspose2dOptions(in, out, 4).stride(2).padding(1)),
-      torch::nn::ReLU());
+  return torch::nn::Sequential(UpConv(in, out), torch::nn::ReLU());
 }
 
 // `levels` halvings (4x4 stride-2 convolutions and ReLUs, `in` then `c` channels) as one flat
