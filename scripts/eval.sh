@@ -11,7 +11,7 @@
 # its manifest records).
 set -euo pipefail
 if [ $# -lt 6 ]; then
-  sed -n '2,7p' "$0" >&2
+  sed -n '2,11p' "$0" >&2
   exit 2
 fi
 BIN=$1 REPORTS=$2 TOKENIZER=$3 VAL=$4 VAL_TOKENS=$5
