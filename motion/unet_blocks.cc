@@ -5,11 +5,6 @@ namespace {
 
 namespace F = torch::nn::functional;
 
-// Output row 2i + phase of a 4x4 stride-2 padding-1 transposed convolution sums input rows i - 1
-// and i (phase 0: kernel rows 3, 1) or i and i + 1 (phase 1: kernel rows 2, 0); with the input
-// padded by one, phase p reads padded rows p + i and p + i + 1. The same holds for columns.
-const std::vector<int64_t> kKernelTaps[2] = {{3, 1}, {2, 0}};
-
 }  // namespace
 
 UpConvImpl::UpConvImpl(int64_t in, int64_t out) {
@@ -20,18 +15,25 @@ UpConvImpl::UpConvImpl(int64_t in, int64_t out) {
   bias = register_parameter("bias", init->bias.detach().clone());
 }
 
+torch::Tensor UpConvImpl::TransposedConvolution(const torch::Tensor& x) const {
+  return F::conv_transpose2d(x, weight,
+                             F::ConvTranspose2dFuncOptions().bias(bias).stride(2).padding(1));
+}
+
+// Output row 2i + phase of a 4x4 stride-2 padding-1 transposed convolution sums input rows i - 1
+// and i (phase 0: kernel rows 3, 1) or i and i + 1 (phase 1: kernel rows 2, 0); with the input
+// padded by one, phase p reads padded rows p + i and p + i + 1. The same holds for columns. In
+// the kernel flipped along both axes, phase p's rows (and columns) are every second from p.
 torch::Tensor UpConvImpl::forward(const torch::Tensor& x) {
-  if (!x.device().is_cpu())  // cuDNN's transposed convolution is fast
-    return F::conv_transpose2d(x, weight,
-                               F::ConvTranspose2dFuncOptions().bias(bias).stride(2).padding(1));
+  if (!x.device().is_cpu()) return TransposedConvolution(x);  // cuDNN's is fast
   const int64_t H = x.size(2), W = x.size(3);
   const torch::Tensor padded = F::pad(x, F::PadFuncOptions({1, 1, 1, 1}));
+  const torch::Tensor flipped = weight.flip({2, 3});
   std::vector<torch::Tensor> phases;
   for (int64_t row = 0; row < 2; ++row) {
     for (int64_t col = 0; col < 2; ++col) {
-      const torch::Tensor kernel = weight.index_select(2, torch::tensor(kKernelTaps[row]))
-                                       .index_select(3, torch::tensor(kKernelTaps[col]))
-                                       .transpose(0, 1);  // [out, in, 2, 2]
+      const torch::Tensor kernel =
+          flipped.slice(2, row, 4, 2).slice(3, col, 4, 2).transpose(0, 1);  // [out, in, 2, 2]
       phases.push_back(F::conv2d(padded.slice(2, row, row + H + 1).slice(3, col, col + W + 1),
                                  kernel, F::Conv2dFuncOptions().bias(bias)));
     }

@@ -16,12 +16,16 @@ inline torch::nn::Sequential Down(int64_t in, int64_t out) {
 // PyTorch's ConvTranspose2d(in, out, 4, stride 2, padding 1): its parameters (the same names,
 // shapes and initial values), its sums. On a CPU each of the four output pixel phases is a 2x2
 // convolution of the input, interleaved: LibTorch 1.13 has no MKL-DNN transposed convolution,
-// and its fallback took 3.3x as long forward and backward at the eraser's largest (bench/
-// motion_blocks_bench.cc). Results equal ConvTranspose2d's to float rounding, not bit for bit.
+// and its fallback took about twice as long forward and backward at the eraser's largest
+// (bench/motion_blocks_bench.cc). Results equal ConvTranspose2d's to float rounding, not bit for
+// bit.
 class UpConvImpl : public torch::nn::Module {
  public:
   UpConvImpl(int64_t in, int64_t out);
   torch::Tensor forward(const torch::Tensor& x);
+  // ATen's conv_transpose2d with these parameters: forward's path off the CPU, and the reference
+  // unet_blocks_test and bench/motion_blocks_bench check the phases against.
+  torch::Tensor TransposedConvolution(const torch::Tensor& x) const;
 
   torch::Tensor weight;  // [in, out, 4, 4], ConvTranspose2d's layout
   torch::Tensor bias;    // [out]
