@@ -10,7 +10,7 @@ from frames 0, 8, 16 and 24 (the step-8 arm as a ratio of sums over copy_last's)
 
   bench/pose_dynamics_refit.py --checkpoint RUN_DIR --train DIR --val DIR [--steps 3000] \
       [--hidden 128] [--weight-decay 0.01] [--early F] [--noise S] [--keep] [--seed S] \
-      [--threads N]
+      [--ensemble K] [--threads N]
 
 Measured in session 34 (docs/motion.md, "More training episodes for the pose's dynamics"): a
 wider correction MLP, more steps, episode starts drawn more often and noise on the first pose
@@ -55,7 +55,28 @@ def widened(dynamics, hidden):
     return dynamics
 
 
-def fit(dynamics, poses, episodes, norm, args):
+class AveragedDynamics(nn.Module):
+    """--ensemble K: the mean of K dynamics' pose paths, each learned from its own seed."""
+
+    def __init__(self, members):
+        super().__init__()
+        self.members = nn.ModuleList(members)
+
+    def forward(self, pose, actions):
+        return torch.stack([m(pose, actions) for m in self.members]).mean(0)
+
+
+def new_dynamics(net, hidden, seed):
+    """A PoseDynamics as the twin initialises it from `seed`, its correction `hidden` wide."""
+    torch.manual_seed(seed)
+    dynamics = PoseDynamics(net.dynamics.action_map.out_features,
+                            net.dynamics.action_map.in_features)
+    if hidden != dynamics.correction[0].out_features:  # the twin's own otherwise
+        dynamics = widened(dynamics, hidden)
+    return dynamics
+
+
+def fit(dynamics, poses, episodes, norm, args, seed):
     """The C++ trainer's dynamics phase (PoseDynamicsTraining), plus --early and --noise."""
     h = args.horizon
     scale = torch.cat(poses).std(0) + 1e-3
@@ -63,8 +84,8 @@ def fit(dynamics, poses, episodes, norm, args):
     early = [(e, t) for e, t in starts if t < 2]
     opt = torch.optim.AdamW(dynamics.parameters(), args.lr,
                             weight_decay=args.weight_decay)
-    rng = np.random.default_rng(args.seed)
-    torch.manual_seed(args.seed)  # the --noise draws
+    rng = np.random.default_rng(seed)
+    torch.manual_seed(seed)  # the --noise draws
     for step in range(args.steps):
         for group in opt.param_groups:
             group["lr"] = wp.learning_rate(step, args.steps, args.lr)
@@ -120,6 +141,9 @@ def main():
                     help="Gaussian noise of S x each pose number's spread on the first pose")
     ap.add_argument("--keep", action="store_true", help="score the run's own dynamics")
     ap.add_argument("--seed", type=int, default=0)
+    ap.add_argument("--ensemble", type=int, default=1, metavar="K",
+                    help="learn K dynamics (seeds --seed, --seed + 1, ...) and roll out the mean "
+                    "of their pose paths")
     ap.add_argument("--threads", type=int, default=1)
     args = ap.parse_args()
     torch.set_num_threads(args.threads)
@@ -128,14 +152,12 @@ def main():
     net.requires_grad_(False)
     train, val = wp.recipes.load(args.train), wp.recipes.load(args.val)
     if not args.keep:
-        torch.manual_seed(args.seed)
-        dynamics = PoseDynamics(net.dynamics.action_map.out_features,
-                                          net.dynamics.action_map.in_features)
-        if args.hidden != dynamics.correction[0].out_features:  # the twin's own otherwise
-            dynamics = widened(dynamics, args.hidden)
-        net.dynamics = dynamics
-        with torch.enable_grad():
-            fit(net.dynamics.requires_grad_(True), episode_poses(net, train), train, norm, args)
+        poses, members = episode_poses(net, train), []
+        for seed in range(args.seed, args.seed + args.ensemble):
+            members.append(new_dynamics(net, args.hidden, seed).requires_grad_(True))
+            with torch.enable_grad():
+                fit(members[-1], poses, train, norm, args, seed)
+        net.dynamics = members[0] if args.ensemble == 1 else AveragedDynamics(members)
     net.eval()
 
     def imagine(first, acts, _=None):
@@ -143,7 +165,8 @@ def main():
     with torch.no_grad():
         r, _ = wp.score(net, val, norm, imagine)
     every_first, every_start = step8_arm(imagine, val, norm)
-    learned = "the run's own" if args.keep else f"learned again on {len(train)} episodes"
+    learned = "the run's own" if args.keep else f"learned again on {len(train)} episodes" + (
+        f", the mean of {args.ensemble}" if args.ensemble > 1 else "")
     print(f"pose dynamics ({learned}): {wp.summary(r)}\n  step-8 arm over all {len(val)} val "
           f"episodes from frame 0: {every_first:.3f}; from frames 0, 8, 16, 24: {every_start:.3f}")
 

@@ -1,6 +1,7 @@
 """A tiny tabletop pipeline made by the built tools, for tests that need real outputs of every
 stage: `wm-gen-tabletop` RLDS episodes -> `wm-ingest` shard datasets -> `wm-tokenize train` ->
-`wm-tokenize encode` token datasets -> `wm-train` dynamics run, all single-threaded on CPU.
+`wm-tokenize encode` token datasets -> `wm-train` dynamics run, on CPU, the trainers on one thread
+unless a test asks for more.
 
 Layout under ROOT (the one tests/evaluate/test_wm_eval.py builds by hand):
 raw/wm_tabletop/1.0.0, shards/{train,val}, tok, tokens/{train,val}, dyn, and the derived configs
@@ -49,14 +50,14 @@ class TinyPipeline:
 
     def __init__(self, root, *, train_episodes, val_episodes, tokenizer_steps, dynamics_steps,
                  size=64, max_steps=40, look="varied", tokenizer_train=None, dynamics_train=None,
-                 dynamics_model=None, dynamics_threads=1, validate=False):
+                 dynamics_model=None, tokenizer_threads=1, dynamics_threads=1, validate=False):
         """look: wm-gen-tabletop --look; dynamics_model: model-section overrides;
         validate: the trainers also score the val split (--val-data, --val-tokens)."""
         self.root, self.validate = root, validate
         self.gen_args = ["--size", size, "--train-episodes", train_episodes, "--val-episodes",
                          val_episodes, "--max-steps", max_steps, "--seed", 0, "--look", look]
         self.tokenizer_steps, self.dynamics_steps = tokenizer_steps, dynamics_steps
-        self.dynamics_threads = dynamics_threads
+        self.tokenizer_threads, self.dynamics_threads = tokenizer_threads, dynamics_threads
         self.tokenizer_config = os.path.join(CONFIGS, "tokenizer", "tiny.yaml")
         if tokenizer_train:
             self.tokenizer_config = derived_config("tokenizer", self.path("tokenizer.yaml"),
@@ -79,7 +80,7 @@ class TinyPipeline:
         val = ["--val-data", self.shards("val")] if self.validate else []
         return argv("wm-tokenize", "train", "--config", self.tokenizer_config, "--data",
                     self.shards("train"), *val, "--out", out, "--steps", self.tokenizer_steps,
-                    "--threads", 1, *extra)
+                    "--threads", self.tokenizer_threads, *extra)
 
     def encode_argv(self, split, out):
         return argv("wm-tokenize", "encode", "--checkpoint", self.tokenizer(), "--data",

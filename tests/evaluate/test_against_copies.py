@@ -13,7 +13,7 @@ What this does not show: motion. With the anchor decoder copy_last_tokens decode
 copy_last itself, and the model scores the same as both: it still copies (issue 20, goal 2);
 the strips of `make demo` show it. The margin over copy_last that an earlier test asserted came
 from the old tokenizer's smoothing, not from motion, and is gone.
-Sized for CI: about 2.7 min on 2 cores (PROCESSORS 2 in CMakeLists.txt)."""
+Sized for CI: about 2.1 min on 2 cores (PROCESSORS 2 in CMakeLists.txt)."""
 import csv
 import os
 import sys
@@ -23,7 +23,10 @@ import unittest
 sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), ".."))
 from tiny_pipeline import CONFIGS, SRC, TinyPipeline, argv, run_ok  # noqa: E402
 
-DYNAMICS_STEPS = 300
+# The copy prior starts the model at copy_last_tokens and 300 steps left it there to the last
+# decimal (+0.000 dB at horizon 1). What is asserted is that training does not push it below:
+# 100 steps (the warm-up and 50 at the peak rate) check that at a third of the time.
+DYNAMICS_STEPS = 100
 VAL_EPISODES = 16
 DECODED_EPISODES = 4  # cross-checked against wm-tokenize decode
 
@@ -82,7 +85,8 @@ class AgainstCopies(unittest.TestCase):
         # only cost time (2.8x the steps/s of the preset's 6 frames).
         p = TinyPipeline(cls.tmp.name, train_episodes=80, val_episodes=VAL_EPISODES,
                          look="plain", tokenizer_steps=1200, dynamics_steps=DYNAMICS_STEPS,
-                         dynamics_model={"context_frames": 2}, dynamics_threads=2)
+                         dynamics_model={"context_frames": 2}, tokenizer_threads=2,
+                         dynamics_threads=2)
         final = p.path("final")
         run_ok(p.dynamics_argv(final))
         reports = p.path("reports")
@@ -118,8 +122,8 @@ class AgainstCopies(unittest.TestCase):
                  self.regions["copy_last", region] for region in ("mse_arm", "mse_object")}
         print(f"8 steps, tokenizer_recon / copy_last region MSE: arm {ratio['mse_arm']:.2f}, "
               f"block {ratio['mse_object']:.2f}")
-        # Measured here 0.31 / 0.64 (80 episodes, 1200 tokenizer steps); in the demo 0.36 / 0.54
-        # and 0.22 / 0.45 for two initialisations. Without the anchor the same 8x8 tokens give
+        # Measured here 0.30 / 0.61 (80 episodes, 1200 tokenizer steps on 2 threads); in the
+        # demo 0.36 / 0.54 and 0.22 / 0.45 for two initialisations. Without the anchor the same 8x8 tokens give
         # about 0.22 / 2.6 (the block erased); at anchor dropout 0 the codes collapse (0.96 /
         # 1.0). The bounds leave room for another CPU's rounding, which acts like another seed.
         self.assertLess(ratio["mse_arm"], 0.5)
