@@ -9,7 +9,7 @@ docs/motion.md (val episodes 0-7 from frame 0), and wider: all val episodes from
 from frames 0, 8, 16 and 24 (the step-8 arm as a ratio of sums over copy_last's).
 
   bench/pose_dynamics_refit.py --checkpoint RUN_DIR --train DIR --val DIR [--steps 3000] \
-      [--hidden 128] [--weight-decay 0.01] [--early F] [--noise S] [--keep] [--seed S] \
+      [--hidden H] [--weight-decay 0.01] [--early F] [--noise S] [--keep] [--seed S] \
       [--ensemble K] [--threads N]
 
 Measured in session 34 (docs/motion.md, "More training episodes for the pose's dynamics"): a
@@ -40,21 +40,6 @@ class NoCorrection(nn.Module):
         return x.new_zeros(x.shape[0], self.pose_dim)
 
 
-def widened(dynamics, hidden):
-    """`dynamics` with its correction MLP `hidden` wide (zero-initialised output, as the twin),
-    or none (0)."""
-    n_in, pose_dim = dynamics.correction[0].in_features, dynamics.correction[-1].out_features
-    if hidden == 0:
-        dynamics.correction = NoCorrection(pose_dim)
-        return dynamics
-    dynamics.correction = nn.Sequential(nn.Linear(n_in, hidden), nn.ReLU(),
-                                        nn.Linear(hidden, hidden), nn.ReLU(),
-                                        nn.Linear(hidden, pose_dim))
-    nn.init.zeros_(dynamics.correction[-1].weight)
-    nn.init.zeros_(dynamics.correction[-1].bias)
-    return dynamics
-
-
 class AveragedDynamics(nn.Module):
     """--ensemble K: the mean of K dynamics' pose paths, each learned from its own seed."""
 
@@ -67,12 +52,13 @@ class AveragedDynamics(nn.Module):
 
 
 def new_dynamics(net, hidden, seed):
-    """A PoseDynamics as the twin initialises it from `seed`, its correction `hidden` wide."""
+    """A PoseDynamics as the twin initialises it from `seed`, its correction `hidden` wide (0:
+    none, the pose moved linearly)."""
     torch.manual_seed(seed)
-    dynamics = PoseDynamics(net.dynamics.action_map.out_features,
-                            net.dynamics.action_map.in_features)
-    if hidden != dynamics.correction[0].out_features:  # the twin's own otherwise
-        dynamics = widened(dynamics, hidden)
+    pose_dim = net.dynamics.action_map.out_features
+    dynamics = PoseDynamics(pose_dim, net.dynamics.action_map.in_features, max(hidden, 1))
+    if hidden == 0:
+        dynamics.correction = NoCorrection(pose_dim)
     return dynamics
 
 
@@ -131,8 +117,9 @@ def main():
     ap.add_argument("--steps", type=int, default=3000)
     ap.add_argument("--horizon", type=int, default=8)
     ap.add_argument("--lr", type=float, default=1e-3)
-    ap.add_argument("--hidden", type=int, default=128,
-                    help="the correction MLP's width (0: none, the pose moved linearly)")
+    ap.add_argument("--hidden", type=int, default=None,
+                    help="the correction MLP's width (default: the run's; 0: none, the pose "
+                    "moved linearly)")
     ap.add_argument("--weight-decay", type=float, default=0.01)
     ap.add_argument("--early", type=float, default=0.0, metavar="F",
                     help="that fraction of the rollouts starts at an episode's frame 0 or 1 "
@@ -153,8 +140,9 @@ def main():
     train, val = wp.recipes.load(args.train), wp.recipes.load(args.val)
     if not args.keep:
         poses, members = episode_poses(net, train), []
+        hidden = net.dynamics.correction[0].out_features if args.hidden is None else args.hidden
         for seed in range(args.seed, args.seed + args.ensemble):
-            members.append(new_dynamics(net, args.hidden, seed).requires_grad_(True))
+            members.append(new_dynamics(net, hidden, seed).requires_grad_(True))
             with torch.enable_grad():
                 fit(members[-1], poses, train, norm, args, seed)
         net.dynamics = members[0] if args.ensemble == 1 else AveragedDynamics(members)

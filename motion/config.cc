@@ -22,6 +22,7 @@ void VisitFields(Config& c, F&& f) {
   f("model", "layers", m.layers);
   f("model", "pose_dim", m.pose_dim);
   f("model", "renderer_width", m.renderer_width);
+  f("model", "dynamics_hidden", m.dynamics_hidden);
   auto& t = c.train;
   trainkit::VisitOptimizerFields(t, f);
   trainkit::VisitRunFields(t, f);
@@ -81,6 +82,7 @@ void ValidateConfig(const MotionConfig& c, const std::string& file) {
   require(m.pose_dim >= 1, "model.pose_dim", "must be >= 1");
   require(m.renderer_width >= 4 && m.renderer_width % 4 == 0, "model.renderer_width",
           "must be a positive multiple of 4");
+  require(m.dynamics_hidden >= 1, "model.dynamics_hidden", "must be >= 1");
   const TrainConfig& t = c.train;
   trainkit::ValidateOptimizerFields(t, file);
   trainkit::ValidateRunFields(t, file);

@@ -25,6 +25,10 @@ struct ModelConfig {
   int layers = 3;           // kind layers: moving layers over the static background
   int pose_dim = 16;        // kind pose: numbers in the pose
   int renderer_width = 64;  // kind pose: the renderer's widest convolution (a multiple of 4)
+  // kind pose: the width of the dynamics' correction MLP (two hidden layers). 128, the width of
+  // checkpoints written before this key existed; 256 in the pose configs since session 43
+  // (docs/motion.md, "A wider correction for the pose's dynamics").
+  int dynamics_hidden = 128;
 };
 
 struct TrainConfig {

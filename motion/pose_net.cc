@@ -7,7 +7,7 @@ namespace {
 
 namespace nn = torch::nn;
 
-constexpr int64_t kEncoderHidden = 256, kDynamicsHidden = 128;
+constexpr int64_t kEncoderHidden = 256;
 // The renderer's alpha logit at the start: sigmoid(-2) = 0.12, drawn faintly everywhere, so the
 // pose gets gradients from the first step (at -3 with an L1 loss the alpha died: measured).
 constexpr double kAlphaBias = -2;
@@ -78,13 +78,13 @@ void DeconvRendererImpl::ShiftAlpha(double shift) {
   out_->bias.slice(0, 3).add_(shift);
 }
 
-PoseDynamicsImpl::PoseDynamicsImpl(int64_t pose_dim, int64_t action_dim) {
+PoseDynamicsImpl::PoseDynamicsImpl(int64_t pose_dim, int64_t action_dim, int64_t hidden) {
   action_map = register_module("action_map",
                                nn::Linear(nn::LinearOptions(action_dim, pose_dim).bias(false)));
-  nn::Linear last(kDynamicsHidden, pose_dim);
+  nn::Linear last(hidden, pose_dim);
   correction = register_module(
-      "correction", nn::Sequential(nn::Linear(pose_dim + action_dim, kDynamicsHidden), nn::ReLU(),
-                                   nn::Linear(kDynamicsHidden, kDynamicsHidden), nn::ReLU(), last));
+      "correction", nn::Sequential(nn::Linear(pose_dim + action_dim, hidden), nn::ReLU(),
+                                   nn::Linear(hidden, hidden), nn::ReLU(), last));
   torch::NoGradGuard no_grad;  // the correction starts at zero: the pose moves linearly
   last->weight.zero_();
   last->bias.zero_();
@@ -102,7 +102,8 @@ PoseNetImpl::PoseNetImpl(const ModelConfig& config, int64_t action_dim) {
   ModelConfig one_layer = config;
   one_layer.layers = 1;
   eraser_ = register_module("eraser", LayerNet(one_layer, /*action_dim=*/1));
-  dynamics_ = register_module("dynamics", PoseDynamics(config.pose_dim, action_dim));
+  dynamics_ = register_module(
+      "dynamics", PoseDynamics(config.pose_dim, action_dim, config.dynamics_hidden));
 }
 
 torch::Tensor PoseNetImpl::Background(const torch::Tensor& frames) {

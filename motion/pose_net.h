@@ -72,10 +72,10 @@ class DeconvRendererImpl : public torch::nn::Module {
 TORCH_MODULE(DeconvRenderer);
 
 // pose_t+1 = pose_t + A a_t + g(pose_t, a_t): A linear (no bias), g an MLP of two hidden layers
-// of 128 whose last layer starts at zero.
+// of `hidden` whose last layer starts at zero.
 class PoseDynamicsImpl : public torch::nn::Module {
  public:
-  PoseDynamicsImpl(int64_t pose_dim, int64_t action_dim);
+  PoseDynamicsImpl(int64_t pose_dim, int64_t action_dim, int64_t hidden);
   torch::Tensor forward(const torch::Tensor& pose, const torch::Tensor& action);
 
  private:

@@ -55,6 +55,7 @@ void WriteReference(const std::string& path, uint64_t seed, bool jacobian, int a
   c.model.kind = kind;
   c.model.pose_dim = 6;
   c.model.renderer_width = 16;
+  c.model.dynamics_hidden = 48;  // not the default: the twin must read it from the config
   torch::manual_seed(seed);
   MotionNet net(c.model, action_dim);
   RandomizeHeads(net);

@@ -58,13 +58,14 @@ class DeconvRenderer(nn.Module):
 
 
 class PoseDynamics(nn.Module):
-    """p_{t+1} = p_t + A a_t + g(p_t, a_t) (A linear, g a zero-initialised MLP)."""
+    """p_{t+1} = p_t + A a_t + g(p_t, a_t) (A linear, g a zero-initialised MLP `hidden` wide)."""
 
-    def __init__(self, pose_dim, action_dim):
+    def __init__(self, pose_dim, action_dim, hidden=128):
         super().__init__()
         self.action_map = nn.Linear(action_dim, pose_dim, bias=False)
-        self.correction = nn.Sequential(nn.Linear(pose_dim + action_dim, 128), nn.ReLU(),
-                                        nn.Linear(128, 128), nn.ReLU(), nn.Linear(128, pose_dim))
+        self.correction = nn.Sequential(nn.Linear(pose_dim + action_dim, hidden), nn.ReLU(),
+                                        nn.Linear(hidden, hidden), nn.ReLU(),
+                                        nn.Linear(hidden, pose_dim))
         nn.init.zeros_(self.correction[-1].weight)
         nn.init.zeros_(self.correction[-1].bias)
 
@@ -95,12 +96,13 @@ class PoseNet(nn.Module):
     """The pose kind: encoder, renderer, eraser (a whole one-layer LayerNet, as the bench model)
     and dynamics; imagine() is the C++ Imagine before its clamp."""
 
-    def __init__(self, action_dim, pose_dim=16, channels=32, width=64, image_size=64):
+    def __init__(self, action_dim, pose_dim=16, channels=32, width=64, image_size=64,
+                 dynamics_hidden=128):
         super().__init__()
         self.encoder = PoseEncoder(pose_dim, channels, image_size)
         self.renderer = DeconvRenderer(pose_dim, width, image_size)
         self.eraser = LayerNet(1, layers=1, channels=channels, image_size=image_size)
-        self.dynamics = PoseDynamics(pose_dim, action_dim)
+        self.dynamics = PoseDynamics(pose_dim, action_dim, dynamics_hidden)
 
     def imagine(self, first, actions):
         background = erase(self.eraser, first)
