@@ -123,9 +123,10 @@ class AgainstCopies(unittest.TestCase):
         print(f"8 steps, tokenizer_recon / copy_last region MSE: arm {ratio['mse_arm']:.2f}, "
               f"block {ratio['mse_object']:.2f}")
         # Measured here 0.30 / 0.61 (80 episodes, 1200 tokenizer steps on 2 threads); in the
-        # demo 0.36 / 0.54 and 0.22 / 0.45 for two initialisations. Without the anchor the same 8x8 tokens give
-        # about 0.22 / 2.6 (the block erased); at anchor dropout 0 the codes collapse (0.96 /
-        # 1.0). The bounds leave room for another CPU's rounding, which acts like another seed.
+        # demo 0.36 / 0.54 and 0.22 / 0.45 for two initialisations. Without the anchor the same
+        # 8x8 tokens give about 0.22 / 2.6 (the block erased); at anchor dropout 0 the codes
+        # collapse (0.96 / 1.0). The bounds leave room for another CPU's rounding, which acts
+        # like another seed.
         self.assertLess(ratio["mse_arm"], 0.5)
         self.assertLess(ratio["mse_object"], 0.9)
 
