@@ -23,8 +23,6 @@ void VisitFields(Config& c, F&& f) {
   f("model", "pose_dim", m.pose_dim);
   f("model", "renderer_width", m.renderer_width);
   f("model", "dynamics_hidden", m.dynamics_hidden);
-  f("model", "eraser_light", m.eraser_light);
-  f("model", "renderer_shade", m.renderer_shade);
   auto& t = c.train;
   trainkit::VisitOptimizerFields(t, f);
   trainkit::VisitRunFields(t, f);
@@ -41,7 +39,6 @@ void VisitFields(Config& c, F&& f) {
   f("train", "pair_window", t.pair_window);
   f("train", "edge_weight", t.edge_weight);
   f("train", "calibrate_alpha", t.calibrate_alpha);
-  f("train", "eraser_l1", t.eraser_l1);
   f("train", "dynamics_steps", t.dynamics_steps);
   f("train", "dynamics_batch", t.dynamics_batch);
   f("train", "dynamics_lr", t.dynamics_lr);
@@ -86,10 +83,6 @@ void ValidateConfig(const MotionConfig& c, const std::string& file) {
   require(m.renderer_width >= 4 && m.renderer_width % 4 == 0, "model.renderer_width",
           "must be a positive multiple of 4");
   require(m.dynamics_hidden >= 1, "model.dynamics_hidden", "must be >= 1");
-  require(!m.eraser_light || m.kind == "pose", "model.eraser_light",
-          "is for model.kind pose (its eraser), not " + m.kind);
-  require(!m.renderer_shade || m.kind == "pose", "model.renderer_shade",
-          "is for model.kind pose (its renderer), not " + m.kind);
   const TrainConfig& t = c.train;
   trainkit::ValidateOptimizerFields(t, file);
   trainkit::ValidateRunFields(t, file);
@@ -108,7 +101,6 @@ void ValidateConfig(const MotionConfig& c, const std::string& file) {
   require(t.squared_until >= 0 && t.squared_until <= 1, "train.squared_until", "must be in [0, 1]");
   require(t.pair_window >= 0, "train.pair_window", "must be >= 0");
   require(t.edge_weight >= 0, "train.edge_weight", "must be >= 0");
-  require(t.eraser_l1 >= 0, "train.eraser_l1", "must be >= 0");
   require(t.dynamics_steps >= 0, "train.dynamics_steps", "must be >= 0");
   require(t.dynamics_batch >= 1, "train.dynamics_batch", "must be >= 1");
   require(t.dynamics_lr > 0, "train.dynamics_lr", "must be > 0");

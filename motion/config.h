@@ -29,17 +29,6 @@ struct ModelConfig {
   // checkpoints written before this key existed; 256 in the pose configs since session 43
   // (docs/motion.md, "A wider correction for the pose's dynamics").
   int dynamics_hidden = 128;
-  // kind pose: the eraser also relights what it keeps, background = (x + 1) gain - 1 where its
-  // mask keeps x, gain = exp(2 tanh(l)) from one more output channel l of its head (1 at the
-  // start): the arm's shadow is the table's and the block's colour times one ratio (the
-  // simulator's ambient light), so a shadowed block can be lit again instead of replaced by the
-  // table (docs/motion.md, "An eraser that relights"). false: as checkpoints written before.
-  bool eraser_light = false;
-  // kind pose: the renderer also draws a shade that multiplies the background's light where it
-  // draws the arm's shadow (pose_net.h, Drawn): with eraser_light a shadowed block is the relit
-  // block shaded again, so the eraser must keep it (a shade alone, session 40, left the eraser
-  // free to replace it). false: as checkpoints written before.
-  bool renderer_shade = false;
 };
 
 struct TrainConfig {
@@ -101,9 +90,6 @@ struct TrainConfig {
   // and leaves it too opaque where the renderer is unsure. false: as checkpoints written before
   // this key.
   bool calibrate_alpha = false;
-  // kind pose: the autoencoder's loss adds eraser_l1 x the eraser's mean mask: with
-  // model.eraser_light a shadow is cheaper relit than replaced. 0 = off.
-  double eraser_l1 = 0;
   int64_t dynamics_steps = 3000;
   int dynamics_batch = 256;
   double dynamics_lr = 1e-3;

@@ -26,9 +26,7 @@ LayerNetImpl::LayerNetImpl(const ModelConfig& config, int64_t action_dim)
   up3 = register_module("up3", Up(c, c));
   up2 = register_module("up2", Up(2 * c, c));
   up1 = register_module("up1", Up(2 * c, c));
-  // mask logits, fill, and with model.eraser_light the light's logit
-  sprite_head =
-      register_module("sprite_head", Conv3x3(c + 3, k + 3 + (config.eraser_light ? 1 : 0)));
+  sprite_head = register_module("sprite_head", Conv3x3(c + 3, k + 3));  // mask logits, fill
   // Four halvings: the motion CNN's map is (S / 16)^2 cells, flattened so the MLP knows where
   // things are.
   motion_cnn = register_module("motion_cnn", Downs(6, c, 4));
@@ -54,9 +52,7 @@ Sprites LayerNetImpl::sprites(const torch::Tensor& first, const torch::Tensor& m
   // Noisy logits pay off only where the mask is saturated: masks end up 0 or 1, so a layer is
   // drawn solid or not at all instead of as a translucent hedge.
   if (mask_noise.defined()) logits = logits + mask_noise;
-  Sprites s{torch::sigmoid(logits), torch::tanh(out.slice(1, layers_, layers_ + 3))};
-  if (config_.eraser_light) s.light = out.slice(1, layers_ + 3);
-  return s;
+  return {torch::sigmoid(logits), torch::tanh(out.slice(1, layers_))};
 }
 
 torch::Tensor LayerNetImpl::increments(const torch::Tensor& current, const torch::Tensor& first,

@@ -29,8 +29,6 @@ inline constexpr int64_t kAffineParams = 6;
 struct Sprites {
   torch::Tensor masks;  // [B, K, S, S] in (0, 1), on the start frame's pixels
   torch::Tensor fill;   // [B, 3, S, S] in (-1, 1): what lies behind the layers
-  // [B, 1, S, S] logits of the light kept pixels get (model.eraser_light; undefined without)
-  torch::Tensor light;
 };
 
 // One open-loop rollout's state: the start frame's layers and where they are now.

@@ -11,12 +11,6 @@ constexpr int64_t kEncoderHidden = 256;
 // The renderer's alpha logit at the start: sigmoid(-2) = 0.12, drawn faintly everywhere, so the
 // pose gets gradients from the first step (at -3 with an L1 loss the alpha died: measured).
 constexpr double kAlphaBias = -2;
-// model.eraser_light: the gain on what the eraser keeps lies in [e^-2, e^2] (x7.4 either way;
-// the plain look's shadows keep about 0.3 of the light: ambient 0.3 of 1.1).
-constexpr double kMaxLogGain = 2;
-// model.renderer_shade: the shade's logit at the start, sigmoid(2) = 0.88: the background nearly
-// lit everywhere, the shade's gradient not yet saturated.
-constexpr double kShadeBias = 2;
 
 // [1, 2, S, S]: each pixel's x and y in [-1, 1].
 torch::Tensor Coordinates(int64_t size, const torch::TensorOptions& options) {
@@ -50,9 +44,8 @@ torch::Tensor PoseEncoderImpl::forward(const torch::Tensor& frames) {
   return head->forward(cnn->forward(torch::cat({frames, grid}, 1)).flatten(1));
 }
 
-DeconvRendererImpl::DeconvRendererImpl(int64_t pose_dim, int64_t width, int64_t image_size,
-                                       bool shade)
-    : start_(image_size / 16), width_(width), shade_(shade) {
+DeconvRendererImpl::DeconvRendererImpl(int64_t pose_dim, int64_t width, int64_t image_size)
+    : start_(image_size / 16), width_(width) {
   fc = register_module("fc", nn::Linear(pose_dim, width * start_ * start_));
   const int64_t widths[] = {width, width, width / 2, width / 4, width / 4};
   nn::Sequential stages;
@@ -62,31 +55,27 @@ DeconvRendererImpl::DeconvRendererImpl(int64_t pose_dim, int64_t width, int64_t 
     stages->push_back(Conv3x3(widths[i], widths[i + 1]));
     stages->push_back(nn::ReLU());
   }
-  out_ = Conv3x3(widths[4], shade ? 5 : 4);
+  out_ = Conv3x3(widths[4], 4);
   stages->push_back(out_);
   up = register_module("up", stages);
   torch::NoGradGuard no_grad;
-  out_->bias.slice(0, 3, 4).fill_(kAlphaBias);
-  if (shade) out_->bias.slice(0, 4, 5).fill_(kShadeBias);
+  out_->bias.slice(0, 3).fill_(kAlphaBias);
 }
 
 Drawn DeconvRendererImpl::Logits(const torch::Tensor& pose) {
   const torch::Tensor x = torch::relu(fc->forward(pose)).view({-1, width_, start_, start_});
   const torch::Tensor out = up->forward(x);
-  Drawn drawn{torch::tanh(out.slice(1, 0, 3)), out.slice(1, 3, 4)};
-  if (shade_) drawn.shade = out.slice(1, 4, 5);
-  return drawn;
+  return {torch::tanh(out.slice(1, 0, 3)), out.slice(1, 3)};
 }
 
 Drawn DeconvRendererImpl::forward(const torch::Tensor& pose) {
   const Drawn drawn = Logits(pose);
-  return {drawn.rgb, torch::sigmoid(drawn.alpha),
-          drawn.shade.defined() ? torch::sigmoid(drawn.shade) : torch::Tensor()};
+  return {drawn.rgb, torch::sigmoid(drawn.alpha)};
 }
 
 void DeconvRendererImpl::ShiftAlpha(double shift) {
   torch::NoGradGuard no_grad;
-  out_->bias.slice(0, 3, 4).add_(shift);
+  out_->bias.slice(0, 3).add_(shift);
 }
 
 PoseDynamicsImpl::PoseDynamicsImpl(int64_t pose_dim, int64_t action_dim, int64_t hidden) {
@@ -109,8 +98,7 @@ PoseNetImpl::PoseNetImpl(const ModelConfig& config, int64_t action_dim) {
   encoder_ =
       register_module("encoder", PoseEncoder(config.pose_dim, config.channels, config.image_size));
   renderer_ = register_module(
-      "renderer", DeconvRenderer(config.pose_dim, config.renderer_width, config.image_size,
-                                 config.renderer_shade));
+      "renderer", DeconvRenderer(config.pose_dim, config.renderer_width, config.image_size));
   ModelConfig one_layer = config;
   one_layer.layers = 1;
   eraser_ = register_module("eraser", LayerNet(one_layer, /*action_dim=*/1));
@@ -118,12 +106,9 @@ PoseNetImpl::PoseNetImpl(const ModelConfig& config, int64_t action_dim) {
       "dynamics", PoseDynamics(config.pose_dim, action_dim, config.dynamics_hidden));
 }
 
-torch::Tensor PoseNetImpl::Background(const torch::Tensor& frames, torch::Tensor* mask) {
+torch::Tensor PoseNetImpl::Background(const torch::Tensor& frames) {
   const Sprites s = eraser_->sprites(frames);
-  if (mask != nullptr) *mask = s.masks;
-  if (!s.light.defined()) return frames * (1 - s.masks) + s.fill * s.masks;
-  const torch::Tensor gain = torch::exp(kMaxLogGain * torch::tanh(s.light));
-  return ((frames + 1) * gain - 1) * (1 - s.masks) + s.fill * s.masks;
+  return frames * (1 - s.masks) + s.fill * s.masks;
 }
 
 PoseRollout PoseNetImpl::Start(const torch::Tensor& first) {

@@ -22,14 +22,11 @@
 
 namespace wm::motion {
 
-// What the renderer draws: colour [B, 3, S, S] in (-1, 1), alpha [B, 1, S, S] in (0, 1), and
-// with model.renderer_shade a shade [B, 1, S, S] in (0, 1) that multiplies the background's
-// light under the alpha: a shadow that keeps the colour of what it falls on (undefined: none).
+// What the renderer draws: colour [B, 3, S, S] in (-1, 1), alpha [B, 1, S, S] in (0, 1).
 struct Drawn {
-  torch::Tensor rgb, alpha, shade;
+  torch::Tensor rgb, alpha;
   torch::Tensor Over(const torch::Tensor& background) const {
-    const torch::Tensor lit = shade.defined() ? (background + 1) * shade - 1 : background;
-    return rgb * alpha + (1 - alpha) * lit;
+    return rgb * alpha + (1 - alpha) * background;
   }
 };
 
@@ -58,10 +55,9 @@ TORCH_MODULE(PoseEncoder);
 // pixel from the pose alone (ConvTranspose2d avoided: slow on CPUs).
 class DeconvRendererImpl : public torch::nn::Module {
  public:
-  // `shade`: a fifth output channel, the shade's logit (bias +2: 0.88, nearly lit at the start).
-  DeconvRendererImpl(int64_t pose_dim, int64_t width, int64_t image_size, bool shade = false);
+  DeconvRendererImpl(int64_t pose_dim, int64_t width, int64_t image_size);
   Drawn forward(const torch::Tensor& pose);
-  // The colour and the alpha's (and shade's) logits [B, 1, S, S]: forward's are their sigmoids.
+  // The colour and the alpha's logit [B, 1, S, S]: forward's alpha is its sigmoid.
   Drawn Logits(const torch::Tensor& pose);
   // Adds `shift` to the alpha's logit at every pixel (the last convolution's alpha bias): the
   // calibration fitted after training (pose_trainer.h, FitAlphaShift).
@@ -69,7 +65,6 @@ class DeconvRendererImpl : public torch::nn::Module {
 
  private:
   int64_t start_, width_;
-  bool shade_;
   torch::nn::Linear fc{nullptr};
   torch::nn::Sequential up{nullptr};
   torch::nn::Conv2d out_{nullptr};  // up's last module
@@ -96,10 +91,8 @@ class PoseNetImpl : public torch::nn::Module {
   PoseEncoder& encoder() { return encoder_; }
   DeconvRenderer& renderer() { return renderer_; }
   PoseDynamics& dynamics() { return dynamics_; }
-  // `frames` with what moves erased: frames (1 - m) + fill m, m and fill the eraser's sprites
-  // (with model.eraser_light the kept frames relit: ((frames + 1) gain - 1) (1 - m) + fill m).
-  // `mask`, when given, receives the eraser's mask m.
-  torch::Tensor Background(const torch::Tensor& frames, torch::Tensor* mask = nullptr);
+  // `frames` with what moves erased: frames (1 - m) + fill m, m and fill the eraser's sprites.
+  torch::Tensor Background(const torch::Tensor& frames);
 
   PoseRollout Start(const torch::Tensor& first);
   // The next frame [B, 3, S, S] under `action` [B, D] (normalised); advances `r`.

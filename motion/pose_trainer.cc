@@ -49,8 +49,7 @@ torch::Tensor PoseAutoencoderLoss(PoseNet& net, const TrainConfig& train,
                                   const torch::Tensor& frames, const torch::Tensor& sources,
                                   int64_t step, PoseDiagnostics& diagnostics) {
   const Drawn drawn = net->renderer()->forward(net->encoder()->forward(frames));
-  torch::Tensor erased;
-  const torch::Tensor background = net->Background(sources, &erased);
+  const torch::Tensor background = net->Background(sources);
   const torch::Tensor composed = drawn.Over(background);
   torch::Tensor error = composed - frames;
   // What the renderer must draw (the arm, its shadow) counts more, but not what the eraser
@@ -66,9 +65,6 @@ torch::Tensor PoseAutoencoderLoss(PoseNet& net, const TrainConfig& train,
   const torch::Tensor alpha = drawn.alpha.mean();
   diagnostics = {alpha.detach(), weighed.mean()};
   torch::Tensor loss = norm(error) + train.mask_l1 * alpha;
-  // A shade pays as the alpha does: without, it took over the whole arm (session 40).
-  if (drawn.shade.defined()) loss = loss + train.mask_l1 * (1 - drawn.shade).mean();
-  if (train.eraser_l1 > 0) loss = loss + train.eraser_l1 * erased.mean();
   if (train.edge_weight > 0)
     for (const torch::Tensor& e : GradientDifference(composed, frames))
       loss = loss + train.edge_weight * norm(e);
@@ -132,8 +128,7 @@ AlphaShiftFit FitAlphaShift(PoseNet& net, const WindowSampler& sampler, int64_t 
     double sum = 0;
     int64_t count = 0;
     for (const DrawnRollout& r : rollouts) {
-      const Drawn d{r.drawn.rgb, torch::sigmoid(r.drawn.alpha + shift),
-                    r.drawn.shade.defined() ? torch::sigmoid(r.drawn.shade) : torch::Tensor()};
+      const Drawn d{r.drawn.rgb, torch::sigmoid(r.drawn.alpha + shift)};
       sum += (d.Over(r.background) - r.real).square().sum().item<double>();
       count += r.real.numel();
     }

@@ -13,7 +13,7 @@ AFFINE = 6  # per layer and step: linear part (4, about the centroid) and transl
 
 class LayerNet(nn.Module):
     def __init__(self, action_dim, layers=3, channels=32, flow_scale=4.0, mask_bias=0.0,
-                 mask_noise=0.0, image_size=64, light=False):
+                 mask_noise=0.0, image_size=64):
         super().__init__()
         self.mask_noise = mask_noise
         c, k = channels, layers
@@ -22,9 +22,7 @@ class LayerNet(nn.Module):
         self.down1, self.down2, self.down3 = down(3, c), down(c, c), down(c, c)
         self.middle = nn.Sequential(nn.Conv2d(c, c, 3, 1, 1), nn.ReLU())
         self.up3, self.up2, self.up1 = up(c, c), up(2 * c, c), up(2 * c, c)
-        # mask logits, fill, and with `light` (the pose kind's model.eraser_light) a light logit
-        self.light = light
-        self.sprite_head = nn.Conv2d(c + 3, k + 3 + int(light), 3, 1, 1)
+        self.sprite_head = nn.Conv2d(c + 3, k + 3, 3, 1, 1)
         nn.init.zeros_(self.sprite_head.weight)
         nn.init.constant_(self.sprite_head.bias, mask_bias)
         # the motion: per layer b_k and J_k from the current frame and the layers' maps so far
@@ -38,17 +36,11 @@ class LayerNet(nn.Module):
 
     def sprites(self, first):
         """-> masks [B, K, S, S] in (0, 1) on the start frame's pixels, fill [B, 3, S, S]."""
-        return self.lit_sprites(first)[:2]
-
-    def lit_sprites(self, first):
-        """sprites() and the light logits [B, 1, S, S] (None without `light`)."""
         out = self.sprite_head(torch.cat([self.unet(first), first], 1))
-        k = self.layers
-        logits = out[:, :k]
+        logits = out[:, :self.layers]
         if self.training and self.mask_noise > 0:  # noisy logits pay off only when saturated
             logits = logits + self.mask_noise * torch.randn_like(logits)
-        light = out[:, k + 3:] if self.light else None
-        return torch.sigmoid(logits), torch.tanh(out[:, k:k + 3]), light
+        return torch.sigmoid(logits), torch.tanh(out[:, self.layers:])
 
     def unet(self, x):
         """The sprite U-Net's features [B, C, S, S] of `x` (three halvings and back)."""

@@ -20,8 +20,7 @@ def twin_of(model, action_dim):
                         image_size=model["image_size"])
     if model["kind"] == "pose":
         return PoseNet(action_dim, model["pose_dim"], model["channels"], model["renderer_width"],
-                       model["image_size"], model.get("dynamics_hidden", 128),
-                       model.get("eraser_light", False), model.get("renderer_shade", False))
+                       model["image_size"], model.get("dynamics_hidden", 128))
     return WarpNet(model, action_dim)
 
 

@@ -48,7 +48,7 @@ void RandomizeHeads(MotionNet& net) {
 }
 
 void WriteReference(const std::string& path, uint64_t seed, bool jacobian, int action_dim,
-                    const std::string& kind, bool eraser_light, bool renderer_shade) {
+                    const std::string& kind) {
   MotionConfig c = test::TestConfig();
   c.model.channels = 8;
   c.model.action_jacobian = jacobian;
@@ -56,8 +56,6 @@ void WriteReference(const std::string& path, uint64_t seed, bool jacobian, int a
   c.model.pose_dim = 6;
   c.model.renderer_width = 16;
   c.model.dynamics_hidden = 48;  // not the default: the twin must read it from the config
-  c.model.eraser_light = eraser_light;
-  c.model.renderer_shade = renderer_shade;
   torch::manual_seed(seed);
   MotionNet net(c.model, action_dim);
   RandomizeHeads(net);
@@ -81,7 +79,6 @@ void WriteReference(const std::string& path, uint64_t seed, bool jacobian, int a
                                    {"output/rgb", drawn.rgb},
                                    {"output/alpha", drawn.alpha},
                                    {"output/background", pose->Background(current)}});
-    if (drawn.shade.defined()) tensors.emplace_back("output/shade", drawn.shade);
   } else if (net.layered()) {
     const Sprites sprites = net.layers()->sprites(current);
     tensors.insert(tensors.end(), {{"output/masks", sprites.masks}, {"output/fill", sprites.fill}});
@@ -105,8 +102,7 @@ int main(int argc, char** argv) {
   app.require_subcommand(1);
   std::string out;
   uint64_t seed = 3;
-  bool no_jacobian = false, layers = false, pose = false, eraser_light = false,
-       renderer_shade = false;
+  bool no_jacobian = false, layers = false, pose = false;
   int action_dim = 7, episodes = 24, steps = 12;
   CLI::App* ref = app.add_subcommand("reference", "Weights, inputs and C++ outputs");
   ref->add_option("--out", out)->required();
@@ -115,10 +111,6 @@ int main(int argc, char** argv) {
   ref->add_option("--action-dim", action_dim);
   ref->add_flag("--layers", layers);
   ref->add_flag("--pose", pose)->excludes("--layers");
-  ref->add_flag("--eraser-light", eraser_light, "model.eraser_light (with --pose)")
-      ->needs("--pose");
-  ref->add_flag("--renderer-shade", renderer_shade, "model.renderer_shade (with --pose)")
-      ->needs("--pose");
   CLI::App* data = app.add_subcommand("make-data", "A moving-square shard dataset");
   data->add_option("--out", out)->required();
   data->add_option("--episodes", episodes);
@@ -130,8 +122,7 @@ int main(int argc, char** argv) {
       WriteReference(out, seed, !no_jacobian, action_dim,
                      pose     ? "pose"
                      : layers ? "layers"
-                              : "warp",
-                     eraser_light, renderer_shade);
+                              : "warp");
     if (data->parsed()) test::WriteMovingSquares(out, episodes, steps, seed);
   } catch (const std::exception& e) {
     std::cerr << "motion_test_tool: " << e.what() << "\n";

@@ -40,29 +40,21 @@ class DeconvRenderer(nn.Module):
     DCGAN-style decoder: unlike the spatial-broadcast one it need not compute every pixel from
     the pose alone; ConvTranspose2d is avoided, it is slow on this CPU)."""
 
-    def __init__(self, pose_dim, width, image_size, shade=False):
+    def __init__(self, pose_dim, width, image_size):
         super().__init__()
-        self.start, self.width, self.shade = image_size // 16, width, shade
+        self.start, self.width = image_size // 16, width
         self.fc = nn.Linear(pose_dim, width * self.start ** 2)
         widths, layers = [width, width, width // 2, width // 4, width // 4], []
         for i in range(4):
             layers += [nn.Upsample(scale_factor=2), nn.Conv2d(widths[i], widths[i + 1], 3, 1, 1),
                        nn.ReLU()]
-        self.up = nn.Sequential(*layers, nn.Conv2d(widths[-1], 4 + int(shade), 3, 1, 1))
-        nn.init.constant_(self.up[-1].bias[3:4], -2.0)  # start mostly transparent, not dead
-        if shade:  # model.renderer_shade: nearly lit at the start (sigmoid(2) = 0.88)
-            nn.init.constant_(self.up[-1].bias[4:], 2.0)
+        self.up = nn.Sequential(*layers, nn.Conv2d(widths[-1], 4, 3, 1, 1))
+        nn.init.constant_(self.up[-1].bias[3:], -2.0)  # start mostly transparent, not dead
 
     def forward(self, pose):
-        """(colour, alpha): what drawn() returns less the shade."""
-        return self.drawn(pose)[:2]
-
-    def drawn(self, pose):
-        """(colour, alpha, shade [B, 1, S, S] or None without model.renderer_shade)."""
         x = torch.relu(self.fc(pose)).view(-1, self.width, self.start, self.start)
         out = self.up(x)
-        shade = torch.sigmoid(out[:, 4:]) if self.shade else None
-        return torch.tanh(out[:, :3]), torch.sigmoid(out[:, 3:4]), shade
+        return torch.tanh(out[:, :3]), torch.sigmoid(out[:, 3:])
 
 
 class PoseDynamics(nn.Module):
@@ -89,23 +81,14 @@ class PoseDynamics(nn.Module):
         return torch.stack(out, 1)
 
 
-def over(rgb, alpha, background, shade=None):
-    """The drawn arm (colour, alpha) composited over `background` (a frame, or 1: white), whose
-    light the shade (model.renderer_shade) multiplies."""
-    if shade is not None:
-        background = (background + 1) * shade - 1
+def over(rgb, alpha, background):
+    """The drawn arm (colour, alpha) composited over `background` (a frame, or 1: white)."""
     return rgb * alpha + (1 - alpha) * background
 
 
-MAX_LOG_GAIN = 2.0  # model.eraser_light: the gain lies in [e^-2, e^2]
-
-
 def erase(eraser, frames):
-    """`frames` with what moves erased by a one-layer LayerNet's mask and fill (and what it
-    keeps relit, with its `light`: motion/pose_net.cc, Background)."""
-    masks, fill, light = eraser.lit_sprites(frames)
-    if light is not None:
-        frames = (frames + 1) * torch.exp(MAX_LOG_GAIN * torch.tanh(light)) - 1
+    """`frames` with what moves erased by a one-layer LayerNet's mask and fill."""
+    masks, fill = eraser.sprites(frames)
     return frames * (1 - masks) + fill * masks
 
 
@@ -114,18 +97,16 @@ class PoseNet(nn.Module):
     and dynamics; imagine() is the C++ Imagine before its clamp."""
 
     def __init__(self, action_dim, pose_dim=16, channels=32, width=64, image_size=64,
-                 dynamics_hidden=128, eraser_light=False, renderer_shade=False):
+                 dynamics_hidden=128):
         super().__init__()
         self.encoder = PoseEncoder(pose_dim, channels, image_size)
-        self.renderer = DeconvRenderer(pose_dim, width, image_size, renderer_shade)
-        self.eraser = LayerNet(1, layers=1, channels=channels, image_size=image_size,
-                               light=eraser_light)
+        self.renderer = DeconvRenderer(pose_dim, width, image_size)
+        self.eraser = LayerNet(1, layers=1, channels=channels, image_size=image_size)
         self.dynamics = PoseDynamics(pose_dim, action_dim, dynamics_hidden)
 
     def imagine(self, first, actions):
         background = erase(self.eraser, first)
         frames = []
         for pose in self.dynamics(self.encoder(first), actions).unbind(1):
-            rgb, alpha, shade = self.renderer.drawn(pose)
-            frames.append(over(rgb, alpha, background, shade))
+            frames.append(over(*self.renderer(pose), background))
         return torch.stack(frames, 1)
