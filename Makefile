@@ -49,8 +49,11 @@ HARDENING_CONFIG := -DCMAKE_BUILD_TYPE=RelWithDebInfo -DWM_DATA_ONLY=ON -DWM_BUI
 # protobuf, docs/gpu.md) built on the CPU in MODEL_BUILD, and the tests of the code it swaps in.
 MODEL_BUILD ?= build-model
 MODEL_ONLY_TESTS ?= ImageCodec|TrainTest|EncodeTest|Overfit|FrameScores
-# ccache keys on relative paths below the checkout, so other clones and worktrees share hits.
+# ccache keys on relative paths below the checkout, so other clones and worktrees share hits;
+# without NOHASHDIR it also hashes the working directory of every -g compile (the ASan and fuzz
+# builds, RelWithDebInfo), and a clone at a new path missed all of those (docs/testing.md).
 export CCACHE_BASEDIR ?= $(CURDIR)
+export CCACHE_NOHASHDIR ?= 1
 
 .PHONY: all deps configure build test test-sanitize test-model-only fuzz demo wpe ingest tokenize train eval report ablation finetune scaling bench format lint clean
 
