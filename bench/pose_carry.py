@@ -22,6 +22,7 @@ HERE = os.path.dirname(os.path.abspath(__file__))
 for sub in ("tests/motion", "tests/tokenize", "scripts"):
     sys.path.insert(0, os.path.join(HERE, "..", sub))
 sys.path.insert(0, HERE)
+import cv2  # noqa: E402
 import numpy as np  # noqa: E402
 import torch  # noqa: E402
 from torch import nn  # noqa: E402
@@ -31,6 +32,7 @@ import dynamics_token_recipes as recipes  # noqa: E402
 import motion_run  # noqa: E402
 import warp_predictor as wp  # noqa: E402
 from pose_twin import coordinates, erase  # noqa: E402
+from tokenizer_goal1 import to_uint8  # noqa: E402
 
 
 class Carry(nn.Module):
@@ -64,11 +66,6 @@ class Carry(nn.Module):
         return (1 - mm) * ((1 - m) * bg + m * fill) + mb, m, d
 
 
-def draw(net, pose):
-    """The renderer's colour and alpha (a calibrated run's alpha shift is in its bias)."""
-    return net.renderer(pose)
-
-
 def train(net, carry, episodes, args):
     opt = torch.optim.AdamW(carry.parameters(), lr=1e-3, weight_decay=0.01)
     episodes = [e for e in episodes if len(e[0]) > args.window + 1]
@@ -88,7 +85,7 @@ def train(net, carry, episodes, args):
         block = torch.stack(segs)  # [B, W+1, 1, S, S]
         with torch.no_grad():
             poses = net.encoder(x.flatten(0, 1)).view(B, W + 1, -1)
-            rgb, alpha = draw(net, poses.flatten(0, 1))
+            rgb, alpha = net.renderer(poses.flatten(0, 1))
             rgb, alpha = rgb.view(B, W + 1, 3, 64, 64), alpha.view(B, W + 1, 1, 64, 64)
             bg = erase(net.eraser, x[:, 0])
         loss = 0
@@ -107,17 +104,17 @@ def train(net, carry, episodes, args):
 
 
 @torch.no_grad()
-def rollout(net, carry, first, actions, horizon, blocks=None):
+def carried_rollout(net, carry, first, actions, horizon, blocks=None):
+    """PoseNet.imagine with the background carried at each step; the carry's masks."""
     bg = erase(net.eraser, first)
     p = net.encoder(first)
-    _, a = draw(net, p)
+    _, a = net.renderer(p)
     frames, masks = [], []
     for t in range(horizon):
         p1 = net.dynamics.step(p, actions[:, t])
-        rgb1, a1 = draw(net, p1)
-        if carry is not None:
-            bg, m, _ = carry(bg, a, a1, p, p1, None if blocks is None else blocks[t:t + 1])
-            masks.append(m)
+        rgb1, a1 = net.renderer(p1)
+        bg, m, _ = carry(bg, a, a1, p, p1, None if blocks is None else blocks[t:t + 1])
+        masks.append(m)
         frames.append(rgb1 * a1 + (1 - a1) * bg)
         p, a = p1, a1
     return torch.stack(frames, 1), masks
@@ -154,8 +151,6 @@ def main():
 
 
 def evaluate(net, carry, val_eps, norm, args):
-    from tokenizer_goal1 import to_uint8
-    import cv2
     H, S0 = args.horizon, args.start
     found = {"base": [], "carry": [], "copy_last": []}
     rows = []
@@ -164,9 +159,10 @@ def evaluate(net, carry, val_eps, norm, args):
             continue
         frames, seg, acts = frames[S0:], seg[S0:], acts[S0:]
         a = torch.tensor(norm(acts[:H]))[None]
-        base, _ = rollout(net, None, frames[:1], a, H)
+        with torch.no_grad():
+            base = net.imagine(frames[:1], a)
         blocks = (torch.from_numpy(seg[:H] == 2).float()[:, None] if args.oracle else None)
-        car, masks = rollout(net, carry, frames[:1], a, H, blocks)
+        car, masks = carried_rollout(net, carry, frames[:1], a, H, blocks)
         real, sc = wp.window_scores(frames, seg, {"base": to_uint8(base[0]),
                                                   "carry": to_uint8(car[0])})
         for n, sco in sc.items():

@@ -28,19 +28,19 @@ sys.path.insert(0, HERE)
 import dynamics_token_recipes as recipes  # noqa: E402
 import motion_run  # noqa: E402
 import warp_predictor as wp  # noqa: E402
-from pose_twin import erase  # noqa: E402
+from pose_twin import erase, over  # noqa: E402
 from tokenizer_goal1 import region_mse, to_uint8  # noqa: E402
 
 ARM, HORIZON, BATCH, PAIR_WINDOW = 1, 8, 16, 8
 
 
 def draw(renderer, poses, background):
-    rgb, alpha = renderer(poses)
-    return rgb * alpha + (1 - alpha) * background
+    return over(*renderer(poses), background)
 
 
 def refit(net, episodes, args):
-    """The run's renderer trained further (Adam 3e-4) on frozen poses; the rest untouched."""
+    """A copy of the run with its renderer trained further (Adam 3e-4) on frozen poses; the
+    rest untouched."""
     frames = torch.cat([f for f, _, _ in episodes])
     owner = torch.cat([torch.full((len(f),), k) for k, (f, _, _) in enumerate(episodes)])
     starts = torch.tensor(np.cumsum([0] + [len(f) for f, _, _ in episodes[:-1]]))
@@ -50,7 +50,8 @@ def refit(net, episodes, args):
         firsts = torch.cat([f[:1] for f, _, _ in episodes])
         first_bg = torch.cat([erase(net.eraser, firsts[i:i + 64])
                               for i in range(0, len(firsts), 64)])
-    renderer = copy.deepcopy(net.renderer).train()
+    refitted = copy.deepcopy(net)
+    renderer = refitted.renderer.train()
     for p in renderer.parameters():
         p.requires_grad_(True)
     opt = torch.optim.Adam(renderer.parameters(), lr=3e-4)
@@ -71,24 +72,20 @@ def refit(net, episodes, args):
         opt.step()
         if step % 1000 == 0:
             print(f"step {step} loss {loss.item():.4f}", flush=True)
-    return renderer.eval()
+    return refitted.eval()
 
 
 @torch.no_grad()
-def rollout(net, renderer, frames, actions):
-    background, pose = erase(net.eraser, frames[:1]), net.encoder(frames[:1])
-    out = []
-    for t in range(actions.shape[1]):
-        pose = net.dynamics.step(pose, actions[:, t])
-        out.append(draw(renderer, pose, background))
-    return to_uint8(torch.cat(out))
+def rollout(net, frames, actions):
+    return to_uint8(net.imagine(frames[:1], actions)[0])
 
 
-def own_pose_arm(net, renderer, frames, seg):
+def own_pose_arm(net, frames, seg):
     """Arm-region MSE of frames 1..H drawn from their own encoder poses over frame 0's
     background."""
     with torch.no_grad():
-        drawn = draw(renderer, net.encoder(frames[1:HORIZON + 1]), erase(net.eraser, frames[:1]))
+        drawn = draw(net.renderer, net.encoder(frames[1:HORIZON + 1]),
+                     erase(net.eraser, frames[:1]))
     return np.nanmean(region_mse(to_uint8(frames[1:HORIZON + 1]), to_uint8(drawn),
                                  seg[1:HORIZON + 1], ARM))
 
@@ -138,23 +135,22 @@ def main():
         p.requires_grad_(False)
     val = recipes.load(args.val)
     if args.fit_poses:
-        own = [own_pose_arm(net, net.renderer, f, s) for f, s, _ in val]
+        own = [own_pose_arm(net, f, s) for f, s, _ in val]
         fit = [fitted_pose_arm(net, f, s) for f, s, _ in val]
         print(f"arm MSE from the encoder's poses {np.mean(own):.0f}, "
               f"from fitted poses {np.mean(fit):.0f}")
         return
-    renderer = refit(net, recipes.load(args.train), args)
+    refitted = refit(net, recipes.load(args.train), args)
     found = {"run": [], "refit": [], "copy_last": []}
     own, rows = {"run": [], "refit": []}, []
     for k, (frames, seg, acts) in enumerate(val):
         actions = torch.tensor(norm(acts[:HORIZON]))[None]
-        preds = {"run": rollout(net, net.renderer, frames, actions),
-                 "refit": rollout(net, renderer, frames, actions)}
+        preds = {"run": rollout(net, frames, actions), "refit": rollout(refitted, frames, actions)}
         real, scored = wp.window_scores(frames, seg, preds)
         for name in found:
             found[name].append(scored[name])
-        for name, r in (("run", net.renderer), ("refit", renderer)):
-            own[name].append(own_pose_arm(net, r, frames, seg))
+        for name, model in (("run", net), ("refit", refitted)):
+            own[name].append(own_pose_arm(model, frames, seg))
         if k < 4:
             rows += [np.concatenate(list(x), 1) for x in (real, preds["run"], preds["refit"])]
     means, rng = wp.means(found), np.random.default_rng(0)
