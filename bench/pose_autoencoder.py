@@ -40,6 +40,10 @@ truer (a gripper end, the shadow apart), but the keypoints are harder to predict
 rollouts lose to the upsampling pose's on the SEED=1 data and where the given frame hides the
 arm. --dynamics-scale common is the keypoints' (their numbers share units); --dynamics-pixels
 made them worse.
+
+Session 46 (docs/motion.md, "An arm drawn from sprites; a wider renderer"): with --renderer
+sprite --parts 4 (bench/sprite_renderer.py) the pose never starts: a static grey smear, no
+motion (ceiling 20.95 dB, step-8 arm 0.86x, against the deconv's 23.72 dB and 0.32x).
 """
 import time
 
@@ -54,6 +58,7 @@ import keypoints
 import pose_arm
 from layer_twin import LayerNet
 from pose_twin import DeconvRenderer, PoseDynamics, erase, over
+from sprite_renderer import SpriteRenderer
 
 BATCH = 32
 
@@ -84,7 +89,7 @@ class PoseAutoencoder(nn.Module):
     learns to erase what moves, and only the renderer can draw it: no labels."""
 
     def __init__(self, pose_dim, channels, width, renderer, image_size=64, sigma=0.08,
-                 canvas=1.0):
+                 canvas=1.0, parts=4):
         super().__init__()
         self.encoder = pose_arm.PoseEncoder(pose_dim, channels, image_size)
         if renderer == "keypoint":  # the pose: pose_dim / 2 points (x, y)
@@ -93,6 +98,8 @@ class PoseAutoencoder(nn.Module):
             self.renderer = keypoints.KeypointRenderer(k, width, image_size, sigma, canvas > 1)
         elif renderer == "deconv":
             self.renderer = DeconvRenderer(pose_dim, width, image_size)
+        elif renderer == "sprite":
+            self.renderer = SpriteRenderer(pose_dim, parts, image_size)
         else:
             self.renderer = pose_arm.Renderer(pose_dim, width, image_size, alpha_bias=-2.0)
             # pose_arm's colour starts black (tanh(-3), saturated), so the alpha took the blame
@@ -112,12 +119,22 @@ class PoseAutoencoder(nn.Module):
         return over(rgb, alpha, self.last_background)
 
 
+def optimizer(net):
+    """AdamW; a sprite renderer's pixels (--renderer sprite) 10x faster and not decayed (each is
+    a logit that must move by a few units; decay would pull the alpha towards 0.5)."""
+    sprites = [p for n, p in net.named_parameters() if n == "renderer.sprites"]
+    rest = [p for n, p in net.named_parameters() if n != "renderer.sprites"]
+    groups = [{"params": rest}] + ([{"params": sprites, "scale": 10.0, "weight_decay": 0.0}]
+                                   if sprites else [])
+    return torch.optim.AdamW(groups, wp.LR, betas=(0.9, 0.9), weight_decay=0.01)
+
+
 def fit(net, episodes, args):
-    opt = torch.optim.AdamW(net.parameters(), wp.LR, betas=(0.9, 0.9), weight_decay=0.01)
+    opt = optimizer(net)
     rng = np.random.default_rng(args.seed)
     for step in range(args.steps):
         for group in opt.param_groups:
-            group["lr"] = wp.learning_rate(step, args.steps, args.max_lr)
+            group["lr"] = wp.learning_rate(step, args.steps, args.max_lr) * group.get("scale", 1)
         picks = [(int(e), *rng.integers(len(episodes[e][0]), size=2))
                  for e in rng.integers(len(episodes), size=BATCH)]
         x = torch.stack([episodes[e][0][t] for e, t, _ in picks])
@@ -245,9 +262,11 @@ def arguments():
     ap = wp.arguments(__doc__, steps=2000, unroll=1, channels=32)
     ap.add_argument("--pose-dim", type=int, default=8)
     ap.add_argument("--width", type=int, default=64)
-    ap.add_argument("--renderer", choices=("broadcast", "deconv", "keypoint"),
+    ap.add_argument("--renderer", choices=("broadcast", "deconv", "keypoint", "sprite"),
                     default="broadcast", help="keypoint: the pose is --pose-dim / 2 keypoints "
-                    "drawn as Gaussian blobs through a U-Net (bench/keypoints.py)")
+                    "drawn as Gaussian blobs through a U-Net (bench/keypoints.py); sprite: "
+                    "--parts sprites placed by affine maps of the pose (bench/sprite_renderer.py)")
+    ap.add_argument("--parts", type=int, default=4, help="--renderer sprite: the sprites")
     ap.add_argument("--sigma", type=float, default=0.08, help="--renderer keypoint: the blobs' "
                     "width in [-1, 1] units (0.08: 2.5 pixels at 64x64)")
     ap.add_argument("--canvas", type=float, default=1.0, help="--renderer keypoint: keypoints "
@@ -311,7 +330,7 @@ def main():
     train, val, actions, norm = wp.setup(args)
     torch.set_flush_denormal(True)
     net = PoseAutoencoder(args.pose_dim, args.channels, args.width, args.renderer,
-                          sigma=args.sigma, canvas=args.canvas)
+                          sigma=args.sigma, canvas=args.canvas, parts=args.parts)
     if args.background == "label":
         net.labelled = layer_variants.FrameLookup()
         for frames, seg, _ in train + val:

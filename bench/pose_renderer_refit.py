@@ -8,10 +8,16 @@ over a background erased from its episode's first frame (what a rollout draws ov
 episodes against the run's own renderer: open-loop rollouts of the run's dynamics from frame 0
 (bench/warp_predictor.py's scores, paired bootstrap of refit minus run) and the frames drawn from
 their own poses (arm-region MSE). --fit-poses instead optimises, per val frame, the pose the
-run's renderer draws best (no training): what any pose can draw.
+run's renderer draws best (no training): what any pose can draw. --sprites K instead trains a
+fresh bench/sprite_renderer.py (K sprites placed by affine maps of the pose) in the renderer's
+place, first --distill steps towards the run's renderer's colour and alpha (so the placements
+start where the run draws the arm), then as above (docs/motion.md, "An arm drawn from sprites;
+a wider renderer", session 46; neither kept); --wider W refits the run's renderer with a
+second one W wide added, its output started at zero (more capacity).
 
   bench/pose_renderer_refit.py --run RUN --train TRAIN --val VAL [--steps 4000] [--loss l2|l1]
-      [--pairs] [--strip out.png] [--fit-poses]
+      [--pairs] [--strip out.png] [--fit-poses] [--sprites K [--distill 1000] [--canvas out.png]]
+      [--wider W]
 """
 import argparse
 import copy
@@ -28,7 +34,8 @@ sys.path.insert(0, HERE)
 import dynamics_token_recipes as recipes  # noqa: E402
 import motion_run  # noqa: E402
 import warp_predictor as wp  # noqa: E402
-from pose_twin import erase, over  # noqa: E402
+from pose_twin import DeconvRenderer, erase, over  # noqa: E402
+from sprite_renderer import SpriteRenderer  # noqa: E402
 from tokenizer_goal1 import region_mse, to_uint8  # noqa: E402
 
 ARM, HORIZON, BATCH, PAIR_WINDOW = 1, 8, 16, 8
@@ -51,10 +58,16 @@ def refit(net, episodes, args):
         first_bg = torch.cat([erase(net.eraser, firsts[i:i + 64])
                               for i in range(0, len(firsts), 64)])
     refitted = copy.deepcopy(net)
+    if args.sprites:
+        refitted.renderer = SpriteRenderer(poses.shape[1], args.sprites)
+    elif args.wider:
+        refitted.renderer = WiderRenderer(refitted.renderer, poses.shape[1], args.wider)
     renderer = refitted.renderer.train()
     for p in renderer.parameters():
         p.requires_grad_(True)
-    opt = torch.optim.Adam(renderer.parameters(), lr=3e-4)
+    opt = optimizer(renderer)
+    if args.sprites:
+        distill(renderer, net.renderer, poses, opt, args.distill)
     for step in range(args.steps):
         idx = torch.randint(len(frames), (BATCH,))
         o = owner[idx]
@@ -73,6 +86,59 @@ def refit(net, episodes, args):
         if step % 1000 == 0:
             print(f"step {step} loss {loss.item():.4f}", flush=True)
     return refitted.eval()
+
+
+class WiderRenderer(torch.nn.Module):
+    """The run's renderer plus a deconv renderer `width` wide whose output starts at zero,
+    added before the tanh and sigmoid: more capacity that starts where the run is."""
+
+    def __init__(self, base, pose_dim, width):
+        super().__init__()
+        self.base, self.extra = base, DeconvRenderer(pose_dim, width, base.start * 16)
+        torch.nn.init.zeros_(self.extra.up[-1].weight)
+        torch.nn.init.zeros_(self.extra.up[-1].bias)
+
+    @staticmethod
+    def logits(r, pose):
+        return r.up(torch.relu(r.fc(pose)).view(-1, r.width, r.start, r.start))
+
+    def forward(self, pose):
+        out = self.logits(self.base, pose) + self.logits(self.extra, pose)
+        return torch.tanh(out[:, :3]), torch.sigmoid(out[:, 3:])
+
+
+def optimizer(renderer):
+    """Adam 3e-4; a sprite's pixels 1e-2 (each is one parameter that must move its logit by a
+    few units, as the layers' template pixels learned 10x faster)."""
+    sprites = [p for n, p in renderer.named_parameters() if n == "sprites"]
+    rest = [p for n, p in renderer.named_parameters() if n != "sprites"]
+    return torch.optim.Adam([{"params": rest}, {"params": sprites, "lr": 1e-2}], lr=3e-4)
+
+
+def distill(renderer, teacher, poses, opt, steps):
+    """Train `renderer` to draw the teacher's colour (where it is opaque) and alpha."""
+    for step in range(steps):
+        idx = torch.randint(len(poses), (BATCH,))
+        with torch.no_grad():
+            rgb_t, alpha_t = teacher(poses[idx])
+        rgb, alpha = renderer(poses[idx])
+        loss = (alpha - alpha_t).pow(2).mean() + (rgb * alpha - rgb_t * alpha_t).pow(2).mean()
+        opt.zero_grad()
+        loss.backward()
+        opt.step()
+        if step % 500 == 0:
+            print(f"distill step {step} loss {loss.item():.4f}", flush=True)
+
+
+def write_canvas(path, renderer):
+    """Each sprite's colour over blue where its alpha is 0, beside its alpha (white = 1)."""
+    with torch.no_grad():
+        colour = torch.tanh(renderer.sprites[:, :3]) * 0.5 + 0.5
+        alpha = torch.sigmoid(renderer.sprites[:, 3:])
+        blue = torch.tensor([0.0, 0.0, 1.0]).view(1, 3, 1, 1)
+        shown = torch.cat([colour * alpha + blue * (1 - alpha), alpha.expand(-1, 3, -1, -1)], 3)
+    rows = [(x.permute(1, 2, 0).numpy() * 255) for x in shown]
+    wp.write_strip(path, rows)
 
 
 @torch.no_grad()
@@ -126,6 +192,13 @@ def main():
     ap.add_argument("--pairs", action="store_true",
                     help="backgrounds of frames up to 8 steps away instead of the first frame")
     ap.add_argument("--fit-poses", action="store_true")
+    ap.add_argument("--sprites", type=int, default=0, metavar="K",
+                    help="a fresh sprite renderer of K parts instead of the run's")
+    ap.add_argument("--distill", type=int, default=1000,
+                    help="--sprites: steps towards the run's renderer first")
+    ap.add_argument("--canvas", help="--sprites: PNG of the learned sprites")
+    ap.add_argument("--wider", type=int, default=0, metavar="W", help="the run's renderer "
+                    "plus a zero-started deconv renderer W wide (more capacity)")
     ap.add_argument("--strip", help="PNG: real, run, refit rows of val episodes 0-3")
     args = ap.parse_args()
     torch.set_num_threads(1)
@@ -141,6 +214,8 @@ def main():
               f"from fitted poses {np.mean(fit):.0f}")
         return
     refitted = refit(net, recipes.load(args.train), args)
+    if args.canvas:
+        write_canvas(args.canvas, refitted.renderer)
     found = {"run": [], "refit": [], "copy_last": []}
     own, rows = {"run": [], "refit": []}, []
     for k, (frames, seg, acts) in enumerate(val):
