@@ -213,7 +213,12 @@ def main():
         print(f"arm MSE from the encoder's poses {np.mean(own):.0f}, "
               f"from fitted poses {np.mean(fit):.0f}")
         return
-    refitted = refit(net, recipes.load(args.train), args)
+    train = recipes.load(args.train)
+    refitted = refit(net, train, args)
+    for name, model in (("run", net), ("refit", refitted)):  # fitted, or still averaging?
+        fit = [own_pose_arm(model, f, s) for f, s, _ in train[:16]]
+        print(f"{name}: frames of training episodes 0-15 from their own poses: arm MSE "
+              f"{np.mean(fit):.0f}")
     if args.canvas:
         write_canvas(args.canvas, refitted.renderer)
     found = {"run": [], "refit": [], "copy_last": []}
