@@ -23,7 +23,8 @@ bench/layer_predictor.py scores the layered twin.
       [--background cross|label] [--pose-dim 8] [--width 64] [--loss l2|l1] [--l1-from F] \
       [--moved-weight W [--weigh-drawn]] [--alpha-l1 W] [--dynamics-steps N [--horizon 8] \
       [--dynamics-scale each|common] [--dynamics-pixels N] [--per-episode [PNG]]] \
-      [--strip OUT.png] [--layers PNG] [--save NET.pt | --load NET.pt] [--seed S]
+      [--strip OUT.png] [--layers PNG] [--save NET.pt | --load NET.pt] [--seed S] \
+      [--predictive W [--predictive-from F] [--predictive-norm each|total]]
 
 Measured in session 31, not kept (docs/motion.md, "An arm drawn from a pose over a background
 learned from other frames"): the cross background erases the arm and its shadow and keeps the
@@ -44,6 +45,13 @@ made them worse.
 Session 46 (docs/motion.md, "An arm drawn from sprites; a wider renderer"): with --renderer
 sprite --parts 4 (bench/sprite_renderer.py) the pose never starts: a static grey smear, no
 motion (ceiling 20.95 dB, step-8 arm 0.86x, against the deconv's 23.72 dB and 0.32x).
+
+Sessions 47-48 (docs/motion.md, "More episodes for the pose's dynamics; a pose learned to be
+predictable"): --predictive W trains a pose dynamics with the autoencoder, its error's gradient
+into the encoder. Normalised per pose number ("each") the pose collapses to a static ghost at
+W 0.1 and 1; normalised by the mean spread ("total", the default) W 0.1 blurs the arm and
+halves the controllability, W 0.01 rolls out worse than W 0 at both weight seeds (PSNR
+-0.5/-0.9 dB, step-8 arm +0.04/+0.09 over 16 episodes). Not kept.
 """
 import time
 
@@ -129,7 +137,27 @@ def optimizer(net):
     return torch.optim.AdamW(groups, wp.LR, betas=(0.9, 0.9), weight_decay=0.01)
 
 
-def fit(net, episodes, args):
+def predictability(net, episodes, norm, rng, args):
+    """--predictive: the squared error of the pose dynamics `net.predictor` rolled open loop over
+    8 windows of --horizon steps against the poses the encoder reads off the windows' frames,
+    each pose number's error over its spread in the batch. Its gradient reaches the encoder
+    through both ends, so the pose is read to be what the actions move (an embedding learned
+    with its dynamics, as E2C's), not only what the renderer draws."""
+    h = args.horizon
+    long_enough = [e for e, (f, _, _) in enumerate(episodes) if len(f) > h]
+    picks = [(long_enough[int(k)], 0) for k in rng.integers(len(long_enough), size=8)]
+    picks = [(e, int(rng.integers(len(episodes[e][0]) - h))) for e, _ in picks]
+    poses = net.encoder(torch.cat([episodes[e][0][t:t + h + 1] for e, t in picks]))
+    poses = poses.view(len(picks), h + 1, -1)
+    acts = torch.stack([torch.from_numpy(norm(episodes[e][2][t:t + h])) for e, t in picks])
+    error = (net.predictor(poses[:, 0], acts) - poses[:, 1:]).pow(2)
+    spread = poses.detach().flatten(0, 1).var(0)
+    if args.predictive_norm == "each":  # session 47: blew up on numbers that barely vary
+        return (error / (spread.sqrt() + 1e-3).pow(2)).mean()
+    return error.mean() / spread.mean()  # shrinking the whole pose cannot win
+
+
+def fit(net, episodes, args, norm=None):
     opt = optimizer(net)
     rng = np.random.default_rng(args.seed)
     for step in range(args.steps):
@@ -148,9 +176,13 @@ def fit(net, episodes, args):
         squared = args.loss == "l2" and step < args.l1_from * args.steps
         loss = error.pow(2).mean() if squared else error.abs().mean()
         loss = loss + args.alpha_l1 * net.alpha.mean()  # the renderer draws what moves, not all
-        wp.optimizer_step(net, opt, loss, step)
+        predicted = torch.zeros(())
+        if args.predictive and step >= args.predictive_from * args.steps:  # once the pose is read
+            predicted = predictability(net, episodes, norm, rng, args)
+        wp.optimizer_step(net, opt, loss + args.predictive * predicted, step)
         if step % 100 == 0:  # under optimizer_step's loss line
-            print(f"  alpha {net.alpha.mean().item():.3f}", flush=True)
+            print(f"  alpha {net.alpha.mean().item():.3f} pose error {predicted.item():.4f}",
+                  flush=True)
 
 
 @torch.no_grad()
@@ -297,6 +329,13 @@ def arguments():
                     "their mean spread (keypoints: all in the same units)")
     ap.add_argument("--per-episode", metavar="PNG", nargs="?", const="",
                     help="the rollouts' arm at step 8 per val episode (layer_predictor's)")
+    ap.add_argument("--predictive", type=float, default=0.0, metavar="W",
+                    help="W x the error of a pose dynamics learned with the autoencoder, its "
+                    "gradient into the encoder too (the pose read to be predictable)")
+    ap.add_argument("--predictive-norm", choices=["each", "total"], default="total",
+                    help="divide the pose error by each number's spread or by their mean one")
+    ap.add_argument("--predictive-from", type=float, default=0.2, metavar="F",
+                    help="--predictive from that fraction of the steps on")
     ap.add_argument("--save")
     ap.add_argument("--load")
     ap.add_argument("--layers", metavar="PNG", help="per val episode 0-7: the given frame, its "
@@ -319,6 +358,10 @@ def score_dynamics(net, train, val, action_dim, norm, args):
     print(f"pose dynamics ({args.dynamics_steps} steps, {args.dynamics_pixels} through the "
           f"renderer, horizon {args.horizon}): "
           f"{wp.summary(r)}")
+    from pose_dynamics_refit import step8_arm  # it imports this file
+    every_first, every_start = step8_arm(imagine, val, norm)
+    print(f"  step-8 arm over all {len(val)} val episodes from frame 0: {every_first:.3f}; "
+          f"from frames 0, 8, 16, 24: {every_start:.3f}")
     if args.strip:
         wp.write_strip(args.strip.replace(".png", "_rollout.png"), rows)
     if args.per_episode is not None:
@@ -331,6 +374,8 @@ def main():
     torch.set_flush_denormal(True)
     net = PoseAutoencoder(args.pose_dim, args.channels, args.width, args.renderer,
                           sigma=args.sigma, canvas=args.canvas, parts=args.parts)
+    if args.predictive:
+        net.predictor = PoseDynamics(args.pose_dim, actions.shape[1], 256)
     if args.background == "label":
         net.labelled = layer_variants.FrameLookup()
         for frames, seg, _ in train + val:
@@ -339,7 +384,7 @@ def main():
     if args.load:
         net.load_state_dict(torch.load(args.load))
     else:
-        fit(net, train, args)
+        fit(net, train, args, norm)
     if args.save:
         torch.save(net.state_dict(), args.save)
     net.eval()
