@@ -22,7 +22,7 @@ bench/layer_predictor.py scores the layered twin.
       [--steps 2000] [--renderer broadcast|deconv|keypoint [--sigma 0.08] [--canvas C]] \
       [--background cross|label] [--pose-dim 8] [--width 64] [--loss l2|l1] [--l1-from F] \
       [--moved-weight W [--weigh-drawn]] [--alpha-l1 W] [--dynamics-steps N [--horizon 8] \
-      [--dynamics-scale each|common] [--dynamics-pixels N] [--per-episode [PNG]]] \
+      [--dynamics-scale each|common] [--dynamics-pixels N] [--per-episode [PNG]] [--gap]] \
       [--strip OUT.png] [--layers PNG] [--save NET.pt | --load NET.pt] [--seed S] \
       [--predictive W [--predictive-from F] [--predictive-norm each|total]]
 
@@ -64,6 +64,7 @@ import layer_predictor as lp
 import layer_variants
 import keypoints
 import pose_arm
+import pose_gap
 from layer_twin import LayerNet
 from pose_twin import DeconvRenderer, PoseDynamics, erase, over
 from sprite_renderer import SpriteRenderer
@@ -336,6 +337,9 @@ def arguments():
                     help="divide the pose error by each number's spread or by their mean one")
     ap.add_argument("--predictive-from", type=float, default=0.2, metavar="F",
                     help="--predictive from that fraction of the steps on")
+    ap.add_argument("--gap", action="store_true", help="per step: the arm drawn from the "
+                    "encoder's, the one-step and the open-loop poses, on val and on training "
+                    "episodes 0-15 (bench/pose_gap.py)")
     ap.add_argument("--save")
     ap.add_argument("--load")
     ap.add_argument("--layers", metavar="PNG", help="per val episode 0-7: the given frame, its "
@@ -362,6 +366,10 @@ def score_dynamics(net, train, val, action_dim, norm, args):
     every_first, every_start = step8_arm(imagine, val, norm)
     print(f"  step-8 arm over all {len(val)} val episodes from frame 0: {every_first:.3f}; "
           f"from frames 0, 8, 16, 24: {every_start:.3f}")
+    if args.gap:
+        for name, episodes in (("val", val), ("training episodes 0-15", train[:16])):
+            print(f"  {name}:")
+            pose_gap.print_gap(pose_gap.gap_by_step(net, dyn, episodes, norm, args.horizon))
     if args.strip:
         wp.write_strip(args.strip.replace(".png", "_rollout.png"), rows)
     if args.per_episode is not None:
