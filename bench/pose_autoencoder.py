@@ -22,7 +22,8 @@ bench/layer_predictor.py scores the layered twin.
       [--steps 2000] [--renderer broadcast|deconv|keypoint [--sigma 0.08] [--canvas C]] \
       [--background cross|label] [--pose-dim 8] [--width 64] [--loss l2|l1] [--l1-from F] \
       [--moved-weight W [--weigh-drawn]] [--alpha-l1 W] [--dynamics-steps N [--horizon 8] \
-      [--dynamics-scale each|common] [--dynamics-pixels N] [--per-episode [PNG]] [--gap]] \
+      [--dynamics-scale each|common] [--dynamics-early F] [--dynamics-pixels N] \
+      [--per-episode [PNG]] [--gap]] \
       [--strip OUT.png] [--layers PNG] [--save NET.pt | --load NET.pt] [--seed S] \
       [--predictive W [--predictive-from F] [--predictive-norm each|total]]
 
@@ -213,6 +214,17 @@ def episode_poses(net, episodes):
             for f, _, _ in episodes]
 
 
+def pick_windows(starts, rng, early=0.0, n=256):
+    """n of the windows `starts` ((episode, frame) pairs) at random, the first `early` of them
+    from an episode's frame 0 or 1 (its largest actions: the first step underfits, session 48)."""
+    picks = [starts[int(k)] for k in rng.integers(len(starts), size=n)]
+    if early:
+        first = [(e, t) for e, t in starts if t < 2]
+        k = int(n * early)
+        picks = [first[int(j)] for j in rng.integers(len(first), size=k)] + picks[k:]
+    return picks
+
+
 def fit_dynamics(dyn, poses, episodes, norm, args):
     """Open-loop pose rollouts of --horizon steps from random frames against the encoder's poses
     (squared error, scaled by each pose number's spread, or with --dynamics-scale common by
@@ -228,7 +240,7 @@ def fit_dynamics(dyn, poses, episodes, norm, args):
     for step in range(args.dynamics_steps):
         for group in opt.param_groups:
             group["lr"] = wp.learning_rate(step, args.dynamics_steps, 1e-3)
-        picks = [starts[int(k)] for k in rng.integers(len(starts), size=256)]
+        picks = pick_windows(starts, rng, args.dynamics_early)
         first = torch.stack([poses[e][t] for e, t in picks])
         target = torch.stack([poses[e][t + 1:t + h + 1] for e, t in picks])
         acts = torch.stack([torch.from_numpy(norm(episodes[e][2][t:t + h])) for e, t in picks])
@@ -325,6 +337,8 @@ def arguments():
     ap.add_argument("--dynamics-pixels", type=int, default=0, metavar="N",
                     help="then N steps fitting the dynamics to the frames through the frozen "
                     "renderer (8 rollouts a step)")
+    ap.add_argument("--dynamics-early", type=float, default=0.0, metavar="F",
+                    help="that fraction of the dynamics' windows from an episode's frame 0 or 1")
     ap.add_argument("--dynamics-scale", choices=("each", "common"), default="each",
                     help="the dynamics' errors divided by each pose number's spread or by "
                     "their mean spread (keypoints: all in the same units)")

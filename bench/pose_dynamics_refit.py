@@ -25,7 +25,7 @@ from torch import nn
 
 import warp_predictor as wp
 from motion_run import load_run
-from pose_autoencoder import episode_poses
+from pose_autoencoder import episode_poses, pick_windows
 from pose_twin import PoseDynamics
 
 
@@ -67,7 +67,6 @@ def fit(dynamics, poses, episodes, norm, args, seed):
     h = args.horizon
     scale = torch.cat(poses).std(0) + 1e-3
     starts = [(e, t) for e, p in enumerate(poses) for t in range(len(p) - h)]
-    early = [(e, t) for e, t in starts if t < 2]
     opt = torch.optim.AdamW(dynamics.parameters(), args.lr,
                             weight_decay=args.weight_decay)
     rng = np.random.default_rng(seed)
@@ -75,10 +74,7 @@ def fit(dynamics, poses, episodes, norm, args, seed):
     for step in range(args.steps):
         for group in opt.param_groups:
             group["lr"] = wp.learning_rate(step, args.steps, args.lr)
-        picks = [starts[int(k)] for k in rng.integers(len(starts), size=256)]
-        if args.early:  # that many rollouts start at an episode's frame 0 or 1
-            n = int(256 * args.early)
-            picks = [early[int(k)] for k in rng.integers(len(early), size=n)] + picks[n:]
+        picks = pick_windows(starts, rng, args.early)
         first = torch.stack([poses[e][t] for e, t in picks])
         first = first + args.noise * scale * torch.randn_like(first)
         target = torch.stack([poses[e][t + 1:t + h + 1] for e, t in picks])

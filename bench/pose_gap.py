@@ -5,8 +5,8 @@
 The arm drawn from the poses the encoder reads off the real frames errs about half as much as
 the one drawn from the dynamics' open-loop poses (docs/motion.md, "Longer refits"). Per step of
 the horizon, over windows from frames 0, 8, 16 and 24 of every val episode (episode starts
-apart, with the arm in the first frame or above it: the hard cases, session 34), this compares the arm drawn over the given frame's
-background from
+apart, with the arm in the first frame or above it: the hard cases, session 34), this
+compares the arm drawn over the given frame's background from
   own:  the encoder's poses of the real frames (the ceiling),
   one:  the dynamics' one-step poses, each from the encoder's pose of the real frame before,
   open: the dynamics' open-loop poses from the first frame (the rollout),
