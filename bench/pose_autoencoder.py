@@ -142,13 +142,14 @@ def optimizer(net):
 def predictability(net, episodes, norm, rng, args):
     """--predictive: the squared error of the pose dynamics `net.predictor` rolled open loop over
     8 windows of --horizon steps against the poses the encoder reads off the windows' frames,
-    each pose number's error over its spread in the batch. Its gradient reaches the encoder
+    over the pose numbers' mean variance in the batch (--predictive-norm total) or each one's
+    own (each). Its gradient reaches the encoder
     through both ends, so the pose is read to be what the actions move (an embedding learned
     with its dynamics, as E2C's), not only what the renderer draws."""
     h = args.horizon
     long_enough = [e for e, (f, _, _) in enumerate(episodes) if len(f) > h]
-    picks = [(long_enough[int(k)], 0) for k in rng.integers(len(long_enough), size=8)]
-    picks = [(e, int(rng.integers(len(episodes[e][0]) - h))) for e, _ in picks]
+    chosen = [long_enough[int(k)] for k in rng.integers(len(long_enough), size=8)]
+    picks = [(e, int(rng.integers(len(episodes[e][0]) - h))) for e in chosen]
     poses = net.encoder(torch.cat([episodes[e][0][t:t + h + 1] for e, t in picks]))
     poses = poses.view(len(picks), h + 1, -1)
     acts = torch.stack([torch.from_numpy(norm(episodes[e][2][t:t + h])) for e, t in picks])
@@ -159,7 +160,7 @@ def predictability(net, episodes, norm, rng, args):
     return error.mean() / spread.mean()  # shrinking the whole pose cannot win
 
 
-def fit(net, episodes, args, norm=None):
+def fit(net, episodes, args, norm):
     opt = optimizer(net)
     rng = np.random.default_rng(args.seed)
     for step in range(args.steps):

@@ -22,15 +22,13 @@ from pose_twin import over
 
 DRAWN = ("own", "one", "open")
 # frame 0 with the arm in view or not (only its shadow: where the arm is then is a guess)
-STARTS = {"first, arm shown": "frame 0, the arm in it", "first, arm hidden":
-          "frame 0, the arm above it", "later": "frames 8, 16, 24"}
+STARTS = {"shown": "frame 0, the arm in it", "hidden": "frame 0, the arm above it",
+          "later": "frames 8, 16, 24"}
 
 
-@torch.no_grad()
-def window(net, dyn, frames, seg, acts):
-    """One window of len(acts) steps -> ({drawn: per-step arm MSE}, copy_last's, {one, open:
-    per-step squared pose error [H, P]})."""
-    poses = net.encoder(frames)
+def window(net, dyn, frames, poses, seg, acts):
+    """One window of len(acts) steps (`poses`: the encoder's of `frames`) -> ({drawn: per-step
+    arm MSE}, copy_last's, {one, open: per-step squared pose error [H, P]})."""
     predicted = {"own": poses[1:], "open": dyn(poses[:1], acts[None])[0],
                  "one": dyn.step(poses[:-1], acts)}
     background = net.background(frames[:1])
@@ -44,19 +42,21 @@ def window(net, dyn, frames, seg, acts):
     return arm, copy, pose_error
 
 
+@torch.no_grad()
 def gap_by_step(net, dyn, episodes, norm, horizon=8, last_start=24):
     """-> {start kind: {"arm": {drawn: [H] ratio}, "pose": {one/open: [H]}, "windows": n}}."""
-    spread = torch.cat([net.encoder(f) for f, _, _ in episodes]).var(0).numpy() + 1e-6
+    poses = [net.encoder(f) for f, _, _ in episodes]
+    spread = torch.cat(poses).var(0).numpy() + 1e-6
     found = {k: {"arm": {d: np.zeros(horizon) for d in DRAWN}, "copy": np.zeros(horizon),
                  "pose": {d: np.zeros(horizon) for d in ("one", "open")}, "windows": 0}
              for k in STARTS}
-    for frames, seg, acts in episodes:
+    for (frames, seg, acts), episode_poses in zip(episodes, poses):
         for t in range(0, min(len(frames) - horizon, last_start + 1), 8):
             a = torch.tensor(norm(acts[t:t + horizon]))
-            arm, copy, pose_error = window(net, dyn, frames[t:t + horizon + 1],
-                                           seg[t:t + horizon + 1], a)
-            kind = "later" if t else f"first, arm {'shown' if (seg[0] == 1).any() else 'hidden'}"
-            into = found[kind]
+            span = slice(t, t + horizon + 1)
+            arm, copy, pose_error = window(net, dyn, frames[span], episode_poses[span],
+                                           seg[span], a)
+            into = found["later" if t else "shown" if (seg[0] == 1).any() else "hidden"]
             shown = ~np.isnan(copy)  # steps whose real frame shows the arm
             for name in DRAWN:
                 into["arm"][name] += np.where(shown, arm[name], 0)
