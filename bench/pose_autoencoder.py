@@ -22,8 +22,9 @@ bench/layer_predictor.py scores the layered twin.
       [--steps 2000] [--renderer broadcast|deconv|keypoint [--sigma 0.08] [--canvas C]] \
       [--background cross|label] [--pose-dim 8] [--width 64] [--loss l2|l1] [--l1-from F] \
       [--moved-weight W [--weigh-drawn]] [--alpha-l1 W] [--dynamics-steps N [--horizon 8] \
-      [--dynamics-scale each|common] [--dynamics-early F] [--dynamics-pixels N] \
-      [--per-episode [PNG]] [--gap]] \
+      [--dynamics-scale each|common] [--dynamics-width H] [--dynamics-lr LR] \
+      [--dynamics-early F] [--dynamics-pixels N] [--save-dynamics PT] [--per-episode [PNG]] \
+      [--gap [--gap-episodes DIR]]] \
       [--strip OUT.png] [--layers PNG] [--save NET.pt | --load NET.pt] [--seed S] \
       [--predictive W [--predictive-from F] [--predictive-norm each|total]]
 
@@ -53,6 +54,12 @@ into the encoder. Normalised per pose number ("each") the pose collapses to a st
 W 0.1 and 1; normalised by the mean spread ("total", the default) W 0.1 blurs the arm and
 halves the controllability, W 0.01 rolls out worse than W 0 at both weight seeds (PSNR
 -0.5/-0.9 dB, step-8 arm +0.04/+0.09 over 16 episodes). Not kept.
+
+Session 49 (docs/motion.md, "A faster learning rate for the pose's dynamics"): the dynamics is
+underfitted, the first step from frame 0 most. --dynamics-width 512, deeper or sub-stepped
+corrections lower its pose error in proportion to their compute; --dynamics-lr 0.006 does as
+much in the same steps (the C++ demo's train.dynamics_lr since). --gap-episodes scores --gap on
+300 episodes of another data seed, bench/pose_dynamics_paired.py pairs two --save-dynamics fits.
 """
 import time
 
@@ -236,11 +243,11 @@ def fit_dynamics(dyn, poses, episodes, norm, args):
     if args.dynamics_scale == "common":
         scale = scale.mean().expand_as(scale)
     starts = [(e, t) for e, p in enumerate(poses) for t in range(len(p) - h)]
-    opt = torch.optim.AdamW(dyn.parameters(), 1e-3, weight_decay=0.01)
+    opt = torch.optim.AdamW(dyn.parameters(), args.dynamics_lr, weight_decay=0.01)
     rng = np.random.default_rng(args.seed)
     for step in range(args.dynamics_steps):
         for group in opt.param_groups:
-            group["lr"] = wp.learning_rate(step, args.dynamics_steps, 1e-3)
+            group["lr"] = wp.learning_rate(step, args.dynamics_steps, args.dynamics_lr)
         picks = pick_windows(starts, rng, args.dynamics_early)
         first = torch.stack([poses[e][t] for e, t in picks])
         target = torch.stack([poses[e][t + 1:t + h + 1] for e, t in picks])
@@ -338,6 +345,14 @@ def arguments():
     ap.add_argument("--dynamics-pixels", type=int, default=0, metavar="N",
                     help="then N steps fitting the dynamics to the frames through the frozen "
                     "renderer (8 rollouts a step)")
+    ap.add_argument("--dynamics-width", type=int, default=128, metavar="H",
+                    help="the correction MLP's width (the C++ demo's: 256; it is underfitted, "
+                    "session 49)")
+    ap.add_argument("--dynamics-lr", type=float, default=1e-3, metavar="LR",
+                    help="the dynamics' peak learning rate (the C++ train.dynamics_lr; 0.006 "
+                    "since session 49)")
+    ap.add_argument("--save-dynamics", metavar="PT", help="the learned PoseDynamics' state "
+                    "(for bench/pose_dynamics_paired.py)")
     ap.add_argument("--dynamics-early", type=float, default=0.0, metavar="F",
                     help="that fraction of the dynamics' windows from an episode's frame 0 or 1")
     ap.add_argument("--dynamics-scale", choices=("each", "common"), default="each",
@@ -355,6 +370,9 @@ def arguments():
     ap.add_argument("--gap", action="store_true", help="per step: the arm drawn from the "
                     "encoder's, the one-step and the open-loop poses, on val and on training "
                     "episodes 0-15 (bench/pose_gap.py)")
+    ap.add_argument("--gap-episodes", metavar="DIR", help="with --gap: also over the episodes "
+                    "of this shard dataset (say 300 generated with another seed: 16 val episodes "
+                    "are too few to separate dynamics that differ by 0.02x; session 49)")
     ap.add_argument("--save")
     ap.add_argument("--load")
     ap.add_argument("--layers", metavar="PNG", help="per val episode 0-7: the given frame, its "
@@ -366,10 +384,12 @@ def arguments():
 def score_dynamics(net, train, val, action_dim, norm, args):
     """PoseDynamics learned on the frozen encoder's poses; its rollouts from x_0 scored."""
     with torch.enable_grad():
-        dyn = PoseDynamics(args.pose_dim, action_dim)
+        dyn = PoseDynamics(args.pose_dim, action_dim, args.dynamics_width)
         fit_dynamics(dyn, episode_poses(net, train), train, norm, args)
         if args.dynamics_pixels:
             fit_dynamics_pixels(dyn, net, train, norm, args)
+    if args.save_dynamics:
+        torch.save(dyn.state_dict(), args.save_dynamics)
 
     def imagine(first, acts, _=None):
         return over(*net.renderer(dyn(net.encoder(first), acts)[0]), net.background(first))[None]
@@ -382,7 +402,10 @@ def score_dynamics(net, train, val, action_dim, norm, args):
     print(f"  step-8 arm over all {len(val)} val episodes from frame 0: {every_first:.3f}; "
           f"from frames 0, 8, 16, 24: {every_start:.3f}")
     if args.gap:
-        for name, episodes in (("val", val), ("training episodes 0-15", train[:16])):
+        sets = [("val", val), ("training episodes 0-15", train[:16])]
+        if args.gap_episodes:
+            sets.append((args.gap_episodes, wp.recipes.load(args.gap_episodes)))
+        for name, episodes in sets:
             print(f"  {name}:")
             pose_gap.print_gap(pose_gap.gap_by_step(net, dyn, episodes, norm, args.horizon))
     if args.strip:
