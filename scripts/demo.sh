@@ -1,7 +1,8 @@
 #!/usr/bin/env bash
 # `make demo`: the embedded synthetic tabletop dataset, in real RLDS TFRecord form, through the
 # whole pipeline: generate -> ingest (train, val) -> verify -> tokenizer -> token datasets ->
-# dynamics model (an early and a final checkpoint) -> wm-eval -> wm-report compare + plots, with
+# dynamics model (an early and a final checkpoint) -> wm-eval -> wm-report compare + plots (and
+# the motion model's on 300 held-out episodes: scripts/demo_heldout.sh), with
 # the pixel-space motion model (wm-motion) trained beside the tokenizer and dynamics model on the
 # other core. 8-9 minutes on 2 cores (README); every stage is rerunnable and resumes (delete
 # OUT to start over: a finished stage is reused as it is, whatever the settings now).
@@ -20,6 +21,9 @@ DYN_THREADS=${DYN_THREADS:-1}
 # 1000 training episodes: on fewer the pose kind's dynamics overfits (docs/motion.md, session
 # 34), and the token model's steps cost the same on any number (encoding them takes seconds).
 TRAIN_EPISODES=${TRAIN_EPISODES:-1000}
+# Held-out episodes (data seed SEED + 7) the motion model is also scored on: the 8 val episodes
+# are too few to measure its block (scripts/demo_heldout.sh). 0: none.
+HELDOUT_EPISODES=${HELDOUT_EPISODES:-300}
 MOTION_CONFIG=${MOTION_CONFIG:-$(bash scripts/demo_motion_config.sh "$LOOK")}
 RAW=$OUT/raw
 SHARDS=$OUT/shards
@@ -114,6 +118,11 @@ export EVAL_ARGS="--horizon 8 --episodes 8 --temperature 0 --masks files"
 EVAL_ARGS+=" --seg-config configs/segmentation/tabletop.yaml --resamples 500"
 EVAL=(bash scripts/eval.sh "$BIN" "$OUT/reports" "$RUN/tokenizer" "$SHARDS/val" "$RUN/tokens/val")
 REPORT=0 "${EVAL[@]}" "$RUN/early/dynamics" "$RUN/dynamics"
+if [ "$HELDOUT_EPISODES" -gt 0 ]; then
+  echo "== $HELDOUT_EPISODES held-out episodes (data seed $((SEED + 7))) for the motion model -> $OUT/heldout"
+  bash scripts/demo_heldout.sh "$BIN" "$OUT/heldout" "$RUN/tokenizer" "$SEED" "$LOOK" \
+    "$HELDOUT_EPISODES"
+fi
 
 echo
 echo "== waiting for the motion model"
@@ -126,6 +135,14 @@ grep -v "motion train .*%" "$RUN/motion.log" | tail -n 2
 echo "motion model validation (step, PSNR, copy_last PSNR, reversed-actions PSNR, delta_tpsnr):" \
   "$(tail -n 1 "$RUN/motion/val.csv")"
 SCORED="early run" "${EVAL[@]}" "$RUN/early/dynamics" "$RUN/dynamics" "$RUN/motion"
+if [ "$HELDOUT_EPISODES" -gt 0 ]; then
+  echo
+  echo "== the motion model on the $HELDOUT_EPISODES held-out episodes -> $OUT/reports_heldout"
+  EVAL_ARGS=${EVAL_ARGS/--episodes 8/--episodes $HELDOUT_EPISODES --strips 0 --videos 0} \
+    bash scripts/eval.sh "$BIN" "$OUT/reports_heldout" "$RUN/tokenizer" "$OUT/heldout/shards" \
+    "$OUT/heldout/tokens" "$RUN/motion"
+fi
 echo
 echo "demo finished in $(( $(date +%s) - start )) s: datasets $SHARDS, runs $RUN, reports" \
-  "$OUT/reports (compare.csv, plots/, <checkpoint>/videos/)"
+  "$OUT/reports (compare.csv, plots/, <checkpoint>/videos/), the motion model on held-out" \
+  "episodes $OUT/reports_heldout"
