@@ -25,7 +25,8 @@ import torch
 
 import warp_predictor as wp
 from pose_autoencoder import PoseAutoencoder
-from pose_twin import PoseDynamics, over
+import pose_gap
+from pose_twin import PoseDynamics
 
 HORIZON, LAST_START = 8, 24
 
@@ -57,19 +58,19 @@ def window_errors(net, dynamics, episodes, norm):
     found = {"first": [], "later": []}
     for frames, seg, acts in episodes:
         poses = net.encoder(frames)
-        for t in range(0, min(len(frames) - HORIZON, LAST_START + 1), 8):
+        for t in pose_gap.window_starts(len(frames), HORIZON, LAST_START):
             real = wp.goal1.to_uint8(frames[t + 1:t + HORIZON + 1])
             background = net.background(frames[t:t + 1])
             a = torch.tensor(norm(acts[t:t + HORIZON]))
-            drawn = [wp.goal1.to_uint8(over(*net.renderer(dyn(poses[t:t + 1], a[None])[0]),
-                                            background)) for dyn in dynamics]
-            drawn.append(np.repeat(wp.goal1.to_uint8(frames[t:t + 1]), HORIZON, 0))
+            rollouts = [pose_gap.drawn(net, dyn(poses[t:t + 1], a[None])[0], background)
+                        for dyn in dynamics]
+            rollouts.append(pose_gap.copied(frames[t:], HORIZON))
             s = seg[t + 1:t + HORIZON + 1]
             errors = {name: np.nan_to_num([wp.goal1.region_mse(real, d, s, label)
-                                           for d in drawn])
+                                           for d in rollouts])
                       for name, label in REGIONS.items()}
             errors["frame"] = np.stack([((real - d) ** 2).reshape(HORIZON, -1).mean(1)
-                                        for d in drawn])
+                                        for d in rollouts])
             found["later" if t else "first"].append(errors)
     return {kind: {name: np.stack([w[name] for w in windows]) for name in windows[0]}
             for kind, windows in found.items() if windows}

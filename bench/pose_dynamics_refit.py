@@ -26,6 +26,7 @@ from torch import nn
 import warp_predictor as wp
 from motion_run import load_run
 from pose_autoencoder import episode_poses, pick_windows
+from pose_gap import window_starts
 from pose_twin import PoseDynamics
 
 
@@ -94,7 +95,7 @@ def step8_arm(imagine, episodes, norm, horizon=8, last_start=24):
     whose step 8 shows no arm are left out)."""
     rows = []
     for frames, seg, acts in episodes:
-        for t in range(0, min(len(frames) - horizon, last_start + 1), 8):
+        for t in window_starts(len(frames), horizon, last_start):
             pred = imagine(frames[t:t + 1], torch.tensor(norm(acts[t:t + horizon]))[None])
             real = {"model": wp.goal1.to_uint8(pred[0])}
             _, s = wp.window_scores(frames[t:], seg[t:], real)

@@ -26,6 +26,22 @@ STARTS = {"shown": "frame 0, the arm in it", "hidden": "frame 0, the arm above i
           "later": "frames 8, 16, 24"}
 
 
+def window_starts(length, horizon=8, last_start=24):
+    """The frames 0, 8, ..., `last_start` that a window of `horizon` steps fits after, in an
+    episode of `length` frames."""
+    return range(0, min(length - horizon, last_start + 1), 8)
+
+
+def drawn(net, poses, background):
+    """The arm drawn at each of `poses` over `background`, as [0, 255] levels."""
+    return wp.goal1.to_uint8(over(*net.renderer(poses), background))
+
+
+def copied(frames, n):
+    """copy_last's n frames: the first of `frames` repeated, as [0, 255] levels."""
+    return np.repeat(wp.goal1.to_uint8(frames[:1]), n, 0)
+
+
 def window(net, dyn, frames, poses, seg, acts):
     """One window of len(acts) steps (`poses`: the encoder's of `frames`) -> ({drawn: per-step
     arm MSE}, copy_last's, {one, open: per-step squared pose error [H, P]})."""
@@ -33,11 +49,9 @@ def window(net, dyn, frames, poses, seg, acts):
                  "one": dyn.step(poses[:-1], acts)}
     background = net.background(frames[:1])
     real = wp.goal1.to_uint8(frames[1:])
-    arm = {name: np.array(wp.goal1.region_mse(
-        real, wp.goal1.to_uint8(over(*net.renderer(p), background)), seg[1:], 1))
-        for name, p in predicted.items()}
-    copy = np.array(wp.goal1.region_mse(real, np.repeat(wp.goal1.to_uint8(frames[:1]),
-                                                        len(real), 0), seg[1:], 1))
+    arm = {name: np.array(wp.goal1.region_mse(real, drawn(net, p, background), seg[1:], 1))
+           for name, p in predicted.items()}
+    copy = np.array(wp.goal1.region_mse(real, copied(frames, len(real)), seg[1:], 1))
     pose_error = {name: (predicted[name] - poses[1:]).pow(2).numpy() for name in ("one", "open")}
     return arm, copy, pose_error
 
@@ -51,7 +65,7 @@ def gap_by_step(net, dyn, episodes, norm, horizon=8, last_start=24):
                  "pose": {d: np.zeros(horizon) for d in ("one", "open")}, "windows": 0}
              for k in STARTS}
     for (frames, seg, acts), episode_poses in zip(episodes, poses):
-        for t in range(0, min(len(frames) - horizon, last_start + 1), 8):
+        for t in window_starts(len(frames), horizon, last_start):
             a = torch.tensor(norm(acts[t:t + horizon]))
             span = slice(t, t + horizon + 1)
             arm, copy, pose_error = window(net, dyn, frames[span], episode_poses[span],

@@ -114,8 +114,9 @@ echo "== 6/6 evaluate the checkpoints on val (plain + retracing rollouts, baseli
   "the token model's now, while the motion model trains, then the motion model's"
 export COMPARE_ARGS="--metrics psnr,ssim,lpips_style,mse_arm,mse_object,delta_tpsnr"
 COMPARE_ARGS+=",moved_error_ratio"
-export EVAL_ARGS="--horizon 8 --episodes 8 --temperature 0 --masks files"
-EVAL_ARGS+=" --seg-config configs/segmentation/tabletop.yaml --resamples 500"
+SCORING="--horizon 8 --temperature 0 --masks files"
+SCORING+=" --seg-config configs/segmentation/tabletop.yaml --resamples 500"
+export EVAL_ARGS="$SCORING --episodes 8"
 EVAL=(bash scripts/eval.sh "$BIN" "$OUT/reports" "$RUN/tokenizer" "$SHARDS/val" "$RUN/tokens/val")
 REPORT=0 "${EVAL[@]}" "$RUN/early/dynamics" "$RUN/dynamics"
 if [ "$HELDOUT_EPISODES" -gt 0 ]; then
@@ -138,7 +139,7 @@ SCORED="early run" "${EVAL[@]}" "$RUN/early/dynamics" "$RUN/dynamics" "$RUN/moti
 if [ "$HELDOUT_EPISODES" -gt 0 ]; then
   echo
   echo "== the motion model on the $HELDOUT_EPISODES held-out episodes -> $OUT/reports_heldout"
-  EVAL_ARGS=${EVAL_ARGS/--episodes 8/--episodes $HELDOUT_EPISODES --strips 0 --videos 0} \
+  EVAL_ARGS="$SCORING --episodes $HELDOUT_EPISODES --strips 0 --videos 0" \
     bash scripts/eval.sh "$BIN" "$OUT/reports_heldout" "$RUN/tokenizer" "$OUT/heldout/shards" \
     "$OUT/heldout/tokens" "$RUN/motion"
 fi
