@@ -35,6 +35,8 @@ void VisitFields(Config& c, F&& f) {
   f("model", "dead_code_steps", m.dead_code_steps);
   f("model", "detail_weight", m.detail_weight);
   f("model", "anchor_decoder", m.anchor_decoder);
+  f("model", "anchor_flow", m.anchor_flow);
+  f("model", "change_weight", m.change_weight);
   auto& t = c.train;
   trainkit::VisitOptimizerFields(t, f);
   trainkit::VisitRunFields(t, f);
@@ -87,6 +89,11 @@ void ValidateConfig(const TokenizerConfig& c, const std::string& file) {
   require(m.beta >= 0, "model.beta", "must be >= 0");
   require(m.dead_code_steps >= 0, "model.dead_code_steps", "must be >= 0");
   require(m.detail_weight >= 0, "model.detail_weight", "must be >= 0");
+  require(!m.anchor_flow || m.anchor_decoder, "model.anchor_flow",
+          "needs model.anchor_decoder: true (it moves the anchor)");
+  require(m.change_weight >= 0, "model.change_weight", "must be >= 0");
+  require(m.change_weight == 0 || m.anchor_decoder, "model.change_weight",
+          "needs model.anchor_decoder: true (change is measured against the anchor)");
   const TrainConfig& t = c.train;
   trainkit::ValidateOptimizerFields(t, file);
   trainkit::ValidateRunFields(t, file);

@@ -28,6 +28,10 @@ struct ModelConfig {
   double detail_weight = 0;     // extra L1 weight on pixels far from their blurred frame (0: none)
   bool anchor_decoder = false;  // the decoder also sees an anchor: an earlier real frame of the
                                 // episode (docs/tokenizer.md, "Anchor decoder")
+  bool anchor_flow = false;     // with anchor_decoder: the anchor is moved by a learned flow
+                                // before the correction is added ("Anchor flow")
+  double change_weight = 0;     // with anchor_decoder: extra L1 weight on the pixels that changed
+                                // since a real anchor by over 30 levels (0: none)
 };
 
 struct TrainConfig {

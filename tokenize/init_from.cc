@@ -11,7 +11,8 @@ const std::vector<std::string> kShapeKeys = {
     "model.image_size",       "model.patch_size",     "model.stem_factor",
     "model.encoder_channels", "model.encoder_layers", "model.decoder_channels",
     "model.decoder_layers",   "model.min_channels",   "model.latent_dim",
-    "model.num_codes",        "model.l2_normalize",   "model.anchor_decoder"};
+    "model.num_codes",        "model.l2_normalize",   "model.anchor_decoder",
+    "model.anchor_flow"};
 
 }  // namespace
 

@@ -239,6 +239,31 @@ int64_t VectorQuantizerImpl::UpdateUsageAndReseed(const QuantizerOutput& out, in
   return n;
 }
 
+torch::Tensor MoveByFlow(const torch::Tensor& images, const torch::Tensor& flow) {
+  const int64_t B = images.size(0), S = images.size(-1);
+  // The flow is in pixels; grid_sample's coordinates span the frame as [-1, 1].
+  torch::Tensor offset = F::interpolate(flow, F::InterpolateFuncOptions()
+                                                  .size(std::vector<int64_t>{S, S})
+                                                  .mode(torch::kBilinear)
+                                                  .align_corners(false))
+                             .permute({0, 2, 3, 1}) *
+                         (2.0 / S);
+  torch::Tensor identity = torch::eye(2, 3, images.options()).expand({B, 2, 3});
+  torch::Tensor grid = F::affine_grid(identity, {B, 3, S, S}, /*align_corners=*/false);
+  return F::grid_sample(images, grid + offset, F::GridSampleFuncOptions()
+                                                   .mode(torch::kBilinear)
+                                                   .padding_mode(torch::kBorder)
+                                                   .align_corners(false));
+}
+
+torch::Tensor ChangedPixels(const torch::Tensor& images, const torch::Tensor& anchors) {
+  torch::NoGradGuard no_grad;
+  torch::Tensor changed = ((images - anchors).abs().amax(1, /*keepdim=*/true) > 30.0 / 127.5);
+  // A blank anchor (zeros, mid-grey) is no anchor: nothing "changed" against it.
+  torch::Tensor real = anchors.abs().amax({1, 2, 3}, /*keepdim=*/true) > 0;
+  return (changed & real).to(images.dtype());
+}
+
 torch::Tensor DetailWeight(const torch::Tensor& images, double alpha) {
   torch::NoGradGuard no_grad;
   torch::Tensor blur = F::avg_pool2d(
@@ -316,6 +341,13 @@ VqVaeImpl::VqVaeImpl(const ModelConfig& c) : config(c) {
                                                                     .dim = c.latent_dim,
                                                                     .l2_normalize = c.l2_normalize,
                                                                     .beta = c.beta}));
+  if (c.anchor_flow) {  // created last: the other layers draw the weights they drew without it
+    anchor_flow = register_module(
+        "anchor_flow", torch::nn::Conv2d(Conv2dOptions(top, 2, 3).padding(1)));
+    torch::NoGradGuard no_grad;  // zero flow at step 0: the anchor decoder without it
+    anchor_flow->weight.zero_();
+    anchor_flow->bias.zero_();
+  }
 }
 
 torch::Tensor VqVaeImpl::Encode(const torch::Tensor& images) { return encoder->forward(images); }
@@ -327,6 +359,7 @@ torch::Tensor VqVaeImpl::Decode(const torch::Tensor& z_q, const torch::Tensor& a
       anchors.defined() ? anchors : torch::zeros({z_q.size(0), 3, S, S}, z_q.options());
   torch::Tensor h =
       merge->forward(torch::cat({decoder->forward(z_q), anchor_stem->forward(anchor)}, 1));
+  if (anchor_flow) anchor = MoveByFlow(anchor, anchor_flow->forward(h));
   torch::Tensor base = f > 1 ? PixelUnshuffle(anchor, f) : anchor;
   torch::Tensor y = head->forward(h) + base;  // [B, 3f^2, H/f, W/f]
   return f > 1 ? PixelShuffle(y, f) : y;
@@ -339,9 +372,12 @@ VqVaeOutput VqVaeImpl::forward(const torch::Tensor& images, const torch::Tensor&
   torch::Tensor error = (out.reconstruction - images).abs();
   out.recon_l1 = error.mean();
   torch::Tensor recon = out.recon_l1;
-  if (config.detail_weight > 0) {
+  const bool weighted = config.detail_weight > 0 || (config.change_weight > 0 && anchors.defined());
+  if (weighted) {
     // Normalised by the mean weight so the loss keeps L1's scale (and the lr its meaning).
     torch::Tensor w = DetailWeight(images, config.detail_weight);
+    if (config.change_weight > 0 && anchors.defined())
+      w = w + config.change_weight * ChangedPixels(images, anchors);
     recon = (w * error).mean() / w.mean();
   }
   out.loss = recon + out.quant.codebook_loss + config.beta * out.quant.commitment;

@@ -79,6 +79,15 @@ struct VqVaeOutput {
 // segmentation label. A function of the input only: no gradient flows through it.
 torch::Tensor DetailWeight(const torch::Tensor& images, double alpha);
 
+// [B, 1, H, W] 1 where a channel of `images` differs from its anchor by over 30 levels, 0 where
+// not and wherever the anchor is blank (all zeros): model.change_weight's extra L1 weight on
+// what the tokens must draw, since the anchor gives the rest. No gradient flows through it.
+torch::Tensor ChangedPixels(const torch::Tensor& images, const torch::Tensor& anchors);
+
+// `images` [B, 3, S, S] resampled (bilinear, border) at each pixel's position plus `flow`
+// [B, 2, h, w] (x, y offsets in pixels, upsampled bilinearly to S x S): model.anchor_flow.
+torch::Tensor MoveByFlow(const torch::Tensor& images, const torch::Tensor& flow);
+
 // With model.anchor_decoder the decoder also reads an anchor frame (an earlier real frame of
 // the episode, or zeros: "no anchor"). Its features join the tokens' at the stem resolution, and
 // the output is the anchor plus a correction whose last layer starts at zero, so an untrained
@@ -98,6 +107,10 @@ struct VqVaeImpl : torch::nn::Module {
   // the stem resolution; [tokens' features, anchor's] -> features; features -> pixels.
   torch::nn::Sequential anchor_stem{nullptr}, merge{nullptr}, head{nullptr};
   VectorQuantizer quantizer{nullptr};
+  // Only with anchor_flow: merged features -> the anchor's flow in pixels [B, 2, H/f, W/f],
+  // zero-initialised, so the anchor starts unmoved; it lets the decoder move what the anchor
+  // shows (the arm, a carried block) instead of redrawing it from the codes.
+  torch::nn::Conv2d anchor_flow{nullptr};
 };
 TORCH_MODULE(VqVae);
 

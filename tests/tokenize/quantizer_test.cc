@@ -115,6 +115,33 @@ TEST(VqVae, Meta64PresetBuildsAndMapsFramesToTokens) {
   EXPECT_EQ(model->quantizer->codebook.sizes(), (std::vector<int64_t>{1024, 32}));
 }
 
+// By hand: a flow of exactly (+1, 0) pixels samples each pixel's right neighbour (the last
+// column repeats: border padding), and a zero flow returns the image.
+TEST(VqVae, AnchorFlowMovesByWholePixels) {
+  torch::Tensor image = torch::arange(3 * 8 * 8, torch::kFloat).view({1, 3, 8, 8}) / 192.0;
+  torch::Tensor right = torch::zeros({1, 2, 2, 2});
+  right.select(1, 0).fill_(1.0);  // x offset 1, y offset 0, everywhere (upsampled: constant)
+  torch::Tensor expected = torch::cat({image.narrow(3, 1, 7), image.narrow(3, 7, 1)}, 3);
+  EXPECT_LT((MoveByFlow(image, right) - expected).abs().max().item<float>(), 1e-6);
+  EXPECT_LT((MoveByFlow(image, torch::zeros({1, 2, 2, 2})) - image).abs().max().item<float>(),
+            1e-6);
+}
+
+// 31 levels of change counts, 29 do not (in any one channel); a blank anchor marks nothing.
+TEST(VqVae, ChangedPixelsAreThoseMovedOverThirtyLevelsSinceARealAnchor) {
+  torch::Tensor anchor = torch::full({2, 3, 1, 3}, 0.1f);
+  torch::Tensor frame = anchor.clone();
+  frame[0][1][0][0] += 31 / 127.5;
+  frame[0][2][0][1] -= 29 / 127.5;
+  frame[1][0][0][2] += 100 / 127.5;
+  anchor[1].zero_();  // the second frame's anchor is blank
+  torch::Tensor changed = ChangedPixels(frame, anchor);
+  EXPECT_EQ(changed.sizes(), (std::vector<int64_t>{2, 1, 1, 3}));
+  torch::Tensor flat = changed.flatten().contiguous();
+  EXPECT_EQ(std::vector<float>(flat.data_ptr<float>(), flat.data_ptr<float>() + flat.numel()),
+            (std::vector<float>{1, 0, 0, 0, 0, 0}));
+}
+
 TEST(VqVae, TinyPresetGivesEightByEightTokens) {
   TokenizerConfig c = LoadTokenizerConfig(test::SourceDir() + "/configs/tokenizer/tiny.yaml");
   VqVae model(c.model);

@@ -1,12 +1,13 @@
 #!/usr/bin/python3
 """The C++ tokenizer against its PyTorch twin (tests/tokenize/vqvae_twin.py).
 
-Two small C++ checkpoints are trained here (wm-tokenize train, 20 steps, 1 thread) on a tabletop
+Small C++ checkpoints are trained here (wm-tokenize train, 20 steps, 1 thread) on a tabletop
 set from wm-gen-tabletop + wm-ingest: A with the channel schedule (min_channels 8, 2 stride-2
 levels), L2-normalised lookup and the detail-weighted L1
 (model.detail_weight), B with Euclidean lookup, constant width, a pixel-unshuffle
 stem (factor 2) and 2 levels, C with the anchor decoder (model.anchor_decoder; anchors drawn as
-FrameSampler::TrainingAnchors, and the previous frame in the inference checks). For each,
+FrameSampler::TrainingAnchors, and the previous frame in the inference checks), D with the
+anchor's flow and the change weight (model.anchor_flow, model.change_weight). For each,
 the twin loads checkpoint.wmt with its own archive reader and must give, on the set's frames plus
 random frames (tokenizer_ref_tool runs the C++ side):
   - identical codes (Tokenizer::Encode), reconstructions and encoder features within 1e-5;
@@ -57,6 +58,14 @@ model: {image_size: 32, patch_size: 8, stem_factor: 2, encoder_channels: 16, enc
         anchor_decoder: true}
 train: {batch_size: 8, steps: 20, max_lr: 3.0e-3, min_lr: 3.0e-4, warmup_steps: 3, threads: 1,
         seed: 5, checkpoint_every: 20, log_every: 5, anchor_max_gap: 3, anchor_dropout: 0.7}
+""",
+    "D (anchor decoder with the anchor's flow and the change weight)": """
+model: {image_size: 32, patch_size: 8, stem_factor: 4, encoder_channels: 16, encoder_layers: 1,
+        decoder_channels: 16, decoder_layers: 1, min_channels: 0, latent_dim: 8,
+        num_codes: 32, l2_normalize: true, beta: 0.25, dead_code_steps: 5, detail_weight: 2,
+        anchor_decoder: true, anchor_flow: true, change_weight: 4}
+train: {batch_size: 8, steps: 20, max_lr: 3.0e-3, min_lr: 3.0e-4, warmup_steps: 3, threads: 1,
+        seed: 6, checkpoint_every: 20, log_every: 5, anchor_max_gap: 3, anchor_dropout: 0.4}
 """,
 }
 
@@ -185,6 +194,9 @@ def train_twin(label, run_dir, shards):
     check(trainer.optimizer.state[next(trainer.model.parameters())]["step"].item() ==
           meta["adamw_step"], f"{label}: AdamW step count {meta['adamw_step']}")
     check(sum(reseeded) > 0, f"{label}: dead codes were re-seeded (the path is exercised)")
+    if trainer.model.anchor_flow is not None:  # it started at zero: training must move it
+        moved = float(trainer.model.anchor_flow.weight.abs().max())
+        check(moved > 0, f"{label}: the anchor's flow learned (max |weight| {moved:.1e})")
 
 
 def check_encode_cli(label, run_dir, shards, tmp, model):

@@ -143,6 +143,10 @@ TEST(TokenizerConfig, PresetsLoad) {
   EXPECT_EQ(t16.model.image_size / t16.model.patch_size, 16);
   EXPECT_EQ(ConfigFromJson(ConfigToJson(t16)).model.detail_weight, 4.0);  // the key round-trips
   EXPECT_TRUE(t16.model.anchor_decoder);  // goal 1's recipe: 16x16 tokens decoded with an anchor
+  TokenizerConfig tiny = LoadTokenizerConfig(test::SourceDir() + "/configs/tokenizer/tiny.yaml");
+  TokenizerConfig back = ConfigFromJson(ConfigToJson(tiny));  // session 50's keys round-trip
+  EXPECT_TRUE(back.model.anchor_flow);
+  EXPECT_EQ(back.model.change_weight, 4.0);
 }
 
 TEST(TokenizerConfig, ErrorsNameFileAndKey) {
@@ -157,6 +161,15 @@ TEST(TokenizerConfig, ErrorsNameFileAndKey) {
             std::string::npos);
   EXPECT_NE(error("optim: {}\n").find("key 'optim'"), std::string::npos);
   EXPECT_NE(error("model: [1\n").find("cfg.yaml"), std::string::npos);
+  // The anchor's flow and the change weight act on an anchor: without the anchor decoder, none.
+  EXPECT_EQ(error("model:\n  anchor_flow: true\n"),
+            "cfg.yaml: key 'model.anchor_flow': needs model.anchor_decoder: true (it moves the "
+            "anchor)");
+  EXPECT_EQ(error("model:\n  change_weight: 2\n"),
+            "cfg.yaml: key 'model.change_weight': needs model.anchor_decoder: true (change is "
+            "measured against the anchor)");
+  EXPECT_EQ(error("model:\n  anchor_decoder: true\n  change_weight: -1\n"),
+            "cfg.yaml: key 'model.change_weight': must be >= 0");
 }
 
 }  // namespace

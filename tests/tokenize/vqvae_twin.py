@@ -36,7 +36,8 @@ DTYPES = {"float32": "<f4", "float64": "<f8", "float16": "<f2", "int32": "<i4", 
 MODEL_DEFAULTS = {"image_size": 64, "patch_size": 8, "stem_factor": 1, "encoder_channels": 64, "encoder_layers": 1,
                   "decoder_channels": 64, "decoder_layers": 1, "min_channels": 0, "latent_dim": 32,
                   "num_codes": 1024, "l2_normalize": True, "beta": 0.25, "dead_code_steps": 100,
-                  "detail_weight": 0.0, "anchor_decoder": False}
+                  "detail_weight": 0.0, "anchor_decoder": False, "anchor_flow": False,
+                  "change_weight": 0.0}
 CHUNK = 64  # tokenizer.cc kChunk: frames per forward pass
 M64 = (1 << 64) - 1
 
@@ -156,6 +157,24 @@ def detail_weight(images, alpha):
     return 1 + alpha * ((images - blur).abs().amax(1, keepdim=True) / 0.25).clamp(max=1)
 
 
+def changed_pixels(images, anchors):
+    """ChangedPixels: 1 where a channel moved by over 30 levels since a real (not blank) anchor."""
+    changed = (images - anchors).abs().amax(1, keepdim=True) > 30.0 / 127.5
+    real = anchors.abs().amax((1, 2, 3), keepdim=True) > 0
+    return (changed & real).to(images.dtype)
+
+
+def move_by_flow(images, flow):
+    """MoveByFlow: `images` resampled at each pixel's position plus the flow (pixels)."""
+    size = images.shape[-1]
+    offset = F.interpolate(flow, size=(size, size), mode="bilinear",
+                           align_corners=False).permute(0, 2, 3, 1) * (2.0 / size)
+    identity = F.affine_grid(torch.eye(2, 3).expand(len(images), 2, 3),
+                             [len(images), 3, size, size], align_corners=False)
+    return F.grid_sample(images, identity + offset, mode="bilinear", padding_mode="border",
+                         align_corners=False)
+
+
 class VqVae(nn.Module):
     """VqVaeImpl: modules are created in the C++ order, so torch.manual_seed gives the same
     initial weights, and registered in its order (encoder, decoder, quantizer)."""
@@ -201,6 +220,12 @@ class VqVae(nn.Module):
                 self.head[1].weight.zero_()
                 self.head[1].bias.zero_()
         self.quantizer = VectorQuantizer(c["num_codes"], d, c["l2_normalize"])
+        self.change_weight, self.anchor_flow = c["change_weight"], None
+        if c["anchor_flow"]:  # created last, as in C++; zero flow at the start
+            self.anchor_flow = nn.Conv2d(top, 2, 3, padding=1)
+            with torch.no_grad():
+                self.anchor_flow.weight.zero_()
+                self.anchor_flow.bias.zero_()
 
     def decode(self, z_q, anchors=None):
         """VqVaeImpl::Decode; anchors None = blank (zeros)."""
@@ -210,6 +235,8 @@ class VqVae(nn.Module):
         if anchors is None:
             anchors = torch.zeros(z_q.shape[0], 3, h.shape[2] * self.f, h.shape[3] * self.f)
         h = self.merge(torch.cat([h, self.anchor_stem(anchors)], 1))
+        if self.anchor_flow is not None:
+            anchors = move_by_flow(anchors, self.anchor_flow(h))
         base = F.pixel_unshuffle(anchors, self.f) if self.f > 1 else anchors
         y = self.head(h) + base
         return F.pixel_shuffle(y, self.f) if self.f > 1 else y
@@ -220,8 +247,11 @@ class VqVae(nn.Module):
         error = (recon - images).abs()
         recon_l1 = error.mean()
         term = recon_l1
-        if self.detail_weight > 0:  # normalised by the mean weight: L1's scale
+        changes = self.change_weight > 0 and anchors is not None
+        if self.detail_weight > 0 or changes:  # normalised by the mean weight: L1's scale
             w = detail_weight(images, self.detail_weight)
+            if changes:
+                w = w + self.change_weight * changed_pixels(images, anchors)
             term = (w * error).mean() / w.mean()
         loss = term + quant["codebook_loss"] + self.beta * quant["commitment"]
         return {"reconstruction": recon, "quant": quant, "recon_l1": recon_l1, "loss": loss}

@@ -1,0 +1,154 @@
+#!/usr/bin/python3
+"""Issue 20, goal 1: an anchor the decoder may move, and a weight on what changed since it.
+
+The anchored tokenizer (docs/tokenizer.md, "Anchor decoder") gets what did not move from its
+anchor; what its tokens must draw is what changed: the arm, and a block the gripper carried
+somewhere new. Two label-free changes to the `tiny` recipe, trained with its PyTorch twin
+(tests/tokenize/vqvae_twin.py; bench/tokenizer_anchor.py's sampling and schedule, 1 thread):
+
+  change_weight a (`model.change_weight`, tokenize/vqvae.h ChangedPixels): the L1 weighted per
+      pixel by detail(frame) + a * [a channel moved by over 30 levels since a real anchor],
+      normalised by its mean (a = 0: the shipped loss);
+  flow (`model.anchor_flow`, MoveByFlow): the anchor first moved by a 2-channel flow in pixels
+      read off the merged features (zero-initialised: it starts as the anchor decoder without
+      it), upsampled to the frame, applied by bilinear resampling; then the correction is added.
+
+Each run is scored as wm-eval scores a rollout from frame 0 (steps 1..8 decoded from their own
+tokens with the real frame 0 as anchor; region MSE against copy_last's, the segmentation only to
+score), per validation episode, so two variants of one weights seed are compared paired
+(bootstrap over episodes). --checkpoints scores finished C++ runs (wm-tokenize train) the same
+way, loaded into the twin.
+
+  bench/tokenizer_anchor_flow.py --train TRAIN --val VAL --variants base flow_change4 \
+      --seeds 1 2 [--steps 2400] [--jobs 2] [--out rows.npz]
+  bench/tokenizer_anchor_flow.py --val VAL --checkpoints RUN_BASE RUN_OTHER...
+"""
+import argparse
+import itertools
+import math
+import multiprocessing
+import os
+import sys
+import time
+
+import numpy as np
+import torch
+
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+import tokenizer_anchor as anchor_bench  # noqa: E402
+import tokenizer_goal1 as goal1  # noqa: E402
+from tokenizer_goal1 import twin  # noqa: E402
+
+TINY = anchor_bench.P8  # 8x8 tokens, 1024 codes, detail weight 4, anchor decoder
+DROPOUT = 0.5
+DATA = None  # (train episodes, val episodes), set before the workers fork
+VARIANTS = {  # name: model overrides on `tiny`'s
+    "base": {}, "change4": {"change_weight": 4.0}, "change8": {"change_weight": 8.0},
+    "flow": {"anchor_flow": True}, "flow_change4": {"anchor_flow": True, "change_weight": 4.0}}
+
+
+@torch.no_grad()
+def per_episode(model, episodes):
+    """Per validation episode: region MSE of the anchored reconstruction and of copy_last over
+    steps 1..8 (NaN where the region is absent), PSNR over those steps, and the fraction of
+    cells whose code changes from frame to frame (a collapsed tokenizer's is near 0)."""
+    rows = []
+    for frames, seg in episodes:
+        codes = twin.encode(model, frames)
+        steps = codes[1:anchor_bench.HORIZON + 1]
+        recon = twin.decode(model, steps, frames[:1].expand(len(steps), -1, -1, -1))
+        real, rec = goal1.to_uint8(frames[1:len(steps) + 1]), goal1.to_uint8(recon)
+        copy = np.repeat(goal1.to_uint8(frames[:1]), len(real), 0)
+        s = seg[1:len(steps) + 1]
+        row = [float(np.mean([10 * math.log10(255.0 ** 2 / max(1e-10, float(np.mean((x - y) ** 2))))
+                              for x, y in zip(real, rec)])),
+               float((codes[1:] != codes[:-1]).float().mean())]
+        for label in (1, 2):
+            for pred in (rec, copy):
+                values = goal1.region_mse(real, pred, s, label)
+                row.append(np.nanmean(values) if not all(map(math.isnan, values)) else math.nan)
+        rows.append(row)
+    return np.array(rows)  # [episodes, 6]: psnr, change rate, arm, arm copy, block, block copy
+
+
+def run(job):
+    variant, seed, steps = job
+    torch.set_num_threads(1)
+    start = time.time()
+    model, _ = anchor_bench.train({**TINY, **VARIANTS[variant]}, steps, DROPOUT, DATA[0], seed)
+    return job, time.time() - start, per_episode(model, DATA[1])
+
+
+def ratio(rows, col):
+    ok = ~np.isnan(rows[:, col])
+    return rows[ok, col].mean() / rows[ok, col + 1].mean()
+
+
+def paired_interval(a, b, col, resamples=2000, seed=0):
+    """Difference of the ratios (b - a) with a 95% bootstrap interval over episodes."""
+    ok = ~(np.isnan(a[:, col]) | np.isnan(b[:, col]))
+    a, b = a[ok], b[ok]
+    rng = np.random.default_rng(seed)
+    diffs = []
+    for _ in range(resamples):
+        k = rng.integers(0, len(a), len(a))
+        diffs.append(ratio(b[k], col) - ratio(a[k], col))
+    return ratio(b, col) - ratio(a, col), np.percentile(diffs, 2.5), np.percentile(diffs, 97.5)
+
+
+def score_checkpoints(runs, val):
+    """The C++ runs, loaded into the twin (the same numbers as C++: tests/tokenize), paired."""
+    rows = [per_episode(twin.load_checkpoint(run)[0], val) for run in runs]
+    for run, r in zip(runs, rows):
+        print(f"{run}: PSNR (steps 1-8) {r[:, 0].mean():.2f}, code changes {r[:, 1].mean():.3f}, "
+              f"arm / copy_last {ratio(r, 2):.3f}, block / copy_last {ratio(r, 4):.3f}")
+    for run, r in zip(runs[1:], rows[1:]):
+        arm, lo, hi = paired_interval(rows[0], r, 2)
+        block, blo, bhi = paired_interval(rows[0], r, 4)
+        psnr = r[:, 0] - rows[0][:, 0]
+        draws = np.random.default_rng(0).integers(0, len(psnr), (2000, len(psnr)))
+        plo, phi = np.percentile(psnr[draws].mean(1), [2.5, 97.5])
+        print(f"paired, {run} - {runs[0]}: PSNR {psnr.mean():+.2f} [{plo:+.2f}, {phi:+.2f}], "
+              f"arm {arm:+.3f} [{lo:+.3f}, {hi:+.3f}], block {block:+.3f} [{blo:+.3f}, {bhi:+.3f}]")
+
+
+def main():
+    global DATA
+    ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    ap.add_argument("--train")
+    ap.add_argument("--val", required=True)
+    ap.add_argument("--variants", nargs="+", default=["base", "change4"], choices=VARIANTS)
+    ap.add_argument("--seeds", type=int, nargs="+", default=[0, 1])
+    ap.add_argument("--steps", type=int, default=2400)
+    ap.add_argument("--jobs", type=int, default=2)
+    ap.add_argument("--out", help=".npz of every run's per-episode rows")
+    ap.add_argument("--checkpoints", nargs="+", metavar="RUN_DIR",
+                    help="score these wm-tokenize runs instead of training (the first is the base)")
+    args = ap.parse_args()
+    if args.checkpoints:
+        return score_checkpoints(args.checkpoints, goal1.load(args.val, True))
+    if not args.train:
+        ap.error("--train is needed to train variants (or score runs with --checkpoints)")
+    DATA = (goal1.load(args.train, False), goal1.load(args.val, True))
+    jobs = list(itertools.product(args.variants, args.seeds, [args.steps]))
+    with multiprocessing.get_context("fork").Pool(args.jobs) as pool:
+        results = {job[:2]: (sec, rows) for job, sec, rows in pool.imap(run, jobs)}
+    print("| variant | weights seed | seconds | PSNR (steps 1-8) | code changes | "
+          "arm / copy_last | block / copy_last |")
+    print("|---|---|---|---|---|---|---|")
+    for (variant, seed), (sec, rows) in sorted(results.items()):
+        print(f"| {variant} | {seed} | {sec:.0f} | {rows[:, 0].mean():.2f} | "
+              f"{rows[:, 1].mean():.3f} | {ratio(rows, 2):.3f} | {ratio(rows, 4):.3f} |")
+    base = args.variants[0]
+    for variant, seed in itertools.product(args.variants[1:], args.seeds):
+        a, b = results[(base, seed)][1], results[(variant, seed)][1]
+        arm, block = paired_interval(a, b, 2), paired_interval(a, b, 4)
+        print(f"paired, {variant} - {base}, seed {seed}: arm {arm[0]:+.3f} "
+              f"[{arm[1]:+.3f}, {arm[2]:+.3f}], block {block[0]:+.3f} [{block[1]:+.3f}, "
+              f"{block[2]:+.3f}]")
+    if args.out:
+        np.savez(args.out, **{f"{v}_s{s}": rows for (v, s), (_, rows) in results.items()})
+
+
+if __name__ == "__main__":
+    main()
