@@ -33,6 +33,12 @@ def run_ok(command, **kwargs):
     return p
 
 
+# configs/tokenizer/tiny.yaml's model without the anchor decoder, and so without what acts on
+# its anchor (the anchor's flow, the change weight: both need it).
+UNANCHORED_TOKENIZER = {"model": {"anchor_decoder": False, "anchor_flow": False,
+                                  "change_weight": 0}}
+
+
 def derived_config(kind, out, sections):
     """configs/<kind>/tiny.yaml with the keys of `sections` ({section: {key: value}}) replaced,
     written to `out` (YAML)."""

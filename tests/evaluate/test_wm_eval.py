@@ -34,7 +34,7 @@ CONFIGS = os.path.join(SRC, "configs")
 sys.path.insert(0, os.path.join(SRC, "scripts"))
 import wmshard  # noqa: E402  (the independent Python reader of shards and token datasets)
 sys.path.insert(0, os.path.join(SRC, "tests"))
-from tiny_pipeline import derived_config  # noqa: E402
+from tiny_pipeline import UNANCHORED_TOKENIZER, derived_config  # noqa: E402
 
 HORIZON, EPISODES, SIZE = 3, 2, 64  # SIZE: configs/tokenizer/tiny.yaml model.image_size
 CSVS = {"summary.csv": "report-summary", "per_step.csv": "report-per-step",
@@ -178,8 +178,7 @@ class WmEval(unittest.TestCase):
         # Without the preset's anchor decoder: after 60 steps an anchored tokenizer decodes
         # nearly any tokens to its anchor, so sampled or action-perturbed rollouts could not
         # differ. The anchored path is checked end to end in test_against_copies.py.
-        config = derived_config("tokenizer", path("tokenizer.yaml"),
-                                {"model": {"anchor_decoder": False}})
+        config = derived_config("tokenizer", path("tokenizer.yaml"), UNANCHORED_TOKENIZER)
         ok("wm-tokenize", "train", "--config", config,
            "--data", path("shards", "train"), "--out", path("tok"), "--steps", 60,
            "--threads", 1)

@@ -29,7 +29,7 @@ BIN = os.environ.get("WM_BIN_DIR", os.path.join(SRC, "build", "bin"))
 sys.path.insert(0, os.path.join(SRC, "scripts"))
 import wmshard  # noqa: E402
 sys.path.insert(0, os.path.join(SRC, "tests"))
-from tiny_pipeline import derived_config  # noqa: E402
+from tiny_pipeline import UNANCHORED_TOKENIZER, derived_config  # noqa: E402
 
 HORIZON, EPISODES, SIZE = 4, 2, 64
 RECORDER = os.path.join(SRC, "tests", "evaluate", "recording_policy.py")
@@ -133,8 +133,7 @@ class WmEvalPolicy(ClosedLoopCase, unittest.TestCase):
                "--split", split, "--output", path("shards", split), "--threads", 1)
         # Without the anchor decoder: a barely trained anchored tokenizer decodes nearly any
         # tokens to its anchor, and the frames of different policies would look alike.
-        config = derived_config("tokenizer", path("tokenizer.yaml"),
-                                {"model": {"anchor_decoder": False}})
+        config = derived_config("tokenizer", path("tokenizer.yaml"), UNANCHORED_TOKENIZER)
         ok("wm-tokenize", "train", "--config", config, "--data", path("shards", "train"),
            "--out", path("tok"), "--steps", 20, "--threads", 1)
         for split in ("train", "val"):
