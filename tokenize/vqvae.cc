@@ -372,12 +372,11 @@ VqVaeOutput VqVaeImpl::forward(const torch::Tensor& images, const torch::Tensor&
   torch::Tensor error = (out.reconstruction - images).abs();
   out.recon_l1 = error.mean();
   torch::Tensor recon = out.recon_l1;
-  const bool weighted = config.detail_weight > 0 || (config.change_weight > 0 && anchors.defined());
-  if (weighted) {
+  const bool changes = config.change_weight > 0 && anchors.defined();
+  if (config.detail_weight > 0 || changes) {
     // Normalised by the mean weight so the loss keeps L1's scale (and the lr its meaning).
     torch::Tensor w = DetailWeight(images, config.detail_weight);
-    if (config.change_weight > 0 && anchors.defined())
-      w = w + config.change_weight * ChangedPixels(images, anchors);
+    if (changes) w = w + config.change_weight * ChangedPixels(images, anchors);
     recon = (w * error).mean() / w.mean();
   }
   out.loss = recon + out.quant.codebook_loss + config.beta * out.quant.commitment;
