@@ -31,6 +31,7 @@ from torch import nn
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 import dynamics_objective as dob  # noqa: E402
 import tokenizer_anchor as anchor_bench  # noqa: E402
+from tokenizer_goal1 import frame_psnr  # noqa: E402
 import tokenizer_goal1 as goal1  # noqa: E402
 from tokenizer_goal1 import twin  # noqa: E402
 
@@ -109,8 +110,6 @@ def one_step(dyn, tokenizer, val_eps):
 @torch.no_grad()
 def rollouts(dyn, tokenizer, val_eps):
     """Open-loop argmax rollouts of HORIZON steps; metrics and strip rows."""
-    def psnr(a, b):
-        return 10 * np.log10(255.0 ** 2 / max(1e-10, float(np.mean((a - b) ** 2))))
     found = {k: {"psnr": [], "arm": [], "obj": []} for k in ("model", "reversed", "copy_last")}
     rows = []
     for k in range(ROLLOUTS):
@@ -128,7 +127,7 @@ def rollouts(dyn, tokenizer, val_eps):
         real = goal1.to_uint8(frames[1:HORIZON + 1])
         preds["copy_last"] = np.repeat(goal1.to_uint8(frames[:1]), HORIZON, 0)
         for name, p in preds.items():
-            found[name]["psnr"].append(np.mean([psnr(a, b) for a, b in zip(real, p)]))
+            found[name]["psnr"].append(np.mean([frame_psnr(a, b) for a, b in zip(real, p)]))
             for key, label in (("arm", 1), ("obj", 2)):
                 found[name][key].append(np.nanmean(goal1.region_mse(real, p, seg[1:HORIZON + 1],
                                                                    label)))

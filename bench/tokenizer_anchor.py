@@ -10,7 +10,6 @@ decodes; frame 0 is given).
   bench/tokenizer_anchor.py --train data/demo/shards/train --val data/demo/shards/val [--only N..]
 """
 import argparse
-import math
 import os
 import sys
 import time
@@ -88,8 +87,7 @@ def evaluate(model, config, episodes):
         recon = twin.decode(model, steps, anchors if config["anchor_decoder"] else None)
         real, rec = goal1.to_uint8(frames[1:HORIZON + 1]), goal1.to_uint8(recon)
         copy = np.repeat(goal1.to_uint8(frames[:1]), len(real), 0)
-        psnrs += [10 * math.log10(255.0 ** 2 / max(1e-10, float(np.mean((x - y) ** 2))))
-                  for x, y in zip(real, rec)]
+        psnrs += [goal1.frame_psnr(x, y) for x, y in zip(real, rec)]
         s = seg[1:HORIZON + 1]
         for key, label in (("arm", 1), ("obj", 2)):
             ratios[key].append(np.nanmean(goal1.region_mse(real, rec, s, label)))

@@ -60,8 +60,7 @@ def per_episode(model, episodes):
         real, rec = goal1.to_uint8(frames[1:len(steps) + 1]), goal1.to_uint8(recon)
         copy = np.repeat(goal1.to_uint8(frames[:1]), len(real), 0)
         s = seg[1:len(steps) + 1]
-        row = [float(np.mean([10 * math.log10(255.0 ** 2 / max(1e-10, float(np.mean((x - y) ** 2))))
-                              for x, y in zip(real, rec)])),
+        row = [float(np.mean([goal1.frame_psnr(x, y) for x, y in zip(real, rec)])),
                float((codes[1:] != codes[:-1]).float().mean())]
         for label in (1, 2):
             for pred in (rec, copy):
@@ -96,6 +95,18 @@ def paired_interval(a, b, col, resamples=2000, seed=0):
     return ratio(b, col) - ratio(a, col), np.percentile(diffs, 2.5), np.percentile(diffs, 97.5)
 
 
+def paired_line(a, b):
+    """b - a over the episodes: PSNR, and the arm's and block's ratios to copy_last's, each with
+    its 95% bootstrap interval."""
+    psnr = b[:, 0] - a[:, 0]
+    draws = np.random.default_rng(0).integers(0, len(psnr), (2000, len(psnr)))
+    plo, phi = np.percentile(psnr[draws].mean(1), [2.5, 97.5])
+    arm, lo, hi = paired_interval(a, b, 2)
+    block, blo, bhi = paired_interval(a, b, 4)
+    return (f"PSNR {psnr.mean():+.2f} [{plo:+.2f}, {phi:+.2f}], arm {arm:+.3f} [{lo:+.3f}, "
+            f"{hi:+.3f}], block {block:+.3f} [{blo:+.3f}, {bhi:+.3f}]")
+
+
 def score_checkpoints(runs, val):
     """The C++ runs, loaded into the twin (the same numbers as C++: tests/tokenize), paired."""
     rows = [per_episode(twin.load_checkpoint(run)[0], val) for run in runs]
@@ -103,13 +114,7 @@ def score_checkpoints(runs, val):
         print(f"{run}: PSNR (steps 1-8) {r[:, 0].mean():.2f}, code changes {r[:, 1].mean():.3f}, "
               f"arm / copy_last {ratio(r, 2):.3f}, block / copy_last {ratio(r, 4):.3f}")
     for run, r in zip(runs[1:], rows[1:]):
-        arm, lo, hi = paired_interval(rows[0], r, 2)
-        block, blo, bhi = paired_interval(rows[0], r, 4)
-        psnr = r[:, 0] - rows[0][:, 0]
-        draws = np.random.default_rng(0).integers(0, len(psnr), (2000, len(psnr)))
-        plo, phi = np.percentile(psnr[draws].mean(1), [2.5, 97.5])
-        print(f"paired, {run} - {runs[0]}: PSNR {psnr.mean():+.2f} [{plo:+.2f}, {phi:+.2f}], "
-              f"arm {arm:+.3f} [{lo:+.3f}, {hi:+.3f}], block {block:+.3f} [{blo:+.3f}, {bhi:+.3f}]")
+        print(f"paired, {run} - {runs[0]}: {paired_line(rows[0], r)}")
 
 
 def main():
@@ -142,10 +147,7 @@ def main():
     base = args.variants[0]
     for variant, seed in itertools.product(args.variants[1:], args.seeds):
         a, b = results[(base, seed)][1], results[(variant, seed)][1]
-        arm, block = paired_interval(a, b, 2), paired_interval(a, b, 4)
-        print(f"paired, {variant} - {base}, seed {seed}: arm {arm[0]:+.3f} "
-              f"[{arm[1]:+.3f}, {arm[2]:+.3f}], block {block[0]:+.3f} [{block[1]:+.3f}, "
-              f"{block[2]:+.3f}]")
+        print(f"paired, {variant} - {base}, seed {seed}: {paired_line(a, b)}")
     if args.out:
         np.savez(args.out, **{f"{v}_s{s}": rows for (v, s), (_, rows) in results.items()})
 

@@ -144,6 +144,11 @@ def to_uint8(x):  # [n, 3, S, S] in [-1, 1] -> [n, S, S, 3] float of uint8 level
     return ((x.numpy() + 1) * 127.5).round().clip(0, 255).transpose(0, 2, 3, 1)
 
 
+def frame_psnr(a, b):
+    """PSNR of two frames on [0, 255] (uint8 levels as floats); finite (168 dB) for equal ones."""
+    return 10 * math.log10(255.0 ** 2 / max(1e-10, float(np.mean((a - b) ** 2))))
+
+
 def region_mse(real, pred, seg, label):
     """Per-frame MSE over the pixels of `label` (mean over channels); NaN where absent."""
     out = []
@@ -161,8 +166,7 @@ def evaluate(model, config, episodes):
             q = model.quantizer(model.encoder(frames))
             recon = model.decoder(q["z_q"]).clamp(-1, 1)
             a, b = to_uint8(frames), to_uint8(recon)
-            psnrs += [10 * math.log10(255.0 ** 2 / max(1e-10, float(np.mean((x - y) ** 2))))
-                      for x, y in zip(a, b)]
+            psnrs += [frame_psnr(x, y) for x, y in zip(a, b)]
             f, c, n = twin.flicker_counts(q["indices"].numpy(), a, config["patch_size"])
             flick, changes, cells = flick + f, changes + c, cells + n
             real, rec = a[1:HORIZON + 1], b[1:HORIZON + 1]
