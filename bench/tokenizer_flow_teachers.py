@@ -1,0 +1,186 @@
+#!/usr/bin/python3
+"""Issue 20, goal 1: can the anchor's flow be taught to move the arm, not just nudge it?
+
+In `tiny` (model.anchor_flow, docs/tokenizer.md "An anchor that moves") the learned flow stays
+under a pixel: its largest displacement over a rollout's frames is 0.9 px, while the arm moves
+5-30 px in 8 steps. So the anchor's arm is never moved to where the arm went; the codes redraw
+it, blurred. Two label-free teachers, each an extra loss on the same flow, trained with the
+PyTorch twin (tests/tokenize/vqvae_twin.py) exactly as bench/tokenizer_anchor_flow.py trains
+`tiny` (its `flow_change4` variant, the shipped recipe) and scored the same way, paired:
+
+  blur W     W x L1 between the anchor moved by the flow and the frame, both blurred (two passes
+             of a k x k box, k = 5, 9 and 17, averaged): resampling a blurred image has a
+             gradient that reaches across ten pixels, where the sharp frame's reaches one;
+  dis W      W x L1 (pixels) between the flow (upsampled to the frame) and OpenCV's DIS optical
+             flow from the frame to its anchor (preset medium, grey levels): a dense target.
+
+Both only where the anchor is real (not blank). The largest flow (max over pixels of |flow|,
+mean over the first 60 scored episodes' frames) is printed beside the scores.
+
+  bench/tokenizer_flow_teachers.py --train TRAIN --val VAL --variants base blur1 dis0.02 \
+      --seeds 1 2 [--steps 2400] [--jobs 2]
+
+--show RUN_DIR scores a finished C++ run instead (loaded into the twin): where its block error
+is (the fifth of episodes where copying's is largest against the rest), its largest flow, and
+--strip PNG: for the 2 episodes where copying's block error is largest, steps 1-8 as rows of
+real frames, reconstructions (own tokens, real frame 0 as anchor), copy_last, and 3x the
+reconstruction's absolute error.
+
+  bench/tokenizer_flow_teachers.py --val VAL --show RUN_DIR [--strip PNG]
+"""
+import argparse
+import itertools
+import multiprocessing
+import os
+import sys
+import time
+
+import cv2
+import numpy as np
+import torch
+import torch.nn.functional as F
+
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+import tokenizer_anchor as anchor_bench  # noqa: E402
+import tokenizer_anchor_flow as flow_bench  # noqa: E402
+import tokenizer_goal1 as goal1  # noqa: E402
+from tokenizer_goal1 import twin  # noqa: E402
+
+RECIPE = {**flow_bench.TINY, **flow_bench.VARIANTS["flow_change4"]}  # the shipped `tiny`
+VARIANTS = {"base": ("none", 0.0), "blur1": ("blur", 1.0), "dis0.02": ("dis", 0.02),
+            "dis0.1": ("dis", 0.1)}
+BOXES = (5, 9, 17)
+DATA = None  # (train episodes, val episodes), set before the workers fork
+
+
+def blur(x, k):
+    for _ in range(2):  # two box passes: a tent, smoother than one box
+        x = F.avg_pool2d(x, k, stride=1, padding=k // 2, count_include_pad=False)
+    return x
+
+
+def dis_flow(images, anchors):
+    """[B, 2, S, S] (x, y in pixels): where each pixel of `images` is in `anchors` (DIS)."""
+    dis = cv2.DISOpticalFlow_create(cv2.DISOPTICAL_FLOW_PRESET_MEDIUM)
+
+    def grey(x):
+        levels = goal1.to_uint8(x.detach()).astype(np.uint8)
+        return [cv2.cvtColor(np.ascontiguousarray(f), cv2.COLOR_RGB2GRAY) for f in levels]
+    flows = [dis.calc(a, b, None) for a, b in zip(grey(images), grey(anchors))]
+    return torch.from_numpy(np.stack(flows)).permute(0, 3, 1, 2).float()
+
+
+class TaughtFlow(twin.VqVae):
+    """The twin's anchored tokenizer with one of the teachers' terms added to its loss."""
+
+    def __init__(self, config, teacher, weight):
+        super().__init__(config)
+        self.teacher, self.weight, self.flow = teacher, weight, None
+
+    def decode(self, z_q, anchors=None):  # the twin's decode, keeping the flow
+        h = self.merge(torch.cat([self.decoder(z_q), self.anchor_stem(anchors)], 1))
+        self.flow = self.anchor_flow(h)
+        base = F.pixel_unshuffle(twin.move_by_flow(anchors, self.flow), self.f)
+        return F.pixel_shuffle(self.head(h) + base, self.f)
+
+    def forward(self, images, anchors=None):
+        out = super().forward(images, anchors)
+        if self.teacher == "none":
+            return out
+        real = (anchors.abs().amax((1, 2, 3), keepdim=True) > 0).float()
+        if self.teacher == "blur":
+            term = sum(((twin.move_by_flow(blur(anchors, k), self.flow) - blur(images, k)).abs()
+                        * real).mean() for k in BOXES) / len(BOXES)
+        else:
+            flow = F.interpolate(self.flow, size=images.shape[-2:], mode="bilinear",
+                                 align_corners=False)
+            term = ((flow - dis_flow(images, anchors)).abs() * real).mean()
+        out["loss"] = out["loss"] + self.weight * term
+        return out
+
+
+@torch.no_grad()
+def largest_flow(model, episodes):
+    tops = []
+    for frames, _ in episodes[:60]:
+        codes = twin.encode(model, frames)[1:anchor_bench.HORIZON + 1]
+        model.decode(model.quantizer.lookup(codes), frames[:1].expand(len(codes), -1, -1, -1))
+        tops.append(model.flow.norm(dim=1).amax().item())
+    return float(np.mean(tops))
+
+
+def run(job):
+    variant, seed, steps = job
+    torch.set_num_threads(1)
+    start = time.time()
+    model, _ = anchor_bench.train(RECIPE, steps, flow_bench.DROPOUT, DATA[0], seed,
+                                  build=lambda c: TaughtFlow(c, *VARIANTS[variant]))
+    return job, time.time() - start, flow_bench.per_episode(model, DATA[1]), \
+        largest_flow(model, DATA[1])
+
+
+def show(run_dir, val, strip):
+    loaded, config, _ = twin.load_checkpoint(run_dir)
+    model = TaughtFlow(twin.model_config(config), "none", 0.0)  # keeps its flow to measure
+    model.load_state_dict(loaded.state_dict())
+    rows = flow_bench.per_episode(model, val)
+    copy_block, block = np.nan_to_num(rows[:, 5]), np.nan_to_num(rows[:, 4])
+    order = np.argsort(-copy_block)
+    top, rest = order[:len(order) // 5], order[len(order) // 5:]
+    print(f"{run_dir}: block / copy_last {flow_bench.ratio(rows, 4):.3f}, arm / copy_last "
+          f"{flow_bench.ratio(rows, 2):.3f}, largest flow {largest_flow(model, val):.2f} px")
+    print(f"the fifth of episodes where copying's block error is largest: "
+          f"{copy_block[top].sum() / copy_block.sum():.0%} of copying's block error, "
+          f"{block[top].sum() / block.sum():.0%} of the reconstructions'; block / copy_last "
+          f"{block[top].sum() / copy_block[top].sum():.2f} there, "
+          f"{block[rest].sum() / copy_block[rest].sum():.2f} in the rest")
+    if not strip:
+        return
+    panels = []
+    for e in order[:2]:
+        frames = val[e][0]
+        codes = twin.encode(model, frames)[1:anchor_bench.HORIZON + 1]
+        recon = twin.decode(model, codes, frames[:1].expand(len(codes), -1, -1, -1))
+        real, rec = goal1.to_uint8(frames[1:len(codes) + 1]), goal1.to_uint8(recon)
+        copy = np.repeat(goal1.to_uint8(frames[:1]), len(real), 0)
+        error = np.repeat(np.abs(real - rec).mean(-1, keepdims=True), 3, -1) * 3
+        panels += [np.concatenate(list(r.clip(0, 255)), 1) for r in (real, rec, copy, error)]
+    cv2.imwrite(strip, np.concatenate(panels, 0).astype(np.uint8)[..., ::-1])
+    print(f"wrote {strip} (episodes {order[0]} and {order[1]})")
+
+
+def main():
+    global DATA
+    ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    ap.add_argument("--train")
+    ap.add_argument("--val", required=True)
+    ap.add_argument("--variants", nargs="+", default=["base", "blur1", "dis0.02"],
+                    choices=VARIANTS)
+    ap.add_argument("--seeds", type=int, nargs="+", default=[1, 2])
+    ap.add_argument("--steps", type=int, default=2400)
+    ap.add_argument("--jobs", type=int, default=2)
+    ap.add_argument("--show", metavar="RUN_DIR", help="score this wm-tokenize run instead")
+    ap.add_argument("--strip", metavar="PNG", help="with --show: the two worst episodes' strip")
+    args = ap.parse_args()
+    if args.show:
+        return show(args.show, goal1.load(args.val, True), args.strip)
+    if not args.train:
+        ap.error("--train is needed to train variants (or score a run with --show)")
+    DATA = (goal1.load(args.train, False), goal1.load(args.val, True))
+    jobs = list(itertools.product(args.variants, args.seeds, [args.steps]))
+    with multiprocessing.get_context("fork").Pool(args.jobs) as pool:
+        results = {job[:2]: rest for job, *rest in pool.imap(run, jobs)}
+    print("| variant | weights seed | seconds | PSNR (steps 1-8) | arm / copy_last | "
+          "block / copy_last | largest flow (px) |")
+    print("|---|---|---|---|---|---|---|")
+    for (variant, seed), (sec, rows, top) in sorted(results.items()):
+        print(f"| {variant} | {seed} | {sec:.0f} | {rows[:, 0].mean():.2f} | "
+              f"{flow_bench.ratio(rows, 2):.3f} | {flow_bench.ratio(rows, 4):.3f} | {top:.2f} |")
+    base = args.variants[0]
+    for variant, seed in itertools.product(args.variants[1:], args.seeds):
+        a, b = results[(base, seed)][1], results[(variant, seed)][1]
+        print(f"paired, {variant} - {base}, seed {seed}: {flow_bench.paired_line(a, b)}")
+
+
+if __name__ == "__main__":
+    main()
