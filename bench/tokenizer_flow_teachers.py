@@ -21,7 +21,8 @@ mean over the first 60 scored episodes' frames) is printed beside the scores.
       --seeds 1 2 [--steps 2400] [--jobs 2]
 
 --show RUN_DIR scores a finished C++ run instead (loaded into the twin): where its block error
-is (the fifth of episodes where copying's is largest against the rest), its largest flow, and
+is (the fifth of episodes where copying's is largest against the rest; frames grouped by
+copying's block error), its largest flow, and
 --strip PNG: for the 2 episodes where copying's block error is largest, steps 1-8 as rows of
 real frames, reconstructions (own tokens, real frame 0 as anchor), copy_last, and 3x the
 reconstruction's absolute error.
@@ -30,6 +31,7 @@ reconstruction's absolute error.
 """
 import argparse
 import itertools
+import math
 import multiprocessing
 import os
 import sys
@@ -119,6 +121,39 @@ def run(job):
         largest_flow(model, DATA[1])
 
 
+@torch.no_grad()
+def scored_frames(model, frames):
+    """Steps 1..8 as uint8 levels: (real, reconstructed from own tokens with real frame 0 as
+    anchor, copy_last)."""
+    codes = twin.encode(model, frames)[1:anchor_bench.HORIZON + 1]
+    recon = twin.decode(model, codes, frames[:1].expand(len(codes), -1, -1, -1))
+    real = goal1.to_uint8(frames[1:len(codes) + 1])
+    return real, goal1.to_uint8(recon), np.repeat(goal1.to_uint8(frames[:1]), len(real), 0)
+
+
+def frame_block_errors(model, episodes):
+    """Block-region MSE of every scored frame (steps 1..8 where the block shows): (recon, copy)."""
+    recon_errors, copy_errors = [], []
+    for frames, seg in episodes:
+        real, recon, copy = scored_frames(model, frames)
+        recon_errors += goal1.region_mse(real, recon, seg[1:len(real) + 1], 2)
+        copy_errors += goal1.region_mse(real, copy, seg[1:len(real) + 1], 2)
+    recon_errors, copy_errors = np.array(recon_errors), np.array(copy_errors)
+    shown = ~np.isnan(copy_errors)
+    return recon_errors[shown], copy_errors[shown]
+
+
+def print_block_buckets(recon, copy):
+    """Frames grouped by copy_last's block error: each group's share of copying's total block
+    error, and the reconstructions' error there as a share of the same total."""
+    print("| copy_last's block MSE | frames | copy_last's share | reconstructions' share |")
+    print("|---|---|---|---|")
+    for lo, hi in ((0, 100), (100, 1000), (1000, 5000), (5000, math.inf)):
+        k = (copy >= lo) & (copy < hi)
+        print(f"| [{lo}, {hi}) | {k.sum()} | {copy[k].sum() / copy.sum():.3f} | "
+              f"{recon[k].sum() / copy.sum():.3f} |")
+
+
 def show(run_dir, val, strip):
     loaded, config, _ = twin.load_checkpoint(run_dir)
     model = TaughtFlow(twin.model_config(config), "none", 0.0)  # keeps its flow to measure
@@ -134,15 +169,12 @@ def show(run_dir, val, strip):
           f"{block[top].sum() / block.sum():.0%} of the reconstructions'; block / copy_last "
           f"{block[top].sum() / copy_block[top].sum():.2f} there, "
           f"{block[rest].sum() / copy_block[rest].sum():.2f} in the rest")
+    print_block_buckets(*frame_block_errors(model, val))
     if not strip:
         return
     panels = []
     for e in order[:2]:
-        frames = val[e][0]
-        codes = twin.encode(model, frames)[1:anchor_bench.HORIZON + 1]
-        recon = twin.decode(model, codes, frames[:1].expand(len(codes), -1, -1, -1))
-        real, rec = goal1.to_uint8(frames[1:len(codes) + 1]), goal1.to_uint8(recon)
-        copy = np.repeat(goal1.to_uint8(frames[:1]), len(real), 0)
+        real, rec, copy = scored_frames(model, val[e][0])
         error = np.repeat(np.abs(real - rec).mean(-1, keepdims=True), 3, -1) * 3
         panels += [np.concatenate(list(r.clip(0, 255)), 1) for r in (real, rec, copy, error)]
     cv2.imwrite(strip, np.concatenate(panels, 0).astype(np.uint8)[..., ::-1])
