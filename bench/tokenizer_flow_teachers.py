@@ -12,7 +12,10 @@ PyTorch twin (tests/tokenize/vqvae_twin.py) exactly as bench/tokenizer_anchor_fl
              of a k x k box, k = 5, 9 and 17, averaged): resampling a blurred image has a
              gradient that reaches across ten pixels, where the sharp frame's reaches one;
   dis W      W x L1 (pixels) between the flow (upsampled to the frame) and OpenCV's DIS optical
-             flow from the frame to its anchor (preset medium, grey levels): a dense target.
+             flow from the frame to its anchor (preset medium, grey levels): a dense target;
+  deep       the flow read by four dilated convolutions instead of one (deep_flow_head), with no
+             teacher or with dis 0.02: a probe on the demo tokenizer's frozen features regressed
+             DIS's flow no better than zero with one convolution, and part of the way with these.
 
 Both only where the anchor is real (not blank). The largest flow (max over pixels of |flow|,
 mean over the first 60 scored episodes' frames) is printed beside the scores.
@@ -28,6 +31,11 @@ real frames, reconstructions (own tokens, real frame 0 as anchor), copy_last, an
 reconstruction's absolute error.
 
   bench/tokenizer_flow_teachers.py --val VAL --show RUN_DIR [--strip PNG]
+
+--probe RUN_DIR fits flow heads alone to DIS's flow on the run's frozen merged features (pairs
+from --train, scored on --val): whether the shipped head could read a far flow at all.
+
+  bench/tokenizer_flow_teachers.py --probe RUN_DIR --train HELDOUT --val VAL
 """
 import argparse
 import itertools
@@ -50,7 +58,8 @@ from tokenizer_goal1 import twin  # noqa: E402
 
 RECIPE = {**flow_bench.TINY, **flow_bench.VARIANTS["flow_change4"]}  # the shipped `tiny`
 VARIANTS = {"base": ("none", 0.0), "blur1": ("blur", 1.0), "dis0.02": ("dis", 0.02),
-            "dis0.1": ("dis", 0.1)}
+            "dis0.1": ("dis", 0.1), "deep": ("none", 0.0), "deep_dis0.02": ("dis", 0.02),
+            "deep_dis0.1": ("dis", 0.1)}
 BOXES = (5, 9, 17)
 DATA = None  # (train episodes, val episodes), set before the workers fork
 
@@ -72,12 +81,29 @@ def dis_flow(images, anchors):
     return torch.from_numpy(np.stack(flows)).permute(0, 3, 1, 2).float()
 
 
-class TaughtFlow(twin.VqVae):
-    """The twin's anchored tokenizer with one of the teachers' terms added to its loss."""
+def deep_flow_head(channels):
+    """Four 3x3 convolutions, dilated 1, 2, 4, 1 (a 15 x 15 cell field, 60 pixels, against the
+    single convolution's 3 x 3), the last zero-initialised so the flow starts at 0."""
+    last = torch.nn.Conv2d(channels, 2, 3, padding=1)
+    with torch.no_grad():
+        last.weight.zero_()
+        last.bias.zero_()
+    layers = []
+    for dilation in (1, 2, 4):
+        layers += [torch.nn.Conv2d(channels, channels, 3, padding=dilation, dilation=dilation),
+                   torch.nn.ReLU()]
+    return torch.nn.Sequential(*layers, last)
 
-    def __init__(self, config, teacher, weight):
+
+class TaughtFlow(twin.VqVae):
+    """The twin's anchored tokenizer with one of the teachers' terms added to its loss; variants
+    named deep* read the flow with deep_flow_head instead of one convolution."""
+
+    def __init__(self, config, teacher, weight, deep=False):
         super().__init__(config)
         self.teacher, self.weight, self.flow = teacher, weight, None
+        if deep:
+            self.anchor_flow = deep_flow_head(self.anchor_flow.in_channels)
 
     def decode(self, z_q, anchors=None):  # the twin's decode, keeping the flow
         h = self.merge(torch.cat([self.decoder(z_q), self.anchor_stem(anchors)], 1))
@@ -116,7 +142,8 @@ def run(job):
     torch.set_num_threads(1)
     start = time.time()
     model, _ = anchor_bench.train(RECIPE, steps, flow_bench.DROPOUT, DATA[0], seed,
-                                  build=lambda c: TaughtFlow(c, *VARIANTS[variant]))
+                                  build=lambda c: TaughtFlow(c, *VARIANTS[variant],
+                                                             variant.startswith("deep")))
     return job, time.time() - start, flow_bench.per_episode(model, DATA[1]), \
         largest_flow(model, DATA[1])
 
@@ -181,6 +208,49 @@ def show(run_dir, val, strip):
     print(f"wrote {strip} (episodes {order[0]} and {order[1]})")
 
 
+def probe(run_dir, train, val, steps=800):
+    """Can the flow be read off a finished run's frozen merged features? Heads (one 3x3
+    convolution as shipped; deep_flow_head) trained alone to regress DIS's flow (L1, Adam 2e-3,
+    batches of 16 (frame t in 1..8, its frame 0) from `train`), scored on 128 pairs of `val`."""
+    model, _, _ = twin.load_checkpoint(run_dir)
+    model.requires_grad_(False)
+
+    def pairs(episodes, n, rng):
+        chosen = [episodes[rng.integers(len(episodes))][0] for _ in range(n)]
+        steps_ = [int(rng.integers(1, min(anchor_bench.HORIZON + 1, len(f)))) for f in chosen]
+        return (torch.stack([f[t] for f, t in zip(chosen, steps_)]),
+                torch.stack([f[0] for f in chosen]))
+
+    @torch.no_grad()
+    def merged(x, a):
+        z_q = model.quantizer(model.encoder(x))["z_q"]
+        return model.merge(torch.cat([model.decoder(z_q), model.anchor_stem(a)], 1))
+
+    def full(flow):
+        return F.interpolate(flow, size=(64, 64), mode="bilinear", align_corners=False)
+    torch.manual_seed(0)
+    vx, va = pairs(val, 128, np.random.default_rng(1))
+    target, features = dis_flow(vx, va), merged(vx, va)
+    print(f"mean |DIS flow| {target.abs().mean():.2f} px; L1 to the frame: copy_last "
+          f"{(va - vx).abs().mean():.3f}, the anchor moved by DIS's flow "
+          f"{(twin.move_by_flow(va, target) - vx).abs().mean():.3f}")
+    channels = model.anchor_flow.in_channels
+    for name, head in (("one 3x3 convolution", torch.nn.Conv2d(channels, 2, 3, padding=1)),
+                       ("deep_flow_head", deep_flow_head(channels))):
+        opt, rng = torch.optim.Adam(head.parameters(), 2e-3), np.random.default_rng(0)
+        for _ in range(steps):
+            x, a = pairs(train, 16, rng)
+            loss = (full(head(merged(x, a))) - dis_flow(x, a)).abs().mean()
+            opt.zero_grad()
+            loss.backward()
+            opt.step()
+        with torch.no_grad():
+            flow = full(head(features))
+            print(f"{name}: flow L1 to DIS {(flow - target).abs().mean():.2f} px, largest "
+                  f"{flow.norm(dim=1).amax():.1f} px, the anchor moved by it: L1 to the frame "
+                  f"{(twin.move_by_flow(va, flow) - vx).abs().mean():.3f}")
+
+
 def main():
     global DATA
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
@@ -191,11 +261,17 @@ def main():
     ap.add_argument("--seeds", type=int, nargs="+", default=[1, 2])
     ap.add_argument("--steps", type=int, default=2400)
     ap.add_argument("--jobs", type=int, default=2)
+    ap.add_argument("--out", help=".npz of every run's per-episode rows")
     ap.add_argument("--show", metavar="RUN_DIR", help="score this wm-tokenize run instead")
     ap.add_argument("--strip", metavar="PNG", help="with --show: the two worst episodes' strip")
+    ap.add_argument("--probe", metavar="RUN_DIR",
+                    help="fit flow heads to DIS's flow on this run's frozen features (--train "
+                         "gives the pairs, --val scores them)")
     args = ap.parse_args()
     if args.show:
         return show(args.show, goal1.load(args.val, True), args.strip)
+    if args.probe and args.train:
+        return probe(args.probe, goal1.load(args.train, False), goal1.load(args.val, False))
     if not args.train:
         ap.error("--train is needed to train variants (or score a run with --show)")
     DATA = (goal1.load(args.train, False), goal1.load(args.val, True))
@@ -212,6 +288,8 @@ def main():
     for variant, seed in itertools.product(args.variants[1:], args.seeds):
         a, b = results[(base, seed)][1], results[(variant, seed)][1]
         print(f"paired, {variant} - {base}, seed {seed}: {flow_bench.paired_line(a, b)}")
+    if args.out:
+        np.savez(args.out, **{f"{v}_s{s}": rows for (v, s), (_, rows, _) in results.items()})
 
 
 if __name__ == "__main__":
