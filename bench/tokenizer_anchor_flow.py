@@ -48,18 +48,25 @@ VARIANTS = {  # name: model overrides on `tiny`'s
 
 
 @torch.no_grad()
+def scored_frames(model, frames):
+    """An episode's codes, and its steps 1..8 as uint8 levels: (codes, real, reconstructed from
+    their own tokens with the real frame 0 as anchor, copy_last)."""
+    codes = twin.encode(model, frames)
+    steps = codes[1:anchor_bench.HORIZON + 1]
+    recon = twin.decode(model, steps, frames[:1].expand(len(steps), -1, -1, -1))
+    real = goal1.to_uint8(frames[1:len(steps) + 1])
+    return codes, real, goal1.to_uint8(recon), np.repeat(goal1.to_uint8(frames[:1]), len(real), 0)
+
+
+@torch.no_grad()
 def per_episode(model, episodes):
     """Per validation episode: region MSE of the anchored reconstruction and of copy_last over
     steps 1..8 (NaN where the region is absent), PSNR over those steps, and the fraction of
     cells whose code changes from frame to frame (a collapsed tokenizer's is near 0)."""
     rows = []
     for frames, seg in episodes:
-        codes = twin.encode(model, frames)
-        steps = codes[1:anchor_bench.HORIZON + 1]
-        recon = twin.decode(model, steps, frames[:1].expand(len(steps), -1, -1, -1))
-        real, rec = goal1.to_uint8(frames[1:len(steps) + 1]), goal1.to_uint8(recon)
-        copy = np.repeat(goal1.to_uint8(frames[:1]), len(real), 0)
-        s = seg[1:len(steps) + 1]
+        codes, real, rec, copy = scored_frames(model, frames)
+        s = seg[1:len(real) + 1]
         row = [float(np.mean([goal1.frame_psnr(x, y) for x, y in zip(real, rec)])),
                float((codes[1:] != codes[:-1]).float().mean())]
         for label in (1, 2):
@@ -117,6 +124,24 @@ def score_checkpoints(runs, val):
         print(f"paired, {run} - {runs[0]}: {paired_line(rows[0], r)}")
 
 
+def run_variants(run, args):
+    """run((variant, seed, steps)) -> (job, seconds, rows, ...) for every variant x seed of
+    `args`, args.jobs at a time: {(variant, seed): (seconds, rows, ...)}."""
+    jobs = list(itertools.product(args.variants, args.seeds, [args.steps]))
+    with multiprocessing.get_context("fork").Pool(args.jobs) as pool:
+        return {job[:2]: tuple(rest) for job, *rest in pool.imap(run, jobs)}
+
+
+def report_pairs(results, args):
+    """Each variant against the first at the same seed (paired_line), and args.out's .npz."""
+    base = args.variants[0]
+    for variant, seed in itertools.product(args.variants[1:], args.seeds):
+        a, b = results[(base, seed)][1], results[(variant, seed)][1]
+        print(f"paired, {variant} - {base}, seed {seed}: {paired_line(a, b)}")
+    if args.out:
+        np.savez(args.out, **{f"{v}_s{s}": rest[1] for (v, s), rest in results.items()})
+
+
 def main():
     global DATA
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
@@ -135,21 +160,14 @@ def main():
     if not args.train:
         ap.error("--train is needed to train variants (or score runs with --checkpoints)")
     DATA = (goal1.load(args.train, False), goal1.load(args.val, True))
-    jobs = list(itertools.product(args.variants, args.seeds, [args.steps]))
-    with multiprocessing.get_context("fork").Pool(args.jobs) as pool:
-        results = {job[:2]: (sec, rows) for job, sec, rows in pool.imap(run, jobs)}
+    results = run_variants(run, args)
     print("| variant | weights seed | seconds | PSNR (steps 1-8) | code changes | "
           "arm / copy_last | block / copy_last |")
     print("|---|---|---|---|---|---|---|")
     for (variant, seed), (sec, rows) in sorted(results.items()):
         print(f"| {variant} | {seed} | {sec:.0f} | {rows[:, 0].mean():.2f} | "
               f"{rows[:, 1].mean():.3f} | {ratio(rows, 2):.3f} | {ratio(rows, 4):.3f} |")
-    base = args.variants[0]
-    for variant, seed in itertools.product(args.variants[1:], args.seeds):
-        a, b = results[(base, seed)][1], results[(variant, seed)][1]
-        print(f"paired, {variant} - {base}, seed {seed}: {paired_line(a, b)}")
-    if args.out:
-        np.savez(args.out, **{f"{v}_s{s}": rows for (v, s), (_, rows) in results.items()})
+    report_pairs(results, args)
 
 
 if __name__ == "__main__":

@@ -38,9 +38,7 @@ from --train, scored on --val): whether the shipped head could read a far flow a
   bench/tokenizer_flow_teachers.py --probe RUN_DIR --train HELDOUT --val VAL
 """
 import argparse
-import itertools
 import math
-import multiprocessing
 import os
 import sys
 import time
@@ -104,12 +102,8 @@ class TaughtFlow(twin.VqVae):
         self.teacher, self.weight, self.flow = teacher, weight, None
         if deep:
             self.anchor_flow = deep_flow_head(self.anchor_flow.in_channels)
-
-    def decode(self, z_q, anchors=None):  # the twin's decode, keeping the flow
-        h = self.merge(torch.cat([self.decoder(z_q), self.anchor_stem(anchors)], 1))
-        self.flow = self.anchor_flow(h)
-        base = F.pixel_unshuffle(twin.move_by_flow(anchors, self.flow), self.f)
-        return F.pixel_shuffle(self.head(h) + base, self.f)
+        # The twin's decode, unchanged, leaves its last flow here for the loss and largest_flow.
+        self.anchor_flow.register_forward_hook(lambda _, __, flow: setattr(self, "flow", flow))
 
     def forward(self, images, anchors=None):
         out = super().forward(images, anchors)
@@ -148,21 +142,11 @@ def run(job):
         largest_flow(model, DATA[1])
 
 
-@torch.no_grad()
-def scored_frames(model, frames):
-    """Steps 1..8 as uint8 levels: (real, reconstructed from own tokens with real frame 0 as
-    anchor, copy_last)."""
-    codes = twin.encode(model, frames)[1:anchor_bench.HORIZON + 1]
-    recon = twin.decode(model, codes, frames[:1].expand(len(codes), -1, -1, -1))
-    real = goal1.to_uint8(frames[1:len(codes) + 1])
-    return real, goal1.to_uint8(recon), np.repeat(goal1.to_uint8(frames[:1]), len(real), 0)
-
-
 def frame_block_errors(model, episodes):
     """Block-region MSE of every scored frame (steps 1..8 where the block shows): (recon, copy)."""
     recon_errors, copy_errors = [], []
     for frames, seg in episodes:
-        real, recon, copy = scored_frames(model, frames)
+        _, real, recon, copy = flow_bench.scored_frames(model, frames)
         recon_errors += goal1.region_mse(real, recon, seg[1:len(real) + 1], 2)
         copy_errors += goal1.region_mse(real, copy, seg[1:len(real) + 1], 2)
     recon_errors, copy_errors = np.array(recon_errors), np.array(copy_errors)
@@ -201,7 +185,7 @@ def show(run_dir, val, strip):
         return
     panels = []
     for e in order[:2]:
-        real, rec, copy = scored_frames(model, val[e][0])
+        _, real, rec, copy = flow_bench.scored_frames(model, val[e][0])
         error = np.repeat(np.abs(real - rec).mean(-1, keepdims=True), 3, -1) * 3
         panels += [np.concatenate(list(r.clip(0, 255)), 1) for r in (real, rec, copy, error)]
     cv2.imwrite(strip, np.concatenate(panels, 0).astype(np.uint8)[..., ::-1])
@@ -275,21 +259,14 @@ def main():
     if not args.train:
         ap.error("--train is needed to train variants (or score a run with --show)")
     DATA = (goal1.load(args.train, False), goal1.load(args.val, True))
-    jobs = list(itertools.product(args.variants, args.seeds, [args.steps]))
-    with multiprocessing.get_context("fork").Pool(args.jobs) as pool:
-        results = {job[:2]: rest for job, *rest in pool.imap(run, jobs)}
+    results = flow_bench.run_variants(run, args)
     print("| variant | weights seed | seconds | PSNR (steps 1-8) | arm / copy_last | "
           "block / copy_last | largest flow (px) |")
     print("|---|---|---|---|---|---|---|")
     for (variant, seed), (sec, rows, top) in sorted(results.items()):
         print(f"| {variant} | {seed} | {sec:.0f} | {rows[:, 0].mean():.2f} | "
               f"{flow_bench.ratio(rows, 2):.3f} | {flow_bench.ratio(rows, 4):.3f} | {top:.2f} |")
-    base = args.variants[0]
-    for variant, seed in itertools.product(args.variants[1:], args.seeds):
-        a, b = results[(base, seed)][1], results[(variant, seed)][1]
-        print(f"paired, {variant} - {base}, seed {seed}: {flow_bench.paired_line(a, b)}")
-    if args.out:
-        np.savez(args.out, **{f"{v}_s{s}": rows for (v, s), (_, rows, _) in results.items()})
+    flow_bench.report_pairs(results, args)
 
 
 if __name__ == "__main__":
