@@ -63,7 +63,7 @@ def train(model_over, steps, dropout, episodes, seed=0, build=twin.VqVae):
         x, a = torch.stack(frames), torch.stack(anchors)
         if step == 0:
             with torch.no_grad():
-                model.quantizer.seed_from_latents(model.encoder(x), codes_rng)
+                model.quantizer.seed_from_latents(model.latents(x, a), codes_rng)
         out = model(x, a if config["anchor_decoder"] else None)
         opt.zero_grad()
         out["loss"].backward()

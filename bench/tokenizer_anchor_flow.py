@@ -50,8 +50,9 @@ VARIANTS = {  # name: model overrides on `tiny`'s
 @torch.no_grad()
 def scored_frames(model, frames):
     """An episode's codes, and its steps 1..8 as uint8 levels: (codes, real, reconstructed from
-    their own tokens with the real frame 0 as anchor, copy_last)."""
-    codes = twin.encode(model, frames)
+    their own tokens with the real frame 0 as anchor, copy_last). Every frame is encoded with
+    frame 0 as anchor, which only an encoder that reads the anchor uses."""
+    codes = twin.encode(model, frames, frames[:1].expand(len(frames), -1, -1, -1))
     steps = codes[1:anchor_bench.HORIZON + 1]
     recon = twin.decode(model, steps, frames[:1].expand(len(steps), -1, -1, -1))
     real = goal1.to_uint8(frames[1:len(steps) + 1])

@@ -241,8 +241,13 @@ class VqVae(nn.Module):
         y = self.head(h) + base
         return F.pixel_shuffle(y, self.f) if self.f > 1 else y
 
+    def latents(self, images, anchors=None):
+        """The encoder's output [B, D, h, w]; the C++ encoder reads the frame alone (benches
+        override this to let it see the anchor too)."""
+        return self.encoder(images)
+
     def forward(self, images, anchors=None):  # [B, 3, H, W] in [-1, 1]
-        quant = self.quantizer(self.encoder(images))
+        quant = self.quantizer(self.latents(images, anchors))
         recon = self.decode(quant["z_q"], anchors)
         error = (recon - images).abs()
         recon_l1 = error.mean()
@@ -279,9 +284,10 @@ def load_checkpoint(path):
 
 
 @torch.no_grad()
-def encode(model, frames):  # [n, 3, S, S] -> [n, g, g] int64
-    return torch.cat([model.quantizer(model.encoder(frames[i:i + CHUNK]))["indices"]
-                      for i in range(0, len(frames), CHUNK)])
+def encode(model, frames, anchors=None):  # [n, 3, S, S] -> [n, g, g] int64
+    return torch.cat([model.quantizer(model.latents(
+        frames[i:i + CHUNK], None if anchors is None else anchors[i:i + CHUNK]))["indices"]
+        for i in range(0, len(frames), CHUNK)])
 
 
 @torch.no_grad()

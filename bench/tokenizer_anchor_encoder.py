@@ -1,0 +1,260 @@
+#!/usr/bin/python3
+"""Issue 20, goal 1: an encoder that sees the anchor too, so its codes say what changed.
+
+In `tiny` (docs/tokenizer.md, "Anchor decoder") the decoder reads the anchor but the encoder
+does not: each frame's 64 codes of 10 bits describe the whole frame, and the decoder must work
+out from them which part the anchor already gives. Where the arm moved 10-20 pixels the codes
+redraw it blurred over the block (docs/tokenizer.md, "Teaching the flow to move far"). Here the
+encoder reads the frame and its anchor side by side (6 channels; its first convolution's anchor
+half starts at zero, so at step 0 it is `tiny`'s encoder), as Delta-IRIS's encoder reads the
+previous frame: the same 10 bits a cell can then go to how the cell differs from the anchor.
+
+Trained with the PyTorch twin as bench/tokenizer_anchor_flow.py trains the shipped `tiny`
+(its `flow_change4` variant: 8x8 tokens, 1024 codes, the anchor's flow, change weight 4, 2400
+steps of 16) and scored the same way, paired: steps 1..8 encoded and decoded with the real frame
+0 as anchor, region MSE against copy_last's. Also printed: flicker over steps 1..8 (token
+changes where no pixel changed by over 30 levels, over all token changes; an encoder that reads
+the anchor can keep a still cell's code).
+
+  bench/tokenizer_anchor_encoder.py --train TRAIN --val VAL --variants base seen \
+      --seeds 1 2 [--steps 2400] [--jobs 2] [--save DIR] [--out rows.npz]
+  bench/tokenizer_anchor_encoder.py --val VAL --strip PNG --load DIR --seed 1
+
+--strip: for the 2 episodes where copying's block error is largest, rows of real frames, each
+saved variant's reconstructions (own tokens, real frame 0 as anchor), and copy_last.
+"""
+import argparse
+import os
+import sys
+import time
+
+import cv2
+import numpy as np
+import torch
+
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+import tokenizer_anchor as anchor_bench  # noqa: E402
+import tokenizer_anchor_flow as flow_bench  # noqa: E402
+import tokenizer_goal1 as goal1  # noqa: E402
+from tokenizer_goal1 import twin  # noqa: E402
+
+RECIPE = {**flow_bench.TINY, **flow_bench.VARIANTS["flow_change4"]}  # the shipped `tiny`
+VARIANTS = {"base": ("vq", 0.5), "seen": ("seen", 0.5), "seen_drop0.25": ("seen", 0.25),
+            "continuous": ("continuous", 0.5), "rvq2": ("rvq2", 0.5), "rvq4": ("rvq4", 0.5),
+            "fullres": ("fullres", 0.5)}
+DATA = None  # (train episodes, val episodes), set before the workers fork
+
+
+class AnchorSeeingVqVae(twin.VqVae):
+    """The twin's anchored tokenizer whose encoder reads [frame, anchor] (blank: zeros)."""
+
+    def __init__(self, config):
+        super().__init__(config)
+        first = self.encoder[1]  # after the pixel unshuffle: channel c * f^2 + offset
+        seeing = torch.nn.Conv2d(2 * first.in_channels, first.out_channels, 3, padding=1)
+        with torch.no_grad():  # the frame's half as `tiny`'s, the anchor's half silent
+            seeing.weight.copy_(torch.cat([first.weight, torch.zeros_like(first.weight)], 1))
+            seeing.bias.copy_(first.bias)
+        self.encoder[1] = seeing
+
+    def latents(self, images, anchors=None):
+        anchors = torch.zeros_like(images) if anchors is None else anchors
+        return self.encoder(torch.cat([images, anchors], 1))
+
+
+class Unquantised(torch.nn.Module):
+    """Stands in for the quantiser: the decoder reads the encoder's (unit-length) latents
+    themselves, so what the 8x8 grid could keep with no codebook at all is measured. Its
+    "indices" are those latents and its lookup returns them, so the twin's encode / decode
+    score it unchanged; no codebook terms, nothing to revive."""
+
+    def forward(self, z_e):
+        z = torch.nn.functional.normalize(z_e, dim=1)
+        zero = z_e.new_zeros(())
+        return {"z_q": z, "indices": z, "codebook_loss": zero, "commitment": zero}
+
+    def lookup(self, latents):
+        return latents
+
+    def seed_from_latents(self, *_):
+        pass
+
+    def update_usage_and_reseed(self, *_):
+        pass
+
+
+class ResidualQuantizer(torch.nn.Module):
+    """Residual VQ (SoundStream, RQ-VAE): the first level as `tiny`'s quantiser (cosine lookup),
+    each further one a Euclidean codebook of the same size on what the levels before left of the
+    unit-length latent; the decoder reads their sum (straight-through on the sum). A cell is then
+    `levels` codes; "indices" are [B, levels, h, w] and lookup sums their codes."""
+
+    def __init__(self, num_codes, dim, levels):
+        super().__init__()
+        self.levels = torch.nn.ModuleList(
+            [twin.VectorQuantizer(num_codes, dim, k == 0) for k in range(levels)])
+
+    def forward(self, z_e):
+        outs, z = [], torch.nn.functional.normalize(z_e, dim=1)
+        total = torch.zeros_like(z)
+        for level in self.levels:
+            outs.append(level((z - total).detach() if outs else z_e))
+            total = total + outs[-1]["z_q"].detach()  # the codes' values (forward of the ST)
+        return {"z_q": z + (total - z).detach(), "levels": outs,
+                "indices": torch.stack([o["indices"] for o in outs], 1),
+                "codebook_loss": sum(o["codebook_loss"] for o in outs),
+                "commitment": torch.nn.functional.mse_loss(z, total)}
+
+    def lookup(self, indices):
+        return sum(level.lookup(indices[:, k]) for k, level in enumerate(self.levels))
+
+    @torch.no_grad()
+    def seed_from_latents(self, z_e, rng):
+        z = torch.nn.functional.normalize(z_e, dim=1)
+        total = torch.zeros_like(z)
+        for k, level in enumerate(self.levels):
+            level.seed_from_latents(z_e if k == 0 else z - total, rng)
+            total = total + level(z_e if k == 0 else z - total)["z_q"]
+
+    @torch.no_grad()
+    def update_usage_and_reseed(self, out, dead_after, rng):
+        for level, level_out in zip(self.levels, out["levels"]):
+            level.update_usage_and_reseed(level_out, dead_after, rng)
+
+
+def residual(levels):
+    def make(config):
+        model = twin.VqVae(config)
+        model.quantizer = ResidualQuantizer(config["num_codes"], config["latent_dim"], levels)
+        return model
+    return make
+
+
+class FullResolutionRefined(twin.VqVae):
+    """`tiny` whose decoded frame is refined at full resolution: three 3x3 convolutions (32
+    channels) over [decoded frame, the anchor moved by the flow] add a correction, the last one
+    zero-initialised (so it starts as `tiny`'s decoder). `tiny`'s decoder works at 16x16 and
+    pixel-shuffles 48 channels to 64x64: no layer sees the frame's own pixels, so an edge
+    between a moved arm and a still block can only be drawn as whole 4x4 blocks."""
+
+    def __init__(self, config, channels=32):
+        super().__init__(config)
+        last = torch.nn.Conv2d(channels, 3, 3, padding=1)
+        with torch.no_grad():
+            last.weight.zero_()
+            last.bias.zero_()
+        self.refine = torch.nn.Sequential(
+            torch.nn.Conv2d(6, channels, 3, padding=1), torch.nn.ReLU(),
+            torch.nn.Conv2d(channels, channels, 3, padding=1), torch.nn.ReLU(), last)
+        self.anchor_flow.register_forward_hook(lambda _, __, flow: setattr(self, "flow", flow))
+
+    def decode(self, z_q, anchors=None):
+        frame = super().decode(z_q, anchors)
+        if anchors is None:
+            anchors = torch.zeros_like(frame)
+        moved = twin.move_by_flow(anchors, self.flow)
+        return frame + self.refine(torch.cat([frame, moved], 1))
+
+
+def continuous(config):
+    model = twin.VqVae(config)
+    model.quantizer = Unquantised()
+    return model
+
+
+def build(variant):
+    return {"vq": twin.VqVae, "seen": AnchorSeeingVqVae, "continuous": continuous,
+            "rvq2": residual(2), "rvq4": residual(4),
+            "fullres": FullResolutionRefined}[VARIANTS[variant][0]]
+
+
+def flicker(model, episodes):
+    """Over steps 1..8 of every episode, encoded as scored_frames encodes them (frame 0 as
+    anchor): token changes in still cells over all token changes."""
+    if isinstance(model.quantizer, Unquantised):
+        return float("nan")
+    still, changes = 0, 0
+    for frames, _ in episodes:
+        codes, *_ = flow_bench.scored_frames(model, frames)
+        n = min(len(frames), anchor_bench.HORIZON + 1)
+        if codes.dim() == 4:  # residual levels: a cell changes when any of its codes does
+            codes = (codes << (11 * torch.arange(codes.shape[1]).view(1, -1, 1, 1))).sum(1)
+        s, c, _ = twin.flicker_counts(codes[1:n].numpy(), goal1.to_uint8(frames[1:n]), 8)
+        still, changes = still + s, changes + c
+    return still / max(1, changes)
+
+
+def run(job):
+    variant, seed, steps = job
+    torch.set_num_threads(1)
+    start = time.time()
+    model, _ = anchor_bench.train(RECIPE, steps, VARIANTS[variant][1], DATA[0], seed,
+                                  build=build(variant))
+    if SAVE:
+        torch.save(model.state_dict(), os.path.join(SAVE, f"{variant}_s{seed}.pt"))
+    return job, time.time() - start, flow_bench.per_episode(model, DATA[1]), \
+        flicker(model, DATA[1])
+
+
+def strip(path, load_dir, seed, variants, val):
+    """Real frames, each variant's reconstructions and copy_last for the 2 episodes where
+    copying's block error is largest."""
+    models = []
+    for variant in variants:
+        model = build(variant)({**twin.MODEL_DEFAULTS, **RECIPE})
+        model.load_state_dict(torch.load(os.path.join(load_dir, f"{variant}_s{seed}.pt")))
+        models.append(model.eval())
+    rows = flow_bench.per_episode(models[0], val)
+    order = np.argsort(-np.nan_to_num(rows[:, 5]))[:2]
+    panels = []
+    for e in order:
+        for k, model in enumerate(models):
+            _, real, rec, copy = flow_bench.scored_frames(model, val[e][0])
+            panels += [real] if k == 0 else []
+            panels.append(rec)
+        panels.append(copy)
+    cv2.imwrite(path, np.concatenate([np.concatenate(list(p.clip(0, 255)), 1) for p in panels],
+                                     0).astype(np.uint8)[..., ::-1])
+    print(f"wrote {path} (episodes {order[0]} and {order[1]}; rows: real, "
+          f"{', '.join(variants)}, copy_last)")
+
+
+SAVE = None
+
+
+def main():
+    global DATA, SAVE
+    ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    ap.add_argument("--train")
+    ap.add_argument("--val", required=True)
+    ap.add_argument("--variants", nargs="+", default=["base", "seen"], choices=VARIANTS)
+    ap.add_argument("--seeds", type=int, nargs="+", default=[1, 2])
+    ap.add_argument("--steps", type=int, default=2400)
+    ap.add_argument("--jobs", type=int, default=2)
+    ap.add_argument("--out", help=".npz of every run's per-episode rows")
+    ap.add_argument("--save", metavar="DIR", help="keep each run's weights (VARIANT_sSEED.pt)")
+    ap.add_argument("--strip", metavar="PNG", help="picture of --load's runs of --variants")
+    ap.add_argument("--load", metavar="DIR")
+    ap.add_argument("--seed", type=int, default=1, help="with --strip: which weights seed")
+    args = ap.parse_args()
+    if args.strip:
+        return strip(args.strip, args.load, args.seed, args.variants, goal1.load(args.val, True))
+    if not args.train:
+        ap.error("--train is needed to train variants (or draw saved runs with --strip)")
+    SAVE = args.save
+    if SAVE:
+        os.makedirs(SAVE, exist_ok=True)
+    DATA = (goal1.load(args.train, False), goal1.load(args.val, True))
+    results = flow_bench.run_variants(run, args)
+    print("| variant | weights seed | seconds | PSNR (steps 1-8) | code changes | flicker | "
+          "arm / copy_last | block / copy_last |")
+    print("|---|---|---|---|---|---|---|---|")
+    for (variant, seed), (sec, rows, still) in sorted(results.items()):
+        print(f"| {variant} | {seed} | {sec:.0f} | {rows[:, 0].mean():.2f} | "
+              f"{rows[:, 1].mean():.3f} | {still:.3f} | {flow_bench.ratio(rows, 2):.3f} | "
+              f"{flow_bench.ratio(rows, 4):.3f} |")
+    flow_bench.report_pairs(results, args)
+
+
+if __name__ == "__main__":
+    main()
