@@ -1,13 +1,19 @@
 #!/usr/bin/python3
-"""Issue 20, goal 1: an encoder that sees the anchor too, so its codes say what changed.
+"""Issue 20, goal 1: what do `tiny`'s codes lose? Variants of what a cell's code is.
 
-In `tiny` (docs/tokenizer.md, "Anchor decoder") the decoder reads the anchor but the encoder
-does not: each frame's 64 codes of 10 bits describe the whole frame, and the decoder must work
-out from them which part the anchor already gives. Where the arm moved 10-20 pixels the codes
-redraw it blurred over the block (docs/tokenizer.md, "Teaching the flow to move far"). Here the
-encoder reads the frame and its anchor side by side (6 channels; its first convolution's anchor
-half starts at zero, so at step 0 it is `tiny`'s encoder), as Delta-IRIS's encoder reads the
-previous frame: the same 10 bits a cell can then go to how the cell differs from the anchor.
+In `tiny` (docs/tokenizer.md, "Anchor decoder") each 8x8 cell is one of 1024 codes, chosen by an
+encoder that does not see the anchor the decoder reads. Where the arm moved 10-20 pixels the
+codes redraw it blurred over the block (docs/tokenizer.md, "Teaching the flow to move far").
+Is that the codes' fault, or the network's that draws them? Variants (docs/tokenizer.md, "What
+the codes lose"):
+
+  seen        the encoder reads the frame and its anchor side by side (6 channels; its first
+              convolution's anchor half starts at zero, so at step 0 it is `tiny`'s encoder),
+              as Delta-IRIS's encoder reads the previous frame;
+  rvq2, rvq4  residual VQ of 2 or 4 levels of 1024 codes (ResidualQuantizer): a cell is 2 or 4
+              codes;
+  continuous  no quantiser: the decoder reads the encoder's unit-length latents (the network's
+              ceiling at these steps).
 
 Trained with the PyTorch twin as bench/tokenizer_anchor_flow.py trains the shipped `tiny`
 (its `flow_change4` variant: 8x8 tokens, 1024 codes, the anchor's flow, change weight 4, 2400
@@ -39,9 +45,8 @@ import tokenizer_goal1 as goal1  # noqa: E402
 from tokenizer_goal1 import twin  # noqa: E402
 
 RECIPE = {**flow_bench.TINY, **flow_bench.VARIANTS["flow_change4"]}  # the shipped `tiny`
-VARIANTS = {"base": ("vq", 0.5), "seen": ("seen", 0.5), "seen_drop0.25": ("seen", 0.25),
-            "continuous": ("continuous", 0.5), "rvq2": ("rvq2", 0.5), "rvq4": ("rvq4", 0.5),
-            "fullres": ("fullres", 0.5)}
+VARIANTS = {"base": ("vq", 0.5), "seen": ("seen", 0.5),
+            "continuous": ("continuous", 0.5), "rvq2": ("rvq2", 0.5), "rvq4": ("rvq4", 0.5)}
 DATA = None  # (train episodes, val episodes), set before the workers fork
 
 
@@ -130,32 +135,6 @@ def residual(levels):
     return make
 
 
-class FullResolutionRefined(twin.VqVae):
-    """`tiny` whose decoded frame is refined at full resolution: three 3x3 convolutions (32
-    channels) over [decoded frame, the anchor moved by the flow] add a correction, the last one
-    zero-initialised (so it starts as `tiny`'s decoder). `tiny`'s decoder works at 16x16 and
-    pixel-shuffles 48 channels to 64x64: no layer sees the frame's own pixels, so an edge
-    between a moved arm and a still block can only be drawn as whole 4x4 blocks."""
-
-    def __init__(self, config, channels=32):
-        super().__init__(config)
-        last = torch.nn.Conv2d(channels, 3, 3, padding=1)
-        with torch.no_grad():
-            last.weight.zero_()
-            last.bias.zero_()
-        self.refine = torch.nn.Sequential(
-            torch.nn.Conv2d(6, channels, 3, padding=1), torch.nn.ReLU(),
-            torch.nn.Conv2d(channels, channels, 3, padding=1), torch.nn.ReLU(), last)
-        self.anchor_flow.register_forward_hook(lambda _, __, flow: setattr(self, "flow", flow))
-
-    def decode(self, z_q, anchors=None):
-        frame = super().decode(z_q, anchors)
-        if anchors is None:
-            anchors = torch.zeros_like(frame)
-        moved = twin.move_by_flow(anchors, self.flow)
-        return frame + self.refine(torch.cat([frame, moved], 1))
-
-
 def continuous(config):
     model = twin.VqVae(config)
     model.quantizer = Unquantised()
@@ -164,8 +143,7 @@ def continuous(config):
 
 def build(variant):
     return {"vq": twin.VqVae, "seen": AnchorSeeingVqVae, "continuous": continuous,
-            "rvq2": residual(2), "rvq4": residual(4),
-            "fullres": FullResolutionRefined}[VARIANTS[variant][0]]
+            "rvq2": residual(2), "rvq4": residual(4)}[VARIANTS[variant][0]]
 
 
 def flicker(model, episodes):
@@ -225,13 +203,7 @@ SAVE = None
 def main():
     global DATA, SAVE
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
-    ap.add_argument("--train")
-    ap.add_argument("--val", required=True)
-    ap.add_argument("--variants", nargs="+", default=["base", "seen"], choices=VARIANTS)
-    ap.add_argument("--seeds", type=int, nargs="+", default=[1, 2])
-    ap.add_argument("--steps", type=int, default=2400)
-    ap.add_argument("--jobs", type=int, default=2)
-    ap.add_argument("--out", help=".npz of every run's per-episode rows")
+    flow_bench.add_run_arguments(ap, VARIANTS, ["base", "seen"], [1, 2])
     ap.add_argument("--save", metavar="DIR", help="keep each run's weights (VARIANT_sSEED.pt)")
     ap.add_argument("--strip", metavar="PNG", help="picture of --load's runs of --variants")
     ap.add_argument("--load", metavar="DIR")

@@ -143,16 +143,21 @@ def report_pairs(results, args):
         np.savez(args.out, **{f"{v}_s{s}": rest[1] for (v, s), rest in results.items()})
 
 
-def main():
-    global DATA
-    ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+def add_run_arguments(ap, variants, default_variants, default_seeds):
+    """The options every twin-training bench of this family takes (run_variants, report_pairs)."""
     ap.add_argument("--train")
     ap.add_argument("--val", required=True)
-    ap.add_argument("--variants", nargs="+", default=["base", "change4"], choices=VARIANTS)
-    ap.add_argument("--seeds", type=int, nargs="+", default=[0, 1])
+    ap.add_argument("--variants", nargs="+", default=default_variants, choices=variants)
+    ap.add_argument("--seeds", type=int, nargs="+", default=default_seeds)
     ap.add_argument("--steps", type=int, default=2400)
     ap.add_argument("--jobs", type=int, default=2)
     ap.add_argument("--out", help=".npz of every run's per-episode rows")
+
+
+def main():
+    global DATA
+    ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    add_run_arguments(ap, VARIANTS, ["base", "change4"], [0, 1])
     ap.add_argument("--checkpoints", nargs="+", metavar="RUN_DIR",
                     help="score these wm-tokenize runs instead of training (the first is the base)")
     args = ap.parse_args()

@@ -238,14 +238,7 @@ def probe(run_dir, train, val, steps=800):
 def main():
     global DATA
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
-    ap.add_argument("--train")
-    ap.add_argument("--val", required=True)
-    ap.add_argument("--variants", nargs="+", default=["base", "blur1", "dis0.02"],
-                    choices=VARIANTS)
-    ap.add_argument("--seeds", type=int, nargs="+", default=[1, 2])
-    ap.add_argument("--steps", type=int, default=2400)
-    ap.add_argument("--jobs", type=int, default=2)
-    ap.add_argument("--out", help=".npz of every run's per-episode rows")
+    flow_bench.add_run_arguments(ap, VARIANTS, ["base", "blur1", "dis0.02"], [1, 2])
     ap.add_argument("--show", metavar="RUN_DIR", help="score this wm-tokenize run instead")
     ap.add_argument("--strip", metavar="PNG", help="with --show: the two worst episodes' strip")
     ap.add_argument("--probe", metavar="RUN_DIR",
