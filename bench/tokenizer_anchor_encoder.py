@@ -34,7 +34,6 @@ import os
 import sys
 import time
 
-import cv2
 import numpy as np
 import torch
 
@@ -48,6 +47,7 @@ RECIPE = {**flow_bench.TINY, **flow_bench.VARIANTS["flow_change4"]}  # the shipp
 VARIANTS = {"base": ("vq", 0.5), "seen": ("seen", 0.5),
             "continuous": ("continuous", 0.5), "rvq2": ("rvq2", 0.5), "rvq4": ("rvq4", 0.5)}
 DATA = None  # (train episodes, val episodes), set before the workers fork
+SAVE = None  # where run() keeps each run's weights (--save), or None
 
 
 class AnchorSeeingVqVae(twin.VqVae):
@@ -191,13 +191,9 @@ def strip(path, load_dir, seed, variants, val):
             panels += [real] if k == 0 else []
             panels.append(rec)
         panels.append(copy)
-    cv2.imwrite(path, np.concatenate([np.concatenate(list(p.clip(0, 255)), 1) for p in panels],
-                                     0).astype(np.uint8)[..., ::-1])
+    flow_bench.write_strip(path, panels)
     print(f"wrote {path} (episodes {order[0]} and {order[1]}; rows: real, "
           f"{', '.join(variants)}, copy_last)")
-
-
-SAVE = None
 
 
 def main():

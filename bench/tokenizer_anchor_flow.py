@@ -31,6 +31,7 @@ import os
 import sys
 import time
 
+import cv2
 import numpy as np
 import torch
 
@@ -141,6 +142,12 @@ def report_pairs(results, args):
         print(f"paired, {variant} - {base}, seed {seed}: {paired_line(a, b)}")
     if args.out:
         np.savez(args.out, **{f"{v}_s{s}": rest[1] for (v, s), rest in results.items()})
+
+
+def write_strip(path, rows):
+    """Rows of frames ([n, S, S, 3] RGB levels) one above the other, frames side by side: a PNG."""
+    cv2.imwrite(path, np.concatenate([np.concatenate(list(r.clip(0, 255)), 1) for r in rows],
+                                     0).astype(np.uint8)[..., ::-1])
 
 
 def add_run_arguments(ap, variants, default_variants, default_seeds):

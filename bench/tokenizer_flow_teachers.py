@@ -187,8 +187,8 @@ def show(run_dir, val, strip):
     for e in order[:2]:
         _, real, rec, copy = flow_bench.scored_frames(model, val[e][0])
         error = np.repeat(np.abs(real - rec).mean(-1, keepdims=True), 3, -1) * 3
-        panels += [np.concatenate(list(r.clip(0, 255)), 1) for r in (real, rec, copy, error)]
-    cv2.imwrite(strip, np.concatenate(panels, 0).astype(np.uint8)[..., ::-1])
+        panels += [real, rec, copy, error]
+    flow_bench.write_strip(strip, panels)
     print(f"wrote {strip} (episodes {order[0]} and {order[1]})")
 
 
