@@ -84,8 +84,12 @@ void AddBaselines(EpisodeRecord& rec, const Clip& real, const tokenize::Tokenize
   std::vector<int64_t> true_tokens(static_cast<size_t>((h + 1) * data.tokens_per_frame()));
   data.CopyTokens(rec.episode, 0, h + 1, true_tokens.data());
   const Clip given = SubClip(real, 0, 1);
-  add_clip("tokenizer_recon", DecodeClip(tok, true_tokens, 1, h, given));
-  add_clip("copy_last_tokens", RepeatFrame(DecodeClip(tok, true_tokens, 0, 1, given), 0, h));
+  // Frames 0..h in one batch, as `wm-tokenize decode` does: a batch of one frame rounds
+  // differently on some CPUs (AMD EPYC without AVX-512), so copy_last_tokens' frame 0 decoded
+  // alone could differ by a level from the frame a user decodes with the tool.
+  const Clip decoded = DecodeClip(tok, true_tokens, 0, h + 1, given);
+  add_clip("tokenizer_recon", SubClip(decoded, 1, h));
+  add_clip("copy_last_tokens", RepeatFrame(decoded, 0, h));
   // A copy reads no action: with perturbed ones it is the same clip, ΔtPSNR 0 by construction,
   // the static reference beside plain's row (and in wm-report's vs copy_last).
   for (const char* copy : {"copy_last", "copy_last_tokens"}) {
