@@ -10,8 +10,8 @@ the codes lose"):
   seen        the encoder reads the frame and its anchor side by side (6 channels; its first
               convolution's anchor half starts at zero, so at step 0 it is `tiny`'s encoder),
               as Delta-IRIS's encoder reads the previous frame;
-  rvq2, rvq4  residual VQ of 2 or 4 levels of 1024 codes (ResidualQuantizer): a cell is 2 or 4
-              codes;
+  rvq2, rvq4  residual VQ of 2 or 4 levels of 1024 codes (model.levels, as the C++ tokenizer):
+              a cell is 2 or 4 codes (in session 52 a prototype of it, docs/tokenizer.md);
   continuous  no quantiser: the decoder reads the encoder's unit-length latents (the network's
               ceiling at these steps).
 
@@ -88,51 +88,9 @@ class Unquantised(torch.nn.Module):
         pass
 
 
-class ResidualQuantizer(torch.nn.Module):
-    """Residual VQ (SoundStream, RQ-VAE): the first level as `tiny`'s quantiser (cosine lookup),
-    each further one a Euclidean codebook of the same size on what the levels before left of the
-    unit-length latent; the decoder reads their sum (straight-through on the sum). A cell is then
-    `levels` codes; "indices" are [B, levels, h, w] and lookup sums their codes."""
-
-    def __init__(self, num_codes, dim, levels):
-        super().__init__()
-        self.levels = torch.nn.ModuleList(
-            [twin.VectorQuantizer(num_codes, dim, k == 0) for k in range(levels)])
-
-    def forward(self, z_e):
-        outs, z = [], torch.nn.functional.normalize(z_e, dim=1)
-        total = torch.zeros_like(z)
-        for level in self.levels:
-            outs.append(level((z - total).detach() if outs else z_e))
-            total = total + outs[-1]["z_q"].detach()  # the codes' values (forward of the ST)
-        return {"z_q": z + (total - z).detach(), "levels": outs,
-                "indices": torch.stack([o["indices"] for o in outs], 1),
-                "codebook_loss": sum(o["codebook_loss"] for o in outs),
-                "commitment": torch.nn.functional.mse_loss(z, total)}
-
-    def lookup(self, indices):
-        return sum(level.lookup(indices[:, k]) for k, level in enumerate(self.levels))
-
-    @torch.no_grad()
-    def seed_from_latents(self, z_e, rng):
-        z = torch.nn.functional.normalize(z_e, dim=1)
-        total = torch.zeros_like(z)
-        for k, level in enumerate(self.levels):
-            level.seed_from_latents(z_e if k == 0 else z - total, rng)
-            total = total + level(z_e if k == 0 else z - total)["z_q"]
-
-    @torch.no_grad()
-    def update_usage_and_reseed(self, out, dead_after, rng):
-        for level, level_out in zip(self.levels, out["levels"]):
-            level.update_usage_and_reseed(level_out, dead_after, rng)
-
-
 def residual(levels):
-    def make(config):
-        model = twin.VqVae(config)
-        model.quantizer = ResidualQuantizer(config["num_codes"], config["latent_dim"], levels)
-        return model
-    return make
+    """tiny with model.levels = `levels`: the twin's (and the C++) residual quantiser."""
+    return lambda config: twin.VqVae({**config, "levels": levels})
 
 
 def continuous(config):
@@ -155,8 +113,6 @@ def flicker(model, episodes):
     for frames, _ in episodes:
         codes, *_ = flow_bench.scored_frames(model, frames)
         n = min(len(frames), anchor_bench.HORIZON + 1)
-        if codes.dim() == 4:  # residual levels: a cell changes when any of its codes does
-            codes = (codes << (11 * torch.arange(codes.shape[1]).view(1, -1, 1, 1))).sum(1)
         s, c, _ = twin.flicker_counts(codes[1:n].numpy(), goal1.to_uint8(frames[1:n]), 8)
         still, changes = still + s, changes + c
     return still / max(1, changes)

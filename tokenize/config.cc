@@ -37,6 +37,7 @@ void VisitFields(Config& c, F&& f) {
   f("model", "anchor_decoder", m.anchor_decoder);
   f("model", "anchor_flow", m.anchor_flow);
   f("model", "change_weight", m.change_weight);
+  f("model", "levels", m.levels);
   auto& t = c.train;
   trainkit::VisitOptimizerFields(t, f);
   trainkit::VisitRunFields(t, f);
@@ -86,6 +87,7 @@ void ValidateConfig(const TokenizerConfig& c, const std::string& file) {
   require(m.decoder_layers >= 0, "model.decoder_layers", "must be >= 0");
   require(m.latent_dim > 0, "model.latent_dim", "must be > 0");
   require(m.num_codes >= 2, "model.num_codes", "must be >= 2");
+  require(m.levels >= 1 && m.levels <= 8, "model.levels", "must be in [1, 8]");
   require(m.beta >= 0, "model.beta", "must be >= 0");
   require(m.dead_code_steps >= 0, "model.dead_code_steps", "must be >= 0");
   require(m.detail_weight >= 0, "model.detail_weight", "must be >= 0");

@@ -21,7 +21,9 @@ struct ModelConfig {
   int min_channels = 0;         // width halves per level above token resolution, down to this
                                 // (0: constant width); cheap full-resolution layers on CPU
   int latent_dim = 32;          // code vector size
-  int num_codes = 1024;         // codebook size
+  int num_codes = 1024;         // codebook size (of each level)
+  int levels = 1;               // residual VQ levels: codes per cell (docs/tokenizer.md,
+                                // "Residual levels"); 1 = plain VQ
   bool l2_normalize = true;     // nearest code by cosine: latents and codes are L2-normalised
   double beta = 0.25;           // commitment weight
   int dead_code_steps = 100;    // a code unused for this many steps is re-seeded (0 = never)

@@ -67,7 +67,7 @@ std::vector<uint32_t> Tokenizer::Encode(const float* frames, int64_t n) const {
   for (int64_t i = 0; i < n; i += kChunk) {
     const int64_t m = std::min(kChunk, n - i);
     torch::Tensor z = state_->model->Encode(state_->Frames(frames + i * floats, m));
-    torch::Tensor idx = state_->model->quantizer->NearestIndices(z).to(torch::kCPU);  // [m,g,g]
+    torch::Tensor idx = state_->model->quantizer->NearestIndices(z).to(torch::kCPU);  // [m,L,g,g]
     const int64_t* p = idx.contiguous().data_ptr<int64_t>();
     std::copy(p, p + m * per_frame, codes.begin() + i * per_frame);
   }
@@ -77,6 +77,10 @@ std::vector<uint32_t> Tokenizer::Encode(const float* frames, int64_t n) const {
 std::vector<uint32_t> Tokenizer::EncodeEpisode(const float* frames, int64_t n,
                                                double margin) const {
   if (margin <= 0) return Encode(frames, n);
+  Check(levels() == 1,
+        "code hysteresis keeps one code per cell; this tokenizer has model.levels = " +
+            std::to_string(levels()),
+        {.file = state_->path});
   torch::NoGradGuard no_grad;
   const int64_t floats = 3 * int64_t{image_size()} * image_size();
   std::vector<torch::Tensor> latents;
@@ -105,7 +109,9 @@ std::vector<float> Tokenizer::Decode(const uint32_t* codes, int64_t n, const flo
                 std::to_string(config().model.num_codes),
             {.file = state_->path});
     }
-    torch::Tensor idx = torch::tensor(wide, torch::kInt64).view({m, g, g}).to(state_->device);
+    torch::Tensor idx = torch::tensor(wide, torch::kInt64).view({m, levels(), g, g});
+    if (levels() == 1) idx = idx.squeeze(1);
+    idx = idx.to(state_->device);
     torch::Tensor anchor;
     if (anchors != nullptr && anchored()) anchor = state_->Frames(anchors + i * floats, m);
     torch::Tensor img = state_->model->Decode(state_->model->quantizer->Lookup(idx), anchor);

@@ -32,18 +32,21 @@ class Tokenizer {
   const std::string& config_hash() const;
   int image_size() const { return config().model.image_size; }
   int grid() const { return config().model.image_size / config().model.patch_size; }
-  int64_t tokens_per_frame() const { return int64_t{grid()} * grid(); }
+  // Codes per cell (model.levels): a frame's codes are [levels, g, g], level-major.
+  int levels() const { return config().model.levels; }
+  int64_t tokens_per_frame() const { return int64_t{levels()} * grid() * grid(); }
 
   // Whether the decoder reads an anchor frame (model.anchor_decoder): frames are then decoded
   // from their tokens and an earlier real frame of the episode (docs/tokenizer.md).
   bool anchored() const { return config().model.anchor_decoder; }
 
   // frames: [n, 3, S, S] planar RGB floats in [-1, 1] (tokenize::DecodeFrame's layout).
-  std::vector<uint32_t> Encode(const float* frames, int64_t n) const;  // -> [n, g, g]
+  std::vector<uint32_t> Encode(const float* frames, int64_t n) const;  // -> [n, levels, g, g]
   // The n frames of one episode, in order, with code hysteresis `margin`
   // (VectorQuantizer::StickyIndices; 0 = Encode): what `wm-tokenize encode --hysteresis` stores.
+  // margin > 0 needs one level (throws wm::Error naming the checkpoint otherwise).
   std::vector<uint32_t> EncodeEpisode(const float* frames, int64_t n, double margin) const;
-  // -> [n, 3, S, S]. `anchors`: [n, 3, S, S] like frames, one per decoded frame, or null (no
+  // codes [n, levels, g, g] -> [n, 3, S, S]. `anchors`: [n, 3, S, S] like frames, one per decoded frame, or null (no
   // anchor: what an anchored tokenizer's tokens say alone). Ignored unless anchored().
   std::vector<float> Decode(const uint32_t* codes, int64_t n, const float* anchors = nullptr) const;
   // Decode(Encode(frames), anchors), clamped to [-1, 1] like Decode.

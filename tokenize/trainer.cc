@@ -200,8 +200,8 @@ class Validation {
     for (std::vector<float>& e : episodes_) {
       const int64_t n = static_cast<int64_t>(e.size() / frame_floats);
       torch::Tensor images = torch::from_blob(e.data(), {n, 3, size_, size_}).to(device);
-      torch::Tensor codes = model->quantizer->forward(model->Encode(images))
-                                .indices.to(torch::kCPU, torch::kInt64)
+      torch::Tensor codes = CellCodes(model->quantizer->forward(model->Encode(images)).indices)
+                                .to(torch::kCPU, torch::kInt64)
                                 .contiguous();  // [n, g, g]
       std::vector<uint8_t> rgb;
       rgb.reserve(static_cast<size_t>(n) * frame_floats);

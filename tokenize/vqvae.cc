@@ -119,6 +119,14 @@ VectorQuantizerImpl::VectorQuantizerImpl(QuantizerOptions options) : options(opt
   codebook = register_parameter("codebook", init);
   steps_since_used =
       register_buffer("steps_since_used", torch::zeros({options.num_codes}, torch::kInt64));
+  // Residual levels quantise differences of unit vectors, not directions: Euclidean lookup.
+  QuantizerOptions level = options;
+  level.l2_normalize = false;
+  level.levels = 1;
+  for (int64_t k = 1; k < options.levels; ++k) {
+    residual.push_back(register_module("level" + std::to_string(k),
+                                       std::make_shared<VectorQuantizerImpl>(level)));
+  }
 }
 
 torch::Tensor VectorQuantizerImpl::Unit(const torch::Tensor& x) const {
@@ -161,19 +169,46 @@ torch::Tensor VectorQuantizerImpl::NearestCodes(const torch::Tensor& flat,
   return idx;
 }
 
+std::vector<VectorQuantizerImpl::Choice> VectorQuantizerImpl::Choose(
+    const torch::Tensor& flat, const std::function<void(int64_t, const torch::Tensor&)>& before) {
+  std::vector<Choice> out;
+  torch::Tensor total;  // the codes chosen so far, summed (no gradient)
+  for (int64_t k = 0; k < levels(); ++k) {
+    const torch::Tensor input = k == 0 ? flat.detach() : flat.detach() - total;
+    if (before) before(k, input);
+    const torch::Tensor codes = Level(k).Codes();
+    torch::Tensor idx = NearestCodes(input, codes);
+    torch::Tensor q = codes.index_select(0, idx);
+    total = k == 0 ? q.detach() : total + q.detach();
+    out.push_back({input, idx, q});
+  }
+  return out;
+}
+
+torch::Tensor VectorQuantizerImpl::StackIndices(const std::vector<torch::Tensor>& indices,
+                                                int64_t B, int64_t h, int64_t w) const {
+  if (indices.size() == 1) return indices[0].view({B, h, w});
+  const int64_t L = static_cast<int64_t>(indices.size());
+  return torch::stack(indices, 1).view({B, h, w, L}).permute({0, 3, 1, 2}).contiguous();
+}
+
 QuantizerOutput VectorQuantizerImpl::forward(const torch::Tensor& z_e) {
   const int64_t B = z_e.size(0), D = z_e.size(1), h = z_e.size(2), w = z_e.size(3);
   const torch::Tensor flat = Unit(z_e.permute({0, 2, 3, 1}).reshape({-1, D}));  // [N, D]
-  const torch::Tensor codes = Codes();                                          // [K, D]
   QuantizerOutput out;
-  torch::Tensor idx = NearestCodes(flat, codes);      // [N]
-  torch::Tensor q = codes.index_select(0, idx);       // [N, D]
-  out.codebook_loss = F::mse_loss(q, flat.detach());  // VQ-VAE eq. 3, second term
-  out.commitment = F::mse_loss(flat, q.detach());     // VQ-VAE eq. 3, third term (x beta)
-  torch::Tensor st = flat + (q - flat).detach();      // straight-through estimator
+  torch::Tensor total;  // [N, D], the levels' codes summed (no gradient)
+  for (const Choice& c : Choose(flat)) {
+    torch::Tensor loss = F::mse_loss(c.codes, c.input);  // VQ-VAE eq. 3, second term
+    out.codebook_loss = out.codebook_loss.defined() ? out.codebook_loss + loss : loss;
+    total = total.defined() ? total + c.codes.detach() : c.codes.detach();
+    out.level_inputs.push_back(c.input);
+    out.level_indices.push_back(c.indices);
+  }
+  out.commitment = F::mse_loss(flat, total);        // VQ-VAE eq. 3, third term (x beta)
+  torch::Tensor st = flat + (total - flat).detach();  // straight-through estimator
   out.z_q = st.view({B, h, w, D}).permute({0, 3, 1, 2}).contiguous();  // [B, D, h, w]
-  out.indices = idx.view({B, h, w});
-  out.flat_latents = flat.detach();
+  out.indices = StackIndices(out.level_indices, B, h, w);
+  const torch::Tensor& idx = out.level_indices[0];
   torch::Tensor counts = torch::bincount(idx, {}, options.num_codes).to(torch::kDouble);
   torch::Tensor p = counts / static_cast<double>(idx.size(0));
   out.perplexity = torch::exp(-(p * torch::log(p + 1e-10)).sum()).item<double>();
@@ -184,10 +219,13 @@ QuantizerOutput VectorQuantizerImpl::forward(const torch::Tensor& z_e) {
 torch::Tensor VectorQuantizerImpl::NearestIndices(const torch::Tensor& z_e) {
   const int64_t B = z_e.size(0), D = z_e.size(1), h = z_e.size(2), w = z_e.size(3);
   const torch::Tensor flat = Unit(z_e.permute({0, 2, 3, 1}).reshape({-1, D}));  // [N, D]
-  return NearestCodes(flat, Codes()).view({B, h, w});
+  std::vector<torch::Tensor> indices;
+  for (const Choice& c : Choose(flat)) indices.push_back(c.indices);
+  return StackIndices(indices, B, h, w);
 }
 
 torch::Tensor VectorQuantizerImpl::StickyIndices(const torch::Tensor& z_e, double margin) {
+  TORCH_CHECK(residual.empty(), "code hysteresis needs one quantiser level");
   torch::NoGradGuard no_grad;
   const int64_t T = z_e.size(0), D = z_e.size(1), h = z_e.size(2), w = z_e.size(3);
   const torch::Tensor flat = Unit(z_e.permute({0, 2, 3, 1}).reshape({T, h * w, D}));
@@ -204,39 +242,64 @@ torch::Tensor VectorQuantizerImpl::StickyIndices(const torch::Tensor& z_e, doubl
 }
 
 torch::Tensor VectorQuantizerImpl::Lookup(const torch::Tensor& indices) {
-  return Codes()
-      .index_select(0, indices.flatten())
-      .view({indices.size(0), indices.size(1), indices.size(2), options.dim})
-      .permute({0, 3, 1, 2})
-      .contiguous();  // [B, D, h, w]
+  const bool stacked = indices.dim() == 4;
+  const int64_t B = indices.size(0), h = indices.size(-2), w = indices.size(-1);
+  torch::Tensor total;  // [N, D]
+  for (int64_t k = 0; k < (stacked ? indices.size(1) : 1); ++k) {
+    const torch::Tensor level = stacked ? indices.select(1, k) : indices;
+    torch::Tensor q = Level(k).Codes().index_select(0, level.flatten());
+    total = total.defined() ? total + q : q;
+  }
+  return total.view({B, h, w, options.dim}).permute({0, 3, 1, 2}).contiguous();  // [B, D, h, w]
+}
+
+void VectorQuantizerImpl::SeedCodebook(const torch::Tensor& input, std::mt19937_64& rng) {
+  std::vector<int64_t> src(static_cast<size_t>(options.num_codes));
+  for (auto& s : src) s = static_cast<int64_t>(rng() % static_cast<uint64_t>(input.size(0)));
+  torch::Tensor src_t = torch::tensor(src, torch::kInt64).to(codebook.device());
+  codebook.copy_(input.index_select(0, src_t).to(codebook.dtype()));
 }
 
 void VectorQuantizerImpl::SeedFromLatents(const torch::Tensor& z_e, std::mt19937_64& rng) {
   torch::NoGradGuard no_grad;
   const torch::Tensor flat = Unit(z_e.permute({0, 2, 3, 1}).reshape({-1, options.dim}));
-  std::vector<int64_t> src(static_cast<size_t>(options.num_codes));
-  for (auto& s : src) s = static_cast<int64_t>(rng() % static_cast<uint64_t>(flat.size(0)));
-  torch::Tensor src_t = torch::tensor(src, torch::kInt64).to(codebook.device());
-  codebook.copy_(flat.index_select(0, src_t).to(codebook.dtype()));
+  Choose(flat, [&](int64_t k, const torch::Tensor& input) { Level(k).SeedCodebook(input, rng); });
 }
 
-int64_t VectorQuantizerImpl::UpdateUsageAndReseed(const QuantizerOutput& out, int64_t dead_after,
-                                                  std::mt19937_64& rng) {
-  torch::NoGradGuard no_grad;
-  torch::Tensor used = torch::bincount(out.indices.flatten(), {}, options.num_codes) > 0;
+int64_t VectorQuantizerImpl::ReseedDead(const torch::Tensor& indices, const torch::Tensor& inputs,
+                                        int64_t dead_after, std::mt19937_64& rng) {
+  torch::Tensor used = torch::bincount(indices, {}, options.num_codes) > 0;
   steps_since_used.add_(1).masked_fill_(used, 0);
   if (dead_after <= 0) return 0;
   torch::Tensor dead = (steps_since_used >= dead_after).nonzero().flatten().cpu();  // [n]
   const int64_t n = dead.size(0);
   if (n == 0) return 0;
-  const uint64_t pool = static_cast<uint64_t>(out.flat_latents.size(0));
+  const uint64_t pool = static_cast<uint64_t>(inputs.size(0));
   std::vector<int64_t> src(n);
   for (auto& s : src) s = static_cast<int64_t>(rng() % pool);
   torch::Tensor src_t = torch::tensor(src, torch::kInt64).to(codebook.device());
   torch::Tensor dead_t = dead.to(codebook.device());
-  codebook.index_copy_(0, dead_t, out.flat_latents.index_select(0, src_t).to(codebook.dtype()));
+  codebook.index_copy_(0, dead_t, inputs.index_select(0, src_t).to(codebook.dtype()));
   steps_since_used.index_fill_(0, dead_t, 0);
   return n;
+}
+
+int64_t VectorQuantizerImpl::UpdateUsageAndReseed(const QuantizerOutput& out, int64_t dead_after,
+                                                  std::mt19937_64& rng) {
+  torch::NoGradGuard no_grad;
+  int64_t reseeded = 0;
+  for (int64_t k = 0; k < levels(); ++k) {
+    reseeded += Level(k).ReseedDead(out.level_indices[k], out.level_inputs[k], dead_after, rng);
+  }
+  return reseeded;
+}
+
+torch::Tensor CellCodes(const torch::Tensor& indices) {
+  if (indices.dim() == 3) return indices;
+  const int64_t T = indices.size(0), L = indices.size(1), h = indices.size(2), w = indices.size(3);
+  torch::Tensor tuples = indices.permute({0, 2, 3, 1}).reshape({-1, L});
+  return std::get<1>(at::unique_dim(tuples, 0, /*sorted=*/true, /*return_inverse=*/true))
+      .view({T, h, w});
 }
 
 torch::Tensor MoveByFlow(const torch::Tensor& images, const torch::Tensor& flow) {
@@ -340,7 +403,8 @@ VqVaeImpl::VqVaeImpl(const ModelConfig& c) : config(c) {
       register_module("quantizer", VectorQuantizer(QuantizerOptions{.num_codes = c.num_codes,
                                                                     .dim = c.latent_dim,
                                                                     .l2_normalize = c.l2_normalize,
-                                                                    .beta = c.beta}));
+                                                                    .beta = c.beta,
+                                                                    .levels = c.levels}));
   if (c.anchor_flow) {  // created last: the other layers draw the weights they drew without it
     anchor_flow = register_module(
         "anchor_flow", torch::nn::Conv2d(Conv2dOptions(top, 2, 3).padding(1)));

@@ -4,7 +4,10 @@
 // use tokenize/trainer.h.
 #include <torch/torch.h>
 
+#include <functional>
+#include <memory>
 #include <random>
+#include <vector>
 
 #include "tokenize/config.h"
 
@@ -15,39 +18,51 @@ struct QuantizerOptions {
   int64_t dim = 32;
   bool l2_normalize = true;  // cosine lookup; quantised vectors are unit codes
   double beta = 0.25;
+  // Residual VQ (SoundStream, RQ-VAE; model.levels): level 0 as above, each further level a
+  // Euclidean codebook of num_codes on what the levels before left of the (unit) latent.
+  int64_t levels = 1;
 };
 
 struct QuantizerOutput {
-  torch::Tensor z_q;            // [B, D, h, w] straight-through: forward = code, grad -> z_e
-  torch::Tensor indices;        // [B, h, w] int64
-  torch::Tensor codebook_loss;  // ||sg(z_e) - e||^2 (mean)
-  torch::Tensor commitment;     // ||z_e - sg(e)||^2 (mean), weighted by beta in the loss
-  torch::Tensor flat_latents;   // [B*h*w, D] detached (normalised if l2_normalize): re-seeding
-  double perplexity = 0;        // exp(entropy of the batch's code histogram)
-  double usage = 0;             // fraction of codes used in the batch
+  torch::Tensor z_q;            // [B, D, h, w] straight-through: forward = the levels' codes
+                                // summed, grad -> z_e
+  torch::Tensor indices;        // [B, h, w] int64; [B, levels, h, w] with residual levels
+  torch::Tensor codebook_loss;  // sum over levels of ||sg(level input) - e||^2 (mean)
+  torch::Tensor commitment;     // ||z_e - sg(codes summed)||^2 (mean), weighted by beta
+  // Per level: what it quantised [B*h*w, D] (detached; level 0: the latents, normalised if
+  // l2_normalize; level k: their residual after levels 0..k-1) and its choices [B*h*w], for
+  // the dead-code re-seeding of each codebook.
+  std::vector<torch::Tensor> level_inputs, level_indices;
+  double perplexity = 0;  // exp(entropy of the batch's level-0 code histogram)
+  double usage = 0;       // fraction of level 0's codes used in the batch
 };
 
 struct VectorQuantizerImpl : torch::nn::Module {
   explicit VectorQuantizerImpl(QuantizerOptions options);
-  QuantizerOutput forward(const torch::Tensor& z_e);   // z_e: [B, D, h, w]
-  torch::Tensor Lookup(const torch::Tensor& indices);  // [B, h, w] -> [B, D, h, w]
-  // forward()'s indices [B, h, w] alone, without its losses, straight-through output and code
+  QuantizerOutput forward(const torch::Tensor& z_e);  // z_e: [B, D, h, w]
+  // [B, h, w] (or [B, levels, h, w]) -> [B, D, h, w]: the levels' codes summed.
+  torch::Tensor Lookup(const torch::Tensor& indices);
+  // forward()'s indices alone, without its losses, straight-through output and code
   // statistics: what encoding needs.
   torch::Tensor NearestIndices(const torch::Tensor& z_e);
   // Codes of consecutive frames z_e [T, D, h, w] with hysteresis: a cell keeps the previous
   // frame's code while that code is within `margin` of the nearest one (in the lookup's squared
   // distance; cosine lookup: 2 - 2 cos), so near-synonym codes stop flipping on unchanged
-  // cells. margin 0 = forward()'s indices. -> [T, h, w] int64.
+  // cells. margin 0 = forward()'s indices. -> [T, h, w] int64. One level only.
   torch::Tensor StickyIndices(const torch::Tensor& z_e, double margin);
 
-  // Dead-code handling: codes not chosen for `dead_after` consecutive steps are replaced by
-  // latents drawn (with `rng`) from this batch. Returns how many codes were re-seeded.
+  // Dead-code handling, per level: codes not chosen for `dead_after` consecutive steps are
+  // replaced by that level's inputs drawn (with `rng`) from this batch. Returns how many codes
+  // were re-seeded.
   int64_t UpdateUsageAndReseed(const QuantizerOutput& out, int64_t dead_after,
                                std::mt19937_64& rng);
   // Data-dependent init: every code becomes an encoder output drawn (with `rng`) from
   // `z_e` [B, D, h, w], so training starts with a codebook that covers the data instead of
-  // collapsing onto a few codes for the first hundred steps.
+  // collapsing onto a few codes for the first hundred steps; each residual level then from
+  // the residuals that the seeded levels before it leave.
   void SeedFromLatents(const torch::Tensor& z_e, std::mt19937_64& rng);
+
+  int64_t levels() const { return 1 + static_cast<int64_t>(residual.size()); }
 
   // `x` [..., D] as the lookup compares it: unit vectors with l2_normalize, else unchanged.
   torch::Tensor Unit(const torch::Tensor& x) const;
@@ -61,8 +76,32 @@ struct VectorQuantizerImpl : torch::nn::Module {
   QuantizerOptions options;
   torch::Tensor codebook;          // [K, D] parameter
   torch::Tensor steps_since_used;  // [K] int64 buffer (checkpointed)
+  // Levels 1.. of residual VQ, submodules "level1", "level2", ... (one level: none, so a
+  // one-level checkpoint's names are unchanged).
+  std::vector<std::shared_ptr<VectorQuantizerImpl>> residual;
+
+ private:
+  VectorQuantizerImpl& Level(int64_t k) { return k == 0 ? *this : *residual[k - 1]; }
+  // Each level's nearest codes for `flat` [N, D] (unit latents): level k quantises the flat
+  // latents minus the codes levels 0..k-1 chose. `before(k, input)` runs first (re-seeding).
+  struct Choice {
+    torch::Tensor input, indices, codes;  // [N, D] detached, [N], [N, D] (with grad)
+  };
+  std::vector<Choice> Choose(
+      const torch::Tensor& flat,
+      const std::function<void(int64_t, const torch::Tensor&)>& before = nullptr);
+  // [N] per level -> [B, h, w], or [B, levels, h, w].
+  torch::Tensor StackIndices(const std::vector<torch::Tensor>& indices, int64_t B, int64_t h,
+                             int64_t w) const;
+  void SeedCodebook(const torch::Tensor& input, std::mt19937_64& rng);
+  int64_t ReseedDead(const torch::Tensor& indices, const torch::Tensor& inputs,
+                     int64_t dead_after, std::mt19937_64& rng);
 };
 TORCH_MODULE(VectorQuantizer);
+
+// Indices [T, h, w] as they are, or [T, levels, h, w] -> [T, h, w] int64 where two cells are
+// equal when all their levels' codes are: one code per cell, for counting flicker.
+torch::Tensor CellCodes(const torch::Tensor& indices);
 
 struct VqVaeOutput {
   torch::Tensor reconstruction;  // [B, 3, H, W] in [-1, 1] (not clamped)

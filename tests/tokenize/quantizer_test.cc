@@ -49,6 +49,41 @@ TEST(Quantizer, CommitmentAndCodebookLossesTrainTheirOwnSide) {
   EXPECT_GT(q->codebook.grad().abs().sum().item<float>(), 0);
 }
 
+// model.levels 2: level 1 (Euclidean) quantises what level 0 left; the decoder reads the sum.
+TEST(Quantizer, ResidualLevelQuantisesWhatTheFirstLeft) {
+  VectorQuantizer q(QuantizerOptions{.num_codes = 4, .dim = 2, .l2_normalize = false, .levels = 2});
+  {
+    torch::NoGradGuard no_grad;
+    q->codebook.copy_(torch::tensor({1.f, 0.f, 0.f, 1.f, -1.f, 0.f, 0.f, -1.f}).view({4, 2}));
+    q->residual[0]->codebook.copy_(
+        torch::tensor({0.f, 0.f, 0.1f, 0.2f, -0.1f, -0.1f, 0.f, -1.f}).view({4, 2}));
+  }
+  ASSERT_EQ(q->levels(), 2);
+  EXPECT_FALSE(q->residual[0]->options.l2_normalize);
+  torch::Tensor z = Latents({0.9f, 0.2f, -0.1f, -2.f}).requires_grad_(true);
+  QuantizerOutput out = q->forward(z);
+  // Latent 0 (0.9, 0.2): level 0 (1, 0), residual (-0.1, 0.2) -> level-1 code 1 (0.1, 0.2) at
+  // squared distance 0.04 (code 0 at 0.05, code 2 at 0.09). Latent 1 (-0.1, -2): level 0
+  // (0, -1), residual (-0.1, -1) -> code 3 (0, -1) at 0.01.
+  EXPECT_EQ(out.indices.sizes(), (std::vector<int64_t>{1, 2, 1, 2}));
+  EXPECT_EQ(out.indices[0][0].flatten()[0].item<int64_t>(), 0);
+  EXPECT_EQ(out.indices[0][0].flatten()[1].item<int64_t>(), 3);
+  EXPECT_EQ(out.indices[0][1].flatten()[0].item<int64_t>(), 1);
+  EXPECT_EQ(out.indices[0][1].flatten()[1].item<int64_t>(), 3);
+  const torch::Tensor sum = Latents({1.1f, 0.2f, 0.f, -2.f});
+  EXPECT_TRUE(torch::allclose(out.z_q, sum));
+  EXPECT_TRUE(torch::allclose(q->Lookup(out.indices), sum));
+  EXPECT_TRUE(torch::equal(q->NearestIndices(z), out.indices));
+  // ||z - sum||^2: (0.2^2 + 0 + 0.1^2 + 0) / 4; level losses: level 0's 1.06 / 4, level 1's
+  // ((-0.2)^2 + 0 + 0.1^2 + 0) / 4.
+  EXPECT_NEAR(out.commitment.item<double>(), 0.05 / 4, 1e-6);
+  EXPECT_NEAR(out.codebook_loss.item<double>(), (1.06 + 0.05) / 4, 1e-6);
+  ASSERT_EQ(out.level_inputs.size(), 2u);
+  EXPECT_TRUE(torch::allclose(out.level_inputs[1], torch::tensor({-0.1f, 0.2f, -0.1f, -1.f})
+                                                       .view({2, 2})));
+  EXPECT_TRUE(torch::equal(CellCodes(out.indices), torch::tensor({0, 1}).view({1, 1, 2})));
+}
+
 TEST(Quantizer, L2NormalisedLookupUsesDirectionNotLength) {
   VectorQuantizer q = AxisQuantizer(true);
   // (5, 0.1) is far from code 0 in Euclidean terms but points the same way.

@@ -7,7 +7,8 @@ levels), L2-normalised lookup and the detail-weighted L1
 (model.detail_weight), B with Euclidean lookup, constant width, a pixel-unshuffle
 stem (factor 2) and 2 levels, C with the anchor decoder (model.anchor_decoder; anchors drawn as
 FrameSampler::TrainingAnchors, and the previous frame in the inference checks), D with the
-anchor's flow and the change weight (model.anchor_flow, model.change_weight). For each,
+anchor's flow and the change weight (model.anchor_flow, model.change_weight), E with 3 residual
+levels (model.levels: codes [n, 3, g, g], each residual codebook re-seeded on its own). For each,
 the twin loads checkpoint.wmt with its own archive reader and must give, on the set's frames plus
 random frames (tokenizer_ref_tool runs the C++ side):
   - identical codes (Tokenizer::Encode), reconstructions and encoder features within 1e-5;
@@ -16,7 +17,8 @@ random frames (tokenizer_ref_tool runs the C++ side):
     a checkpoint equal to the C++ one bit for bit: weights, AdamW moments, dead-code counters
     and the dead-code RNG state.
 Also: val.csv's flicker and token_change_rate equal the twin's count (vqvae_twin.flicker_counts);
-`wm-tokenize encode` stores the twin's codes; corrupt or missing checkpoints fail cleanly.
+`wm-tokenize encode` stores the twin's codes, and refuses a residual tokenizer (token datasets
+hold one code per cell) naming it; corrupt or missing checkpoints fail cleanly.
 """
 import json
 import os
@@ -66,6 +68,13 @@ model: {image_size: 32, patch_size: 8, stem_factor: 4, encoder_channels: 16, enc
         anchor_decoder: true, anchor_flow: true, change_weight: 4}
 train: {batch_size: 8, steps: 20, max_lr: 3.0e-3, min_lr: 3.0e-4, warmup_steps: 3, threads: 1,
         seed: 6, checkpoint_every: 20, log_every: 5, anchor_max_gap: 3, anchor_dropout: 0.4}
+""",
+    "E (3 residual levels, cosine first level, pixel-unshuffle stem)": """
+model: {image_size: 32, patch_size: 8, stem_factor: 2, encoder_channels: 16, encoder_layers: 1,
+        decoder_channels: 16, decoder_layers: 1, min_channels: 0, latent_dim: 8,
+        num_codes: 16, l2_normalize: true, beta: 0.25, dead_code_steps: 3, levels: 3}
+train: {batch_size: 8, steps: 20, max_lr: 3.0e-3, min_lr: 3.0e-4, warmup_steps: 3, threads: 1,
+        seed: 8, checkpoint_every: 20, log_every: 5}
 """,
 }
 
@@ -223,6 +232,17 @@ def check_encode_cli(label, run_dir, shards, tmp, model):
           "and some remain")
 
 
+def check_encode_refuses_levels(label, run_dir, shards, tmp):
+    """Token datasets hold one code per cell: encode names the checkpoint and its levels."""
+    bad = subprocess.run([os.path.join(BIN, "wm-tokenize"), "encode", "--checkpoint", run_dir,
+                          "--data", shards, "--out", os.path.join(tmp, "tokens_levels")],
+                         capture_output=True, text=True)
+    check(bad.returncode == 1 and "checkpoint.wmt" in bad.stderr and
+          "model.levels = 3" in bad.stderr and
+          not os.path.exists(os.path.join(tmp, "tokens_levels", "index.json")),
+          f"{label}: wm-tokenize encode refuses it, exit 1: {bad.stderr.strip()[-120:]}")
+
+
 def check_errors(run_dir, frames_path, tmp):
     tool = os.path.join(BIN, "tokenizer_ref_tool")
     bad = subprocess.run([tool, "--checkpoint", os.path.join(tmp, "absent.wmt"), "--frames",
@@ -280,6 +300,8 @@ def main():
             if i == 0:
                 check_encode_cli(label, run_dir, shards, tmp, model.eval())
                 check_errors(run_dir, frames_path, tmp)
+            if stored["model"].get("levels", 1) > 1:
+                check_encode_refuses_levels(label, run_dir, shards, tmp)
     print(f"{len(passed)} passed, {len(failures)} failed")
     return 1 if failures else 0
 

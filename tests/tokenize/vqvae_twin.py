@@ -37,7 +37,7 @@ MODEL_DEFAULTS = {"image_size": 64, "patch_size": 8, "stem_factor": 1, "encoder_
                   "decoder_channels": 64, "decoder_layers": 1, "min_channels": 0, "latent_dim": 32,
                   "num_codes": 1024, "l2_normalize": True, "beta": 0.25, "dead_code_steps": 100,
                   "detail_weight": 0.0, "anchor_decoder": False, "anchor_flow": False,
-                  "change_weight": 0.0}
+                  "change_weight": 0.0, "levels": 1}
 CHUNK = 64  # tokenizer.cc kChunk: frames per forward pass
 M64 = (1 << 64) - 1
 
@@ -89,64 +89,106 @@ def distances(flat, codes):
 
 
 class VectorQuantizer(nn.Module):
-    def __init__(self, num_codes, dim, l2_normalize):
+    """VectorQuantizerImpl, with its residual levels (model.levels) as submodules "level1", ...:
+    Euclidean codebooks, level k quantising the unit latents minus the codes levels 0..k-1
+    chose; the decoder reads the codes summed (straight-through on the sum)."""
+
+    def __init__(self, num_codes, dim, l2_normalize, levels=1):
         super().__init__()
         self.num_codes, self.dim, self.l2_normalize = num_codes, dim, l2_normalize
         init = (torch.randn(num_codes, dim) if l2_normalize else
                 torch.empty(num_codes, dim).uniform_(-1.0 / num_codes, 1.0 / num_codes))
         self.codebook = nn.Parameter(init)  # [K, D]
         self.register_buffer("steps_since_used", torch.zeros(num_codes, dtype=torch.int64))
+        self.levels = [self]
+        for k in range(1, levels):  # created after level 0's codebook, as in C++
+            self.add_module(f"level{k}", VectorQuantizer(num_codes, dim, False))
+            self.levels.append(getattr(self, f"level{k}"))
 
     def codes(self):
         return F.normalize(self.codebook, dim=1) if self.l2_normalize else self.codebook
 
+    def unit(self, z_e):  # [B, D, h, w] -> [N, D] as the lookup compares them
+        flat = z_e.permute(0, 2, 3, 1).reshape(-1, self.dim)
+        return F.normalize(flat, dim=1) if self.l2_normalize else flat
+
+    def choose(self, flat, before=None):
+        """Choose: per level (input [N, D] detached, indices [N], codes [N, D] with grad)."""
+        out, total = [], None
+        for k, level in enumerate(self.levels):
+            inp = flat.detach() if k == 0 else flat.detach() - total
+            if before is not None:
+                before(level, inp)
+            codes = level.codes()
+            idx = distances(inp, codes).argmin(1)
+            q = codes.index_select(0, idx)
+            total = q.detach() if total is None else total + q.detach()
+            out.append((inp, idx, q))
+        return out
+
+    @staticmethod
+    def stack_indices(indices, B, h, w):  # [N] per level -> [B, h, w] or [B, L, h, w]
+        if len(indices) == 1:
+            return indices[0].view(B, h, w)
+        return torch.stack(indices, 1).view(B, h, w, len(indices)).permute(0, 3, 1, 2) \
+            .contiguous()
+
     def forward(self, z_e):
         B, D, h, w = z_e.shape
-        flat = z_e.permute(0, 2, 3, 1).reshape(-1, D)  # [N, D]
-        codes = self.codebook
-        if self.l2_normalize:
-            flat, codes = F.normalize(flat, dim=1), F.normalize(codes, dim=1)
-        dist = distances(flat, codes)
-        idx = dist.argmin(1)  # [N]
-        q = codes.index_select(0, idx)  # [N, D]
-        st = flat + (q - flat).detach()  # straight-through: forward = code, grad -> z_e
+        flat = self.unit(z_e)  # [N, D]
+        choices = self.choose(flat)
+        codebook_loss, total = None, None
+        for inp, _, q in choices:
+            loss = F.mse_loss(q, inp)  # VQ-VAE eq. 3, second term, per level
+            codebook_loss = loss if codebook_loss is None else codebook_loss + loss
+            total = q.detach() if total is None else total + q.detach()
+        st = flat + (total - flat).detach()  # straight-through: forward = codes, grad -> z_e
+        idx = choices[0][1]
         counts = torch.bincount(idx, minlength=self.num_codes).double()
         p = counts / idx.shape[0]
         return {"z_q": st.view(B, h, w, D).permute(0, 3, 1, 2).contiguous(),  # [B, D, h, w]
-                "indices": idx.view(B, h, w),
-                "codebook_loss": F.mse_loss(q, flat.detach()),  # VQ-VAE eq. 3, second term
-                "commitment": F.mse_loss(flat, q.detach()),  # third term (x beta)
-                "flat_latents": flat.detach(),
+                "indices": self.stack_indices([c[1] for c in choices], B, h, w),
+                "codebook_loss": codebook_loss,
+                "commitment": F.mse_loss(flat, total),  # third term (x beta)
+                "level_inputs": [c[0] for c in choices],
+                "level_indices": [c[1] for c in choices],
                 "perplexity": torch.exp(-(p * torch.log(p + 1e-10)).sum()).item(),
                 "usage": (counts > 0).sum().item() / self.num_codes}
 
-    def lookup(self, indices):  # [B, h, w] -> [B, D, h, w]
-        B, h, w = indices.shape
-        return self.codes().index_select(0, indices.flatten()).view(B, h, w, self.dim) \
-            .permute(0, 3, 1, 2).contiguous()
+    def lookup(self, indices):  # [B, h, w] or [B, L, h, w] -> [B, D, h, w]
+        per_level = [indices] if indices.dim() == 3 else indices.unbind(1)
+        total = None
+        for level, idx in zip(self.levels, per_level):
+            q = level.codes().index_select(0, idx.flatten())
+            total = q if total is None else total + q
+        B, h, w = per_level[0].shape
+        return total.view(B, h, w, self.dim).permute(0, 3, 1, 2).contiguous()
 
     @torch.no_grad()
     def seed_from_latents(self, z_e, rng):
-        flat = z_e.permute(0, 2, 3, 1).reshape(-1, self.dim)
-        if self.l2_normalize:
-            flat = F.normalize(flat, dim=1)
-        src = torch.tensor([rng() % flat.shape[0] for _ in range(self.num_codes)])
-        self.codebook.copy_(flat.index_select(0, src))
+        def seed(level, inp):
+            src = torch.tensor([rng() % inp.shape[0] for _ in range(level.num_codes)])
+            level.codebook.copy_(inp.index_select(0, src))
+        self.choose(self.unit(z_e), seed)
 
     @torch.no_grad()
-    def update_usage_and_reseed(self, out, dead_after, rng):
-        used = torch.bincount(out["indices"].flatten(), minlength=self.num_codes) > 0
+    def reseed_dead(self, indices, inputs, dead_after, rng):
+        used = torch.bincount(indices, minlength=self.num_codes) > 0
         self.steps_since_used.add_(1).masked_fill_(used, 0)
         if dead_after <= 0:
             return 0
         dead = (self.steps_since_used >= dead_after).nonzero().flatten()
         if dead.numel() == 0:
             return 0
-        pool = out["flat_latents"].shape[0]
-        src = torch.tensor([rng() % pool for _ in range(dead.numel())])
-        self.codebook.index_copy_(0, dead, out["flat_latents"].index_select(0, src))
+        src = torch.tensor([rng() % inputs.shape[0] for _ in range(dead.numel())])
+        self.codebook.index_copy_(0, dead, inputs.index_select(0, src))
         self.steps_since_used.index_fill_(0, dead, 0)
         return dead.numel()
+
+    @torch.no_grad()
+    def update_usage_and_reseed(self, out, dead_after, rng):
+        return sum(level.reseed_dead(idx, inp, dead_after, rng) for level, idx, inp in
+                   zip(self.levels, out["level_indices"], out["level_inputs"]))
 
 
 @torch.no_grad()
@@ -219,7 +261,7 @@ class VqVae(nn.Module):
             with torch.no_grad():  # the correction starts at zero: decoded = anchor
                 self.head[1].weight.zero_()
                 self.head[1].bias.zero_()
-        self.quantizer = VectorQuantizer(c["num_codes"], d, c["l2_normalize"])
+        self.quantizer = VectorQuantizer(c["num_codes"], d, c["l2_normalize"], c["levels"])
         self.change_weight, self.anchor_flow = c["change_weight"], None
         if c["anchor_flow"]:  # created last, as in C++; zero flow at the start
             self.anchor_flow = nn.Conv2d(top, 2, 3, padding=1)
@@ -304,6 +346,7 @@ def encode_episode(model, frames, margin):
     `margin` of the nearest code's)."""
     if margin <= 0:
         return encode(model, frames)
+    assert len(model.quantizer.levels) == 1, "code hysteresis needs one quantiser level"
     z = torch.cat([model.encoder(frames[i:i + CHUNK]) for i in range(0, len(frames), CHUNK)])
     T, D, h, w = z.shape
     flat = z.permute(0, 2, 3, 1).reshape(T, h * w, D)
@@ -376,10 +419,13 @@ def mix64(x):
 
 
 def flicker_counts(codes, frames, patch, levels=30):
-    """validation.cc CountFlicker, in numpy: codes [T, g, g] of one episode, frames [T, S, S, 3]
-    uint8 levels (any numeric dtype) -> (token changes in cells where no pixel changed by more
-    than `levels` in any channel, all token changes, cells compared)."""
+    """validation.cc CountFlicker, in numpy: codes [T, g, g] of one episode (or [T, L, g, g]:
+    a cell changes when any level's code does, as CellCodes), frames [T, S, S, 3] uint8 levels
+    (any numeric dtype) -> (token changes in cells where no pixel changed by more than `levels`
+    in any channel, all token changes, cells compared)."""
     changed = codes[1:] != codes[:-1]  # [T-1, g, g]
+    if changed.ndim == 4:
+        changed = changed.any(1)
     diff = np.abs(frames[1:].astype(np.int32) - frames[:-1].astype(np.int32)).max(3)
     t, g = diff.shape[0], diff.shape[1] // patch
     moved = diff.reshape(t, g, patch, g, patch).max((2, 4)) > levels
