@@ -109,9 +109,8 @@ std::vector<float> Tokenizer::Decode(const uint32_t* codes, int64_t n, const flo
                 std::to_string(config().model.num_codes),
             {.file = state_->path});
     }
-    torch::Tensor idx = torch::tensor(wide, torch::kInt64).view({m, levels(), g, g});
-    if (levels() == 1) idx = idx.squeeze(1);
-    idx = idx.to(state_->device);
+    torch::Tensor idx =
+        torch::tensor(wide, torch::kInt64).view({m, levels(), g, g}).to(state_->device);
     torch::Tensor anchor;
     if (anchors != nullptr && anchored()) anchor = state_->Frames(anchors + i * floats, m);
     torch::Tensor img = state_->model->Decode(state_->model->quantizer->Lookup(idx), anchor);

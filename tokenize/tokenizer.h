@@ -46,8 +46,9 @@ class Tokenizer {
   // (VectorQuantizer::StickyIndices; 0 = Encode): what `wm-tokenize encode --hysteresis` stores.
   // margin > 0 needs one level (throws wm::Error naming the checkpoint otherwise).
   std::vector<uint32_t> EncodeEpisode(const float* frames, int64_t n, double margin) const;
-  // codes [n, levels, g, g] -> [n, 3, S, S]. `anchors`: [n, 3, S, S] like frames, one per decoded frame, or null (no
-  // anchor: what an anchored tokenizer's tokens say alone). Ignored unless anchored().
+  // codes [n, levels, g, g] -> [n, 3, S, S]. `anchors`: [n, 3, S, S] like frames, one per
+  // decoded frame, or null (no anchor: what an anchored tokenizer's tokens say alone). Ignored
+  // unless anchored().
   std::vector<float> Decode(const uint32_t* codes, int64_t n, const float* anchors = nullptr) const;
   // Decode(Encode(frames), anchors), clamped to [-1, 1] like Decode.
   std::vector<float> Reconstruct(const float* frames, int64_t n,

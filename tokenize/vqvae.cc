@@ -103,6 +103,14 @@ int64_t FirstArgMin(const float* row, int64_t K) {
   return best;
 }
 
+// Each level's indices [N] -> [B, h, w] for one level, else [B, levels, h, w].
+torch::Tensor StackIndices(const std::vector<torch::Tensor>& indices, int64_t B, int64_t h,
+                           int64_t w) {
+  if (indices.size() == 1) return indices[0].view({B, h, w});
+  const int64_t L = static_cast<int64_t>(indices.size());
+  return torch::stack(indices, 1).view({B, h, w, L}).permute({0, 3, 1, 2}).contiguous();
+}
+
 int Log2(int x) {
   int n = 0;
   while ((1 << n) < x) ++n;
@@ -124,8 +132,8 @@ VectorQuantizerImpl::VectorQuantizerImpl(QuantizerOptions options) : options(opt
   level.l2_normalize = false;
   level.levels = 1;
   for (int64_t k = 1; k < options.levels; ++k) {
-    residual.push_back(register_module("level" + std::to_string(k),
-                                       std::make_shared<VectorQuantizerImpl>(level)));
+    residual.push_back(
+        register_module("level" + std::to_string(k), std::make_shared<VectorQuantizerImpl>(level)));
   }
 }
 
@@ -169,42 +177,34 @@ torch::Tensor VectorQuantizerImpl::NearestCodes(const torch::Tensor& flat,
   return idx;
 }
 
-std::vector<VectorQuantizerImpl::Choice> VectorQuantizerImpl::Choose(
+VectorQuantizerImpl::Choices VectorQuantizerImpl::Choose(
     const torch::Tensor& flat, const std::function<void(int64_t, const torch::Tensor&)>& before) {
-  std::vector<Choice> out;
-  torch::Tensor total;  // the codes chosen so far, summed (no gradient)
+  Choices out;
   for (int64_t k = 0; k < levels(); ++k) {
-    const torch::Tensor input = k == 0 ? flat.detach() : flat.detach() - total;
+    const torch::Tensor input = k == 0 ? flat.detach() : flat.detach() - out.total;
     if (before) before(k, input);
     const torch::Tensor codes = Level(k).Codes();
     torch::Tensor idx = NearestCodes(input, codes);
     torch::Tensor q = codes.index_select(0, idx);
-    total = k == 0 ? q.detach() : total + q.detach();
-    out.push_back({input, idx, q});
+    out.total = k == 0 ? q.detach() : out.total + q.detach();
+    out.levels.push_back({input, idx, q});
   }
   return out;
-}
-
-torch::Tensor VectorQuantizerImpl::StackIndices(const std::vector<torch::Tensor>& indices,
-                                                int64_t B, int64_t h, int64_t w) const {
-  if (indices.size() == 1) return indices[0].view({B, h, w});
-  const int64_t L = static_cast<int64_t>(indices.size());
-  return torch::stack(indices, 1).view({B, h, w, L}).permute({0, 3, 1, 2}).contiguous();
 }
 
 QuantizerOutput VectorQuantizerImpl::forward(const torch::Tensor& z_e) {
   const int64_t B = z_e.size(0), D = z_e.size(1), h = z_e.size(2), w = z_e.size(3);
   const torch::Tensor flat = Unit(z_e.permute({0, 2, 3, 1}).reshape({-1, D}));  // [N, D]
   QuantizerOutput out;
-  torch::Tensor total;  // [N, D], the levels' codes summed (no gradient)
-  for (const Choice& c : Choose(flat)) {
+  const Choices chosen = Choose(flat);
+  for (const Choice& c : chosen.levels) {
     torch::Tensor loss = F::mse_loss(c.codes, c.input);  // VQ-VAE eq. 3, second term
     out.codebook_loss = out.codebook_loss.defined() ? out.codebook_loss + loss : loss;
-    total = total.defined() ? total + c.codes.detach() : c.codes.detach();
     out.level_inputs.push_back(c.input);
     out.level_indices.push_back(c.indices);
   }
-  out.commitment = F::mse_loss(flat, total);        // VQ-VAE eq. 3, third term (x beta)
+  const torch::Tensor& total = chosen.total;
+  out.commitment = F::mse_loss(flat, total);          // VQ-VAE eq. 3, third term (x beta)
   torch::Tensor st = flat + (total - flat).detach();  // straight-through estimator
   out.z_q = st.view({B, h, w, D}).permute({0, 3, 1, 2}).contiguous();  // [B, D, h, w]
   out.indices = StackIndices(out.level_indices, B, h, w);
@@ -220,7 +220,7 @@ torch::Tensor VectorQuantizerImpl::NearestIndices(const torch::Tensor& z_e) {
   const int64_t B = z_e.size(0), D = z_e.size(1), h = z_e.size(2), w = z_e.size(3);
   const torch::Tensor flat = Unit(z_e.permute({0, 2, 3, 1}).reshape({-1, D}));  // [N, D]
   std::vector<torch::Tensor> indices;
-  for (const Choice& c : Choose(flat)) indices.push_back(c.indices);
+  for (const Choice& c : Choose(flat).levels) indices.push_back(c.indices);
   return StackIndices(indices, B, h, w);
 }
 

@@ -87,15 +87,15 @@ struct VectorQuantizerImpl : torch::nn::Module {
   struct Choice {
     torch::Tensor input, indices, codes;  // [N, D] detached, [N], [N, D] (with grad)
   };
-  std::vector<Choice> Choose(
-      const torch::Tensor& flat,
-      const std::function<void(int64_t, const torch::Tensor&)>& before = nullptr);
-  // [N] per level -> [B, h, w], or [B, levels, h, w].
-  torch::Tensor StackIndices(const std::vector<torch::Tensor>& indices, int64_t B, int64_t h,
-                             int64_t w) const;
+  struct Choices {
+    std::vector<Choice> levels;
+    torch::Tensor total;  // [N, D]: the chosen codes summed over the levels, no gradient
+  };
+  Choices Choose(const torch::Tensor& flat,
+                 const std::function<void(int64_t, const torch::Tensor&)>& before = nullptr);
   void SeedCodebook(const torch::Tensor& input, std::mt19937_64& rng);
-  int64_t ReseedDead(const torch::Tensor& indices, const torch::Tensor& inputs,
-                     int64_t dead_after, std::mt19937_64& rng);
+  int64_t ReseedDead(const torch::Tensor& indices, const torch::Tensor& inputs, int64_t dead_after,
+                     std::mt19937_64& rng);
 };
 TORCH_MODULE(VectorQuantizer);
 

@@ -79,8 +79,8 @@ TEST(Quantizer, ResidualLevelQuantisesWhatTheFirstLeft) {
   EXPECT_NEAR(out.commitment.item<double>(), 0.05 / 4, 1e-6);
   EXPECT_NEAR(out.codebook_loss.item<double>(), (1.06 + 0.05) / 4, 1e-6);
   ASSERT_EQ(out.level_inputs.size(), 2u);
-  EXPECT_TRUE(torch::allclose(out.level_inputs[1], torch::tensor({-0.1f, 0.2f, -0.1f, -1.f})
-                                                       .view({2, 2})));
+  EXPECT_TRUE(
+      torch::allclose(out.level_inputs[1], torch::tensor({-0.1f, 0.2f, -0.1f, -1.f}).view({2, 2})));
   EXPECT_TRUE(torch::equal(CellCodes(out.indices), torch::tensor({0, 1}).view({1, 1, 2})));
 }
 

@@ -101,8 +101,9 @@ void WriteOutputs(const wm::tokenize::Tokenizer& tok, const std::vector<float>& 
   std::filesystem::create_directories(dir);
   const int64_t g = tok.grid(), S = tok.image_size();
   const std::vector<uint32_t> codes = tok.Encode(frames.data(), n);
-  const std::vector<int64_t> shape = tok.levels() == 1 ? std::vector<int64_t>{n, g, g}
-                                                       : std::vector<int64_t>{n, tok.levels(), g, g};
+  const std::vector<int64_t> shape = tok.levels() == 1
+                                         ? std::vector<int64_t>{n, g, g}
+                                         : std::vector<int64_t>{n, tok.levels(), g, g};
   WriteNpy(dir + "/codes.npy", "<u4", shape, codes.data(), codes.size() * sizeof(uint32_t));
   const std::vector<float> anchors = PreviousFrames(tok, frames);
   const std::vector<float> recon =

@@ -113,7 +113,8 @@ class VectorQuantizer(nn.Module):
         return F.normalize(flat, dim=1) if self.l2_normalize else flat
 
     def choose(self, flat, before=None):
-        """Choose: per level (input [N, D] detached, indices [N], codes [N, D] with grad)."""
+        """Choose: per level (input [N, D] detached, indices [N], codes [N, D] with grad), and
+        the chosen codes summed over the levels (no gradient)."""
         out, total = [], None
         for k, level in enumerate(self.levels):
             inp = flat.detach() if k == 0 else flat.detach() - total
@@ -124,7 +125,7 @@ class VectorQuantizer(nn.Module):
             q = codes.index_select(0, idx)
             total = q.detach() if total is None else total + q.detach()
             out.append((inp, idx, q))
-        return out
+        return out, total
 
     @staticmethod
     def stack_indices(indices, B, h, w):  # [N] per level -> [B, h, w] or [B, L, h, w]
@@ -136,12 +137,11 @@ class VectorQuantizer(nn.Module):
     def forward(self, z_e):
         B, D, h, w = z_e.shape
         flat = self.unit(z_e)  # [N, D]
-        choices = self.choose(flat)
-        codebook_loss, total = None, None
+        choices, total = self.choose(flat)
+        codebook_loss = None
         for inp, _, q in choices:
             loss = F.mse_loss(q, inp)  # VQ-VAE eq. 3, second term, per level
             codebook_loss = loss if codebook_loss is None else codebook_loss + loss
-            total = q.detach() if total is None else total + q.detach()
         st = flat + (total - flat).detach()  # straight-through: forward = codes, grad -> z_e
         idx = choices[0][1]
         counts = torch.bincount(idx, minlength=self.num_codes).double()
