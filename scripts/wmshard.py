@@ -383,8 +383,11 @@ def check_stats(stats, a, where):
 # --- Token datasets (docs/token-format.md): index.json + part-NNNNN.wmtok files of raw arrays ---
 
 TOKEN_FORMAT, TOKEN_MAGIC, TOKEN_ALIGN = "wmkit-tokens", b"WMTOKEN1", 64
-# magic, version, token bytes (2|4), grid_h, grid_w, 36 zero bytes, CRC32C of bytes 0..59
-TOKEN_HEADER = struct.Struct("<8sIIII36sI")
+# magic, version, token bytes (2|4), grid_h, grid_w, levels (0: one), 32 zero bytes, CRC32C of
+# bytes 0..59
+TOKEN_HEADER = struct.Struct("<8sIIIII32sI")
+# index.json versions: 1 (7-dim eef_delta actions), 2 (any action width), 3 (residual levels)
+TOKEN_INDEX_VERSIONS, TOKEN_LEVELS_VERSION, MAX_TOKEN_LEVELS = (1, 2, 3), 3, 8
 TOKEN_DTYPES = {"uint16": "<u2", "uint32": "<u4"}
 # Per-step sections, in file order after "tokens": name -> (numpy dtype, shape after F); None:
 # [D], the dataset's action width (index.json action_dim; 7 in version 1).
@@ -400,9 +403,9 @@ def check_token_index(idx, where):
     index is a named error rather than a crash."""
     if not isinstance(idx, dict) or idx.get("format") != TOKEN_FORMAT:
         fail(where, f"not a JSON object with format '{TOKEN_FORMAT}'")
-    if idx.get("format_version") not in INDEX_VERSIONS:
+    if idx.get("format_version") not in TOKEN_INDEX_VERSIONS:
         fail(where, f"unknown format_version {idx.get('format_version')!r}, this reader supports "
-             f"{' and '.join(map(str, INDEX_VERSIONS))}")
+             f"{', '.join(map(str, TOKEN_INDEX_VERSIONS))}")
     dim = token_action_dim(idx)
     if not (is_int(dim, 1) and idx.get("action_space", "eef_delta") in ACTION_SPACES):
         fail(where, f"action_dim {dim!r} / action_space {idx.get('action_space')!r}: version 2 "
@@ -416,6 +419,12 @@ def check_token_index(idx, where):
     if not (is_int(tok.get("num_codes"), 1) and isinstance(grid, list) and len(grid) == 2
             and all(is_int(g, 1) for g in grid)):
         fail(where, "tokenizer must hold num_codes >= 1 and grid [grid_h, grid_w] >= 1")
+    if idx["format_version"] == TOKEN_LEVELS_VERSION:
+        if not (is_int(tok.get("levels"), 2) and tok["levels"] <= MAX_TOKEN_LEVELS):
+            fail(where, f"format_version 3 needs tokenizer.levels in [2, {MAX_TOKEN_LEVELS}], "
+                 f"got {tok.get('levels')!r}")
+    elif "levels" in tok:
+        fail(where, "tokenizer.levels is only written by format_version 3")
     if idx.get("token_dtype") not in TOKEN_DTYPES:
         fail(where, f"token_dtype {idx.get('token_dtype')!r}, expected uint16 or uint32")
     parts, n = idx.get("parts"), idx.get("num_parts")
@@ -450,18 +459,23 @@ def check_token_index(idx, where):
 
 
 def token_action_dim(idx):
-    """Values per action: index.json action_dim in version 2; version 1 means the canonical 7."""
-    return idx.get("action_dim") if idx["format_version"] == 2 else 7
+    """Values per action: index.json action_dim from version 2; version 1 means the canonical 7."""
+    return idx.get("action_dim") if idx["format_version"] >= 2 else 7
+
+
+def token_frame_shape(tok):
+    """A frame's tokens: [grid_h, grid_w], or [levels, grid_h, grid_w] for a residual tokenizer."""
+    return ([tok["levels"]] if "levels" in tok else []) + tok["grid"]
 
 
 class TokenPart:
     """One memory-mapped part file. Opening checks its size against index.json, the header, and
     every section's place, shape, dtype and CRC32C; arrays are views into the mapping."""
 
-    def __init__(self, directory, entry, token_dtype, grid, action_dim):
+    def __init__(self, directory, entry, token_dtype, frame_shape, action_dim):
         self.path, self.entry = os.path.join(directory, entry["file"]), entry
         F = entry["num_frames"]
-        self.expected = {"tokens": (TOKEN_DTYPES[token_dtype], [F] + grid),
+        self.expected = {"tokens": (TOKEN_DTYPES[token_dtype], [F] + frame_shape),
                          **{name: (dt, [F] + ([action_dim] if tail is None else tail))
                             for name, (dt, tail) in STEP_SECTIONS.items()}}
         self.size = size = os.path.getsize(self.path) if os.path.isfile(self.path) else None
@@ -476,24 +490,27 @@ class TokenPart:
         if size < TOKEN_HEADER.size:
             fail(f"{self.path}: header", f"truncated: file is {size} bytes, the header is 64")
         self.raw = np.memmap(self.path, dtype="u1", mode="r")
-        self._check_header(token_dtype, grid)
+        self._check_header(token_dtype, frame_shape)
         self.arrays = {name: self._section(name) for name in self.expected}
 
     def nbytes(self, name):
         dtype, shape = self.expected.get(name, ("|u1", [0]))
         return int(np.prod(shape, dtype=object)) * np.dtype(dtype).itemsize
 
-    def _check_header(self, token_dtype, grid):
+    def _check_header(self, token_dtype, frame_shape):
         where = f"{self.path}: header"  # version before CRC: a v2 file says "unknown version"
-        magic, version, width, h, w, _, stored = TOKEN_HEADER.unpack_from(self.raw, 0)
+        magic, version, width, h, w, levels, _, stored = TOKEN_HEADER.unpack_from(self.raw, 0)
         if magic != TOKEN_MAGIC:
             fail(where, f"bad magic {magic!r}, expected {TOKEN_MAGIC!r} (not a wmkit token part?)")
         if version != VERSION:
             fail(where, f"unknown format version {version}, this reader supports {VERSION}")
         check_crc(where, stored, self.raw[0:60])
-        if [width, h, w] != [np.dtype(TOKEN_DTYPES[token_dtype]).itemsize] + grid:
-            fail(where, f"token bytes {width}, grid {h}x{w}; index.json says token_dtype "
-                 f"{token_dtype}, grid {grid[0]}x{grid[1]}")
+        levels, grid = max(levels, 1), frame_shape[-2:]
+        want_levels = frame_shape[0] if len(frame_shape) == 3 else 1
+        if [width, h, w, levels] != [np.dtype(TOKEN_DTYPES[token_dtype]).itemsize, *grid,
+                                     want_levels]:
+            fail(where, f"token bytes {width}, grid {h}x{w}, levels {levels}; index.json says "
+                 f"token_dtype {token_dtype}, grid {grid[0]}x{grid[1]}, levels {want_levels}")
 
     def _section(self, name):
         """The section as an ndarray view, after its place, shape, dtype and CRC32C are checked."""
@@ -557,7 +574,7 @@ class TokenDataset:
         if j not in self._parts:
             idx = self.index
             self._parts[j] = TokenPart(self.dir, idx["parts"][j], idx["token_dtype"],
-                                       idx["tokenizer"]["grid"], token_action_dim(idx))
+                                       token_frame_shape(idx["tokenizer"]), token_action_dim(idx))
         return self._parts[j]
 
     def episode(self, k):

@@ -31,6 +31,7 @@ tokens::TokenIndex BaseIndex(const Tokenizer& tok, const shard::DatasetIndex& so
                  .num_codes = tok.config().model.num_codes,
                  .grid_h = tok.grid(),
                  .grid_w = tok.grid(),
+                 .levels = static_cast<int>(tok.levels()),
                  .image_size = tok.image_size(),
                  .image_key = tok.config().data.image_key};
   x.token_dtype = x.tokenizer.num_codes > 65536 ? "uint32" : "uint16";
@@ -86,11 +87,6 @@ EncodeSummary EncodeDataset(const EncodeOptions& o) {
         "--shard-index must be in [0, --num-shards)");
   torch::set_num_threads(o.threads);
   Tokenizer tok(o.checkpoint, o.device);
-  // Until the dynamics model reads level stacks, token datasets hold one code per cell.
-  Check(tok.levels() == 1,
-        "token datasets hold one code per cell; this tokenizer has model.levels = " +
-            std::to_string(tok.levels()) + " (residual levels reconstruct only, docs/tokenizer.md)",
-        {.file = tok.checkpoint_path()});
   shard::DatasetReader reader(o.data_dir);
   fs::create_directories(o.out_dir);
   const tokens::TokenIndex base = BaseIndex(tok, reader.index(), o.hysteresis);

@@ -141,6 +141,7 @@ int64_t SegmentSampler::num_codes() const {
 }
 int SegmentSampler::grid_h() const { return sources_.front()->data->index().tokenizer.grid_h; }
 int SegmentSampler::grid_w() const { return sources_.front()->data->index().tokenizer.grid_w; }
+int SegmentSampler::levels() const { return sources_.front()->data->index().tokenizer.levels; }
 int64_t SegmentSampler::action_dim() const { return action_dim_; }
 
 nlohmann::json SegmentSampler::ActionNorms() const {

@@ -60,6 +60,7 @@ class SegmentSampler {
   int64_t num_codes() const;
   int grid_h() const;
   int grid_w() const;
+  int levels() const;          // codes per cell (tokenizer.levels)
   int64_t action_dim() const;  // D of every segment's actions
   // By dataset name, for checkpoints (the public model API normalises raw actions with these).
   nlohmann::json ActionNorms() const;

@@ -91,6 +91,11 @@ void Clip(const std::vector<torch::Tensor>& params, double max_norm) {
 
 // The token datasets must have the config's grid and codebook.
 void CheckTokensFit(const SegmentSampler& sampler, const ModelConfig& m) {
+  Check(sampler.levels() == 1,
+        "token data has " + std::to_string(sampler.levels()) +
+            " codes per cell (a residual tokenizer, tokenizer.levels in index.json); the dynamics "
+            "model reads one code per cell: encode with a one-level tokenizer",
+        {.key = "tokenizer.levels"});
   Check(sampler.grid_h() == m.grid_h && sampler.grid_w() == m.grid_w,
         "token data has " + std::to_string(sampler.grid_h()) + "x" +
             std::to_string(sampler.grid_w()) + " tokens per frame, config says " +

@@ -3,8 +3,8 @@
 //
 //   TOKENS_DIR/index.json          what the dataset holds: tokenizer, source, parts, episodes
 //   TOKENS_DIR/part-NNNNN.wmtok    one part per encode job: a 64-byte header, then raw
-//                                  little-endian arrays (tokens [F, h, w], actions [F, D], ...)
-//                                  at 64-byte aligned offsets that numpy can memmap
+//                                  little-endian arrays (tokens [F, (levels,) h, w], actions [F,
+//                                  D], ...) at 64-byte aligned offsets that numpy can memmap
 //   TOKENS_DIR/part-NNNNN.json     the part's index entry and episodes (assembled into index.json)
 //
 // Readers map the part files and verify each section's CRC32C on open.
@@ -28,16 +28,24 @@ inline constexpr uint32_t kTokenFormatVersion = 1;
 // index.json of any other action: it records action_dim and action_space, so that a version-1
 // reader (which assumes 7 end-effector deltas) refuses it.
 inline constexpr uint32_t kTokenIndexVersionAnyAction = 2;
+// index.json of a residual tokenizer's codes (tokenizer.levels > 1): it always records the
+// action's width and space, and a reader of versions 1-2 (one code per cell) refuses it.
+inline constexpr uint32_t kTokenIndexVersionLevels = 3;
+inline constexpr int kMaxTokenLevels = 8;  // as the tokenizer's model.levels
 
 // Which tokenizer produced the tokens; the dynamics model checks it matches its own.
 struct TokenizerInfo {
   std::string checkpoint_sha256;  // of the tokenizer's checkpoint.wmt
   std::string config_hash;        // of the tokenizer config
   int64_t num_codes = 0;
-  int grid_h = 0, grid_w = 0;  // tokens per frame = grid_h * grid_w
+  int grid_h = 0, grid_w = 0;  // cells per frame = grid_h * grid_w
+  int levels = 1;              // codes per cell (residual VQ); tokens per frame = levels * cells
   int image_size = 0;          // frames were resized to image_size x image_size
   std::string image_key = "image";
 };
+
+// The tokens section's shape in a part of `frames` frames: [F, h, w], or [F, levels, h, w].
+std::vector<int64_t> TokenSectionShape(const TokenizerInfo& t, int64_t frames);
 
 // One episode's place and carried-over metadata.
 struct TokenEpisode {
@@ -62,8 +70,8 @@ struct PartInfo {
   uint64_t bytes = 0;
   std::string sha256;
   int64_t num_episodes = 0, num_frames = 0;
-  // "tokens" [F, h, w], "actions" [F, D], "rewards" [F], "discounts" [F], "is_first" [F],
-  // "is_last" [F], "is_terminal" [F].
+  // "tokens" [F, h, w] (one level) or [F, levels, h, w], "actions" [F, D], "rewards" [F],
+  // "discounts" [F], "is_first" [F], "is_last" [F], "is_terminal" [F].
   std::map<std::string, Section> sections;
 };
 
@@ -103,7 +111,7 @@ class TokenPartWriter {
   TokenPartWriter(std::string dir, int part, int num_parts, const TokenIndex& base);
   ~TokenPartWriter();  // without Finish() the temp file is removed
 
-  // tokens: [num_frames, grid_h, grid_w] codes; per-step arrays as in wm::Episode.
+  // tokens: [num_frames, levels, grid_h, grid_w] codes; per-step arrays as in wm::Episode.
   void AddEpisode(const TokenEpisode& meta, const std::vector<uint32_t>& tokens,
                   const Episode& steps);
   PartInfo Finish();  // atomic; also writes part-NNNNN.json
@@ -132,10 +140,10 @@ class TokenDataset {
   const std::string& dir() const;
   int64_t num_episodes() const;
   const TokenEpisode& episode(int64_t k) const;
-  int64_t tokens_per_frame() const;
+  int64_t tokens_per_frame() const;  // levels * grid_h * grid_w
 
-  // Copies frames [first, first + count) of episode k: tokens to out[count * h * w] (either
-  // token dtype), widening to int64 for torch.
+  // Copies frames [first, first + count) of episode k: tokens to out[count * tokens_per_frame()]
+  // (each frame [levels, h, w]; either token dtype), widening to int64 for torch.
   void CopyTokens(int64_t k, int64_t first, int64_t count, int64_t* out) const;
   int64_t action_dim() const;  // D, values per action (index().action_dim)
   // Per-step arrays of episode k, [num_frames(, D)], pointing into the mapping.

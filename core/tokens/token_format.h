@@ -1,7 +1,7 @@
 #pragma once
 // Byte layout of a token part file (docs/token-format.md is the specification).
 //   [0, 64)   header: "WMTOKEN1", u32 version, u32 token bytes (2|4), u32 grid_h, u32 grid_w,
-//             zeros, u32 CRC32C of bytes [0, 60) at 60
+//             u32 levels (0: one level), zeros, u32 CRC32C of bytes [0, 60) at 60
 //   then each section of TokenIndex::parts[i].sections at a 64-byte aligned offset, zero padded.
 #include <cstdint>
 #include <optional>

@@ -15,12 +15,14 @@ using nlohmann::json;
 namespace fs = std::filesystem;
 
 json TokenizerToJson(const TokenizerInfo& t) {
-  return {{"checkpoint_sha256", t.checkpoint_sha256},
-          {"config_hash", t.config_hash},
-          {"num_codes", t.num_codes},
-          {"grid", {t.grid_h, t.grid_w}},
-          {"image_size", t.image_size},
-          {"image_key", t.image_key}};
+  json j = {{"checkpoint_sha256", t.checkpoint_sha256},
+            {"config_hash", t.config_hash},
+            {"num_codes", t.num_codes},
+            {"grid", {t.grid_h, t.grid_w}},
+            {"image_size", t.image_size},
+            {"image_key", t.image_key}};
+  if (t.levels > 1) j["levels"] = t.levels;  // one level keeps the bytes (and run keys) it had
+  return j;
 }
 
 TokenizerInfo TokenizerFromJson(const json& j) {
@@ -32,6 +34,7 @@ TokenizerInfo TokenizerFromJson(const json& j) {
   t.grid_w = JsonInt<int>(j.at("grid").at(1));
   t.image_size = JsonInt<int>(j.at("image_size"));
   t.image_key = j.at("image_key").get<std::string>();
+  if (j.contains("levels")) t.levels = JsonInt<int>(j["levels"]);
   return t;
 }
 
@@ -89,6 +92,13 @@ TokenEpisode EpisodeFromJson(const json& j) {
   return e;
 }
 
+// The oldest version that can say what `x` holds, so a reader never misreads a newer dataset.
+uint32_t IndexVersion(const TokenIndex& x) {
+  if (x.tokenizer.levels > 1) return kTokenIndexVersionLevels;
+  if (!shard::IsCanonicalAction(x.action_dim, x.action_space)) return kTokenIndexVersionAnyAction;
+  return kTokenFormatVersion;
+}
+
 json ReadJsonFile(const std::string& path) {
   json j = json::parse(ReadFile(path), nullptr, /*allow_exceptions=*/false);
   Check(!j.is_discarded(), "not valid JSON", {.file = path});
@@ -132,6 +142,11 @@ std::vector<int64_t> StepSectionShape(const StepSectionSpec& spec, int64_t frame
   return {frames, spec.per_frame};
 }
 
+std::vector<int64_t> TokenSectionShape(const TokenizerInfo& t, int64_t frames) {
+  if (t.levels == 1) return {frames, t.grid_h, t.grid_w};
+  return {frames, t.levels, t.grid_h, t.grid_w};
+}
+
 std::string RunKey(const TokenIndex& base, int num_parts) {
   return ConfigHash({{"tokenizer", TokenizerToJson(base.tokenizer)},
                      {"source", base.source},
@@ -146,9 +161,9 @@ json TokenIndexToJson(const TokenIndex& x) {
   json parts = json::array(), episodes = json::array();
   for (const auto& p : x.parts) parts.push_back(PartToJson(p));
   for (const auto& e : x.episodes) episodes.push_back(EpisodeToJson(e));
-  const bool canonical = shard::IsCanonicalAction(x.action_dim, x.action_space);
+  const uint32_t version = IndexVersion(x);
   json j = {{"format", kTokenFormatName},
-            {"format_version", canonical ? kTokenFormatVersion : kTokenIndexVersionAnyAction},
+            {"format_version", version},
             {"dataset", x.dataset},
             {"split", x.split},
             {"tokenizer", TokenizerToJson(x.tokenizer)},
@@ -161,7 +176,7 @@ json TokenIndexToJson(const TokenIndex& x) {
             {"num_frames", x.num_frames},
             {"episodes", episodes},
             {"provenance", x.provenance}};
-  if (!canonical) {  // version 1 (canonical) keeps its bytes: the keys are implied there
+  if (version != kTokenFormatVersion) {  // version 1 keeps its bytes: the keys are implied there
     j["action_dim"] = x.action_dim;
     j["action_space"] = x.action_space;
   }
@@ -172,15 +187,15 @@ TokenIndex TokenIndexFromJson(const json& j, const std::string& file) {
   Check(j.is_object() && j.contains("format") && j["format"] == kTokenFormatName,
         std::string("not a wmkit token index (format must be \"") + kTokenFormatName + "\")",
         {.file = file, .key = "format"});
-  const json version = j.contains("format_version") ? j["format_version"] : json();
-  const bool any_action =
-      version.is_number_unsigned() && version.get<uint32_t>() == kTokenIndexVersionAnyAction;
-  Check(any_action ||
-            (version.is_number_unsigned() && version.get<uint32_t>() == kTokenFormatVersion),
-        "unknown format_version " + version.dump() + " (this build reads versions " +
-            std::to_string(kTokenFormatVersion) + " and " +
-            std::to_string(kTokenIndexVersionAnyAction) + ")",
+  const json version_json = j.contains("format_version") ? j["format_version"] : json();
+  const uint32_t version =
+      version_json.is_number_unsigned() ? version_json.get<uint32_t>() : uint32_t{0};
+  Check(version >= kTokenFormatVersion && version <= kTokenIndexVersionLevels,
+        "unknown format_version " + version_json.dump() + " (this build reads versions " +
+            std::to_string(kTokenFormatVersion) + " to " +
+            std::to_string(kTokenIndexVersionLevels) + ")",
         {.file = file, .key = "format_version"});
+  const bool any_action = version != kTokenFormatVersion;
   TokenIndex x;
   std::string key;
   try {
@@ -204,6 +219,14 @@ TokenIndex TokenIndexFromJson(const json& j, const std::string& file) {
   } catch (const json::exception& e) {
     throw Error(std::string("malformed token index: ") + e.what(), {.file = file, .key = key});
   }
+  const bool residual = version == kTokenIndexVersionLevels;
+  Check(residual ? x.tokenizer.levels >= 2 && x.tokenizer.levels <= kMaxTokenLevels
+                 : !j.at("tokenizer").contains("levels"),
+        residual
+            ? "format_version 3 needs tokenizer.levels in [2, " + std::to_string(kMaxTokenLevels) +
+                  "], got " + std::to_string(x.tokenizer.levels)
+            : "tokenizer.levels is only written by format_version 3",
+        {.file = file, .key = "tokenizer.levels"});
   Check(x.action_dim >= 1 && x.action_dim <= kMaxActionDim,
         "action_dim must be in [1, " + std::to_string(kMaxActionDim) + "], got " +
             std::to_string(x.action_dim),

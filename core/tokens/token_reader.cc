@@ -1,4 +1,5 @@
 // TokenDataset: maps a token dataset's part files and checks every byte against its CRC.
+#include <algorithm>
 #include <cstring>
 #include <filesystem>
 
@@ -21,9 +22,10 @@ void CheckHeader(const MappedFile& f, size_t token_bytes, const TokenizerInfo& t
   const uint8_t* h = f.data();
   Check(shard::GetU32(h + 60) == Crc32c(h, 60), "header checksum mismatch (corrupt file)", at);
   Check(shard::GetU32(h + 8) == kTokenFormatVersion, "unknown part format version", at);
+  const uint32_t levels = std::max<uint32_t>(shard::GetU32(h + 24), 1);  // 0: written before levels
   Check(shard::GetU32(h + 12) == token_bytes && shard::GetU32(h + 16) == uint32_t(t.grid_h) &&
-            shard::GetU32(h + 20) == uint32_t(t.grid_w),
-        "token width or grid differs from index.json", at);
+            shard::GetU32(h + 20) == uint32_t(t.grid_w) && levels == uint32_t(t.levels),
+        "token width, grid or levels differ from index.json", at);
 }
 
 // Checks a section's place, size and CRC32C; returns its first byte.
@@ -83,7 +85,7 @@ TokenDataset::TokenDataset(const std::string& dir) : state_(std::make_unique<Sta
           {.file = file});
     CheckHeader(*mapped, s.token_bytes, t);
     State::PartArrays arrays;
-    arrays.tokens = CheckSection(*mapped, part, "tokens", {part.num_frames, t.grid_h, t.grid_w},
+    arrays.tokens = CheckSection(*mapped, part, "tokens", TokenSectionShape(t, part.num_frames),
                                  s.token_bytes == 2 ? "<u2" : "<u4");
     for (const StepSectionSpec& spec : kStepSections) {
       arrays.steps[spec.name] =
@@ -116,7 +118,8 @@ const TokenEpisode& TokenDataset::episode(int64_t k) const {
   return state_->index.episodes[static_cast<size_t>(k)];
 }
 int64_t TokenDataset::tokens_per_frame() const {
-  return int64_t{state_->index.tokenizer.grid_h} * state_->index.tokenizer.grid_w;
+  const TokenizerInfo& t = state_->index.tokenizer;
+  return int64_t{t.levels} * t.grid_h * t.grid_w;
 }
 
 void TokenDataset::CopyTokens(int64_t k, int64_t first, int64_t count, int64_t* out) const {

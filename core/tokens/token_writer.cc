@@ -21,6 +21,7 @@ std::string PartHeader(size_t token_bytes, const TokenizerInfo& t) {
   shard::PutU32(h, static_cast<uint32_t>(token_bytes));
   shard::PutU32(h, static_cast<uint32_t>(t.grid_h));
   shard::PutU32(h, static_cast<uint32_t>(t.grid_w));
+  shard::PutU32(h, t.levels > 1 ? static_cast<uint32_t>(t.levels) : 0);  // 0: one, as before
   h.resize(kPartHeaderSize - 4, '\0');
   shard::PutU32(h, Crc32c(h));
   return h;
@@ -88,7 +89,7 @@ TokenPartWriter::~TokenPartWriter() = default;
 void TokenPartWriter::AddEpisode(const TokenEpisode& meta, const std::vector<uint32_t>& tokens,
                                  const Episode& steps) {
   State& s = *state_;
-  const int64_t per_frame = int64_t{s.tokenizer.grid_h} * s.tokenizer.grid_w;
+  const int64_t per_frame = int64_t{s.tokenizer.levels} * s.tokenizer.grid_h * s.tokenizer.grid_w;
   const std::string& where = meta.episode_key;
   Check(meta.num_frames > 0, "an episode needs at least one frame", {.file = where});
   const auto n = static_cast<size_t>(meta.num_frames);
@@ -103,7 +104,7 @@ void TokenPartWriter::AddEpisode(const TokenEpisode& meta, const std::vector<uin
         "per-step arrays do not have num_frames rows", {.file = where});
   Check(steps.num_steps == meta.num_frames &&
             static_cast<int64_t>(tokens.size()) == meta.num_frames * per_frame,
-        "token count " + std::to_string(tokens.size()) + " != num_frames x grid (" +
+        "token count " + std::to_string(tokens.size()) + " != num_frames x levels x grid (" +
             std::to_string(meta.num_frames) + " x " + std::to_string(per_frame) + ")",
         {.file = where});
   for (uint32_t t : tokens) {
@@ -139,10 +140,8 @@ PartInfo TokenPartWriter::Finish() {
   info.file = PartFileName(s.part);
   info.num_episodes = static_cast<int64_t>(s.episodes.size());
   info.num_frames = s.frames;
-  info.sections["tokens"] = {kPartHeaderSize,
-                             s.token_bytes == 2 ? "<u2" : "<u4",
-                             {s.frames, s.tokenizer.grid_h, s.tokenizer.grid_w},
-                             s.token_crc};
+  info.sections["tokens"] = {kPartHeaderSize, s.token_bytes == 2 ? "<u2" : "<u4",
+                             TokenSectionShape(s.tokenizer, s.frames), s.token_crc};
   const void* data[] = {s.actions.data(),  s.rewards.data(), s.discounts.data(),
                         s.is_first.data(), s.is_last.data(), s.is_terminal.data()};
   for (size_t i = 0; i < std::size(kStepSections); ++i) {

@@ -77,7 +77,7 @@ void FinishTrainSplit(shard::DatasetWriter& writer, const std::string& name) {
 std::vector<std::vector<uint32_t>> MakeTokenDataset(const std::string& dir, int episodes,
                                                     int num_parts, int grid_h, int grid_w,
                                                     int64_t num_codes, uint64_t seed,
-                                                    int64_t action_dim) {
+                                                    int64_t action_dim, int levels) {
   tokens::TokenIndex base;
   base.dataset = "unit";
   base.split = "train";
@@ -86,6 +86,7 @@ std::vector<std::vector<uint32_t>> MakeTokenDataset(const std::string& dir, int 
                     .num_codes = num_codes,
                     .grid_h = grid_h,
                     .grid_w = grid_w,
+                    .levels = levels,
                     .image_size = 8 * grid_h};
   base.token_dtype = num_codes > 65536 ? "uint32" : "uint16";
   if (action_dim != kActionDim) {
@@ -107,7 +108,7 @@ std::vector<std::vector<uint32_t>> MakeTokenDataset(const std::string& dir, int 
         e.actions.resize(static_cast<size_t>(e.num_steps * action_dim));
         for (size_t i = 0; i < e.actions.size(); ++i) e.actions[i] = k + i / 100.0f;
       }
-      std::vector<uint32_t> t(static_cast<size_t>(e.num_steps * grid_h * grid_w));
+      std::vector<uint32_t> t(static_cast<size_t>(e.num_steps * levels * grid_h * grid_w));
       for (auto& v : t) v = static_cast<uint32_t>(rng() % static_cast<uint64_t>(num_codes));
       writer.AddEpisode({.num_frames = e.num_steps,
                          .source_episode = k,

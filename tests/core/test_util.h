@@ -39,12 +39,14 @@ void FinishTrainSplit(shard::DatasetWriter& writer, const std::string& name);
 
 // A token dataset in `dir`: `episodes` MakeEpisode episodes of 3..6 steps split over
 // `num_parts` parts, tokens drawn from `seed` on a grid_h x grid_w grid of `num_codes` codes.
-// Returns the tokens written, per episode ([frames * grid_h * grid_w]). An `action_dim` other
-// than 7 writes "joint_position" actions of that width (action value i of episode k: k + i/100).
+// Returns the tokens written, per episode ([frames * levels * grid_h * grid_w]). An `action_dim`
+// other than 7 writes "joint_position" actions of that width (action value i of episode k:
+// k + i/100); `levels` > 1 writes a residual tokenizer's level stacks (format_version 3).
 std::vector<std::vector<uint32_t>> MakeTokenDataset(const std::string& dir, int episodes,
                                                     int num_parts, int grid_h, int grid_w,
                                                     int64_t num_codes, uint64_t seed,
-                                                    int64_t action_dim = kActionDim);
+                                                    int64_t action_dim = kActionDim,
+                                                    int levels = 1);
 
 // The repository root and the directory of built tools ($WM_SOURCE_DIR / $WM_BIN_DIR, else the
 // paths compiled into the test).

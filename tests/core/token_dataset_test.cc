@@ -166,8 +166,8 @@ TEST(TokenDataset, ActionWidthErrorsNameTheKey) {
   err = error_with("action_dim", 7);  // the stats (and sections) have 6
   EXPECT_NE(err.find("action_stats has 6 values per vector, action_dim is 7"), std::string::npos)
       << err;
-  err = error_with("format_version", 3);
-  EXPECT_NE(err.find("reads versions 1 and 2"), std::string::npos) << err;
+  err = error_with("format_version", 4);
+  EXPECT_NE(err.find("reads versions 1 to 3"), std::string::npos) << err;
   // A version-1 index means 7 values per action: this one's 6-wide sections are refused.
   nlohmann::json v1 = good;
   v1["format_version"] = 1;
@@ -175,6 +175,56 @@ TEST(TokenDataset, ActionWidthErrorsNameTheKey) {
   WriteIndexJson(dir.path(), v1);
   err = ErrorText([&] { TokenDataset d(dir.path().string()); });
   EXPECT_NE(err.find("actions"), std::string::npos) << err;
+}
+
+TEST(TokenDataset, ResidualLevelsAreStackedPerFrameInVersion3) {
+  test::TempDir dir;
+  auto written = MakeTokenDataset(dir.path().string(), 5, 2, 2, 3, 1024, 3, kActionDim, 4);
+  const nlohmann::json j = ReadIndexJson(dir.path());
+  EXPECT_EQ(j["format_version"], 3);
+  EXPECT_EQ(j["tokenizer"]["levels"], 4);
+  EXPECT_EQ(j["action_dim"], 7);  // version 3 records the action even when canonical
+  const int64_t frames = j["parts"][0]["num_frames"];
+  EXPECT_EQ(j["parts"][0]["sections"]["tokens"]["shape"], nlohmann::json({frames, 4, 2, 3}));
+  const std::string part = ReadFile((dir.path() / PartFileName(0)).string());
+  EXPECT_EQ(static_cast<uint8_t>(part[24]), 4);  // the header's levels
+  TokenDataset d(dir.path().string());
+  EXPECT_EQ(d.index().tokenizer.levels, 4);
+  EXPECT_EQ(d.tokens_per_frame(), 24);
+  for (int64_t k = 0; k < 5; ++k) {
+    std::vector<int64_t> tokens(written[k].size());
+    d.CopyTokens(k, 0, d.episode(k).num_frames, tokens.data());
+    EXPECT_TRUE(std::equal(tokens.begin(), tokens.end(), written[k].begin())) << k;
+  }
+  std::vector<int64_t> second(24);  // frame 1 of episode 4: all four levels of it
+  d.CopyTokens(4, 1, 1, second.data());
+  EXPECT_TRUE(std::equal(second.begin(), second.end(), written[4].begin() + 24));
+}
+
+TEST(TokenDataset, LevelErrorsNameTheKey) {
+  test::TempDir dir;
+  MakeTokenDataset(dir.path().string(), 2, 1, 2, 2, 16, 1, kActionDim, 3);
+  const nlohmann::json good = ReadIndexJson(dir.path());
+  auto error_with = [&](const nlohmann::json& j) {
+    WriteIndexJson(dir.path(), j);
+    return ErrorText([&] { TokenDataset d(dir.path().string()); });
+  };
+  nlohmann::json j = good;
+  j["tokenizer"].erase("levels");
+  std::string err = error_with(j);
+  EXPECT_NE(err.find("format_version 3 needs tokenizer.levels in [2, 8], got 1"), std::string::npos)
+      << err;
+  EXPECT_NE(err.find("tokenizer.levels"), std::string::npos) << err;
+  j = good;
+  j["format_version"] = 2;  // a version-2 reader would take the stacks for a larger grid
+  err = error_with(j);
+  EXPECT_NE(err.find("tokenizer.levels is only written by format_version 3"), std::string::npos)
+      << err;
+  j = good;
+  j["tokenizer"]["levels"] = 2;  // the part's header and tokens section say 3
+  err = error_with(j);
+  EXPECT_NE(err.find("levels differ from index.json"), std::string::npos) << err;
+  EXPECT_NE(err.find("part-00000.wmtok"), std::string::npos) << err;
 }
 
 TEST(PartEpisodeRange, CoversEveryEpisodeOnce) {

@@ -2,9 +2,10 @@
 // what it wrote and what the C++ reader returns, so tests/python/test_wmshard_tokens.py can
 // cross-check scripts/wmshard.py (an independent reader written from docs/token-format.md).
 //
-//   token_dataset_tool DIR EPISODES PARTS GRID_H GRID_W NUM_CODES SEED [ACTION_DIM]
+//   token_dataset_tool DIR EPISODES PARTS GRID_H GRID_W NUM_CODES SEED [ACTION_DIM [LEVELS]]
 //
-// stdout: {"token_dtype", "num_parts", "episodes": [{"tokens" [F][h][w] as written,
+// stdout: {"token_dtype", "num_parts", "episodes": [{"tokens" [F][h][w] (with LEVELS > 1:
+//          [F][levels][h][w]) as written,
 //          "tokens_read" (the same, through TokenDataset::CopyTokens), "actions" [F][D],
 //          "rewards", "discounts", "is_first", "is_last", "is_terminal", "part",
 //          "frame_offset", "num_frames", "source_episode", "episode_key", "policy_id",
@@ -23,20 +24,21 @@
 namespace {
 using nlohmann::json;
 
-// [F * h * w] flat -> [F][h][w] nested.
+// C-order values from flat[*at] on -> nested lists of `shape` (from dimension `d`).
 template <typename T>
-json Grid(const std::vector<T>& flat, int64_t frames, int h, int w) {
+json Nest(const std::vector<T>& flat, const std::vector<int64_t>& shape, size_t d, size_t* at) {
   json out = json::array();
-  for (int64_t f = 0; f < frames; ++f) {
-    json frame = json::array();
-    for (int y = 0; y < h; ++y) {
-      json row = json::array();
-      for (int x = 0; x < w; ++x) row.push_back(flat[static_cast<size_t>((f * h + y) * w + x)]);
-      frame.push_back(row);
-    }
-    out.push_back(frame);
+  for (int64_t i = 0; i < shape[d]; ++i) {
+    out.push_back(d + 1 == shape.size() ? json(flat[(*at)++]) : Nest(flat, shape, d + 1, at));
   }
   return out;
+}
+
+// An episode's flat tokens -> [F][h][w], or [F][levels][h][w].
+template <typename T>
+json Tokens(const std::vector<T>& flat, const wm::tokens::TokenizerInfo& t, int64_t frames) {
+  size_t at = 0;
+  return Nest(flat, wm::tokens::TokenSectionShape(t, frames), 0, &at);
 }
 
 template <typename T>
@@ -54,8 +56,8 @@ json EpisodeJson(const wm::tokens::TokenDataset& d, int64_t k,
   for (int64_t f = 0; f < e.num_frames; ++f) {
     actions.push_back(Array(d.actions(k) + f * d.action_dim(), d.action_dim()));
   }
-  return {{"tokens", Grid(written, e.num_frames, t.grid_h, t.grid_w)},
-          {"tokens_read", Grid(read, e.num_frames, t.grid_h, t.grid_w)},
+  return {{"tokens", Tokens(written, t, e.num_frames)},
+          {"tokens_read", Tokens(read, t, e.num_frames)},
           {"actions", actions},
           {"rewards", Array(d.rewards(k), e.num_frames)},
           {"discounts", Array(d.discounts(k), e.num_frames)},
@@ -75,10 +77,10 @@ json EpisodeJson(const wm::tokens::TokenDataset& d, int64_t k,
 }  // namespace
 
 int main(int argc, char** argv) {
-  if (argc != 8 && argc != 9) {
+  if (argc < 8 || argc > 10) {
     std::fprintf(stderr,
                  "usage: token_dataset_tool DIR EPISODES PARTS GRID_H GRID_W NUM_CODES SEED "
-                 "[ACTION_DIM]\n"
+                 "[ACTION_DIM [LEVELS]]\n"
                  "example: token_dataset_tool /tmp/tok 5 3 2 3 1024 7\n");
     return 2;
   }
@@ -88,10 +90,11 @@ int main(int argc, char** argv) {
     const int grid_h = std::stoi(argv[4]), grid_w = std::stoi(argv[5]);
     const int64_t num_codes = std::stoll(argv[6]);
     const uint64_t seed = std::stoull(argv[7]);
-    const int64_t action_dim = argc == 9 ? std::stoll(argv[8]) : wm::kActionDim;
+    const int64_t action_dim = argc >= 9 ? std::stoll(argv[8]) : wm::kActionDim;
+    const int levels = argc == 10 ? std::stoi(argv[9]) : 1;
     std::filesystem::create_directories(dir);  // the part writer expects an existing directory
     auto written = wm::test::MakeTokenDataset(dir, episodes, parts, grid_h, grid_w, num_codes, seed,
-                                              action_dim);
+                                              action_dim, levels);
     wm::tokens::TokenDataset d(dir);
     json out = {{"token_dtype", d.index().token_dtype},
                 {"num_parts", d.index().num_parts},

@@ -31,12 +31,13 @@ TOOL = Path(os.environ.get("WM_BIN_DIR", ROOT / "build" / "bin")) / "token_datas
 STEP_KEYS = ("actions", "rewards", "discounts", "is_first", "is_last", "is_terminal")
 META_KEYS = ("part", "frame_offset", "num_frames", "source_episode", "episode_key", "policy_id",
              "language_instruction", "episode_seed")
-# (episodes, parts, grid_h, grid_w, num_codes, seed, expected token_dtype[, action_dim])
+# (episodes, parts, grid_h, grid_w, num_codes, seed, expected token_dtype[, action_dim[, levels]])
 CONFIGS = [(4, 1, 2, 3, 1024, 5, "uint16"),
            (7, 3, 3, 2, 65536, 11, "uint16"),   # the largest codebook that fits uint16
            (5, 3, 2, 2, 100000, 3, "uint32"),   # codes > 65536: 4-byte tokens
            (2, 3, 1, 4, 70000, 9, "uint32"),    # more parts than episodes: part 0 is empty
-           (3, 2, 2, 2, 16, 13, "uint16", 26)]  # joint actions of 26 values: index version 2
+           (3, 2, 2, 2, 16, 13, "uint16", 26),  # joint actions of 26 values: index version 2
+           (4, 2, 2, 3, 1024, 17, "uint16", 7, 4)]  # 4 residual levels a cell: index version 3
 
 
 def run(*args):
@@ -108,8 +109,9 @@ class TokenCrossCheck(unittest.TestCase):
                     self.assertEqual(ep["episode_index"], k)
                     self.assertEqual(ep["tokens"], want["tokens"], f"episode {k} tokens")
                     self.assertEqual(want["tokens_read"], want["tokens"], "C++ CopyTokens")
+                    levels = (config[8],) if len(config) > 8 else ()
                     self.assertEqual(np.array(ep["tokens"]).shape,
-                                     (want["num_frames"], config[2], config[3]))
+                                     (want["num_frames"], *levels, config[2], config[3]))
                     for key in STEP_KEYS + META_KEYS:
                         self.assertEqual(ep[key], want[key], f"episode {k} {key}")
                     self.assertEqual(ep["file"], f"part-{want['part']:05d}.wmtok")
@@ -198,6 +200,20 @@ class TokenCrossCheck(unittest.TestCase):
                          "no action_dim": lambda x: x.pop("action_dim"),
                          "version 1": lambda x: x.update(format_version=1)}.items():
             self.assertFalse(index_v.is_valid(mutated(fn, wide)), "v2 " + what)
+        stacked = json.loads((Path(self.tmp) / "c17" / "index.json").read_text())  # 4 levels, v3
+        self.assertEqual((stacked["format_version"], stacked["tokenizer"]["levels"]), (3, 4))
+        tokens0 = lambda x: x["parts"][0]["sections"]["tokens"]  # noqa: E731
+        for what, fn in {"no levels": lambda x: x["tokenizer"].pop("levels"),
+                         "one level": lambda x: x["tokenizer"].update(levels=1),
+                         "version 2": lambda x: x.update(format_version=2),
+                         "3-d tokens": lambda x: tokens0(x).update(shape=tokens0(x)["shape"][:1]
+                                                                  + tokens0(x)["shape"][2:]),
+                         "no action_dim": lambda x: x.pop("action_dim")}.items():
+            self.assertFalse(index_v.is_valid(mutated(fn, stacked)), "v3 " + what)
+        for what, fn in {"levels in version 1": lambda x: x["tokenizer"].update(levels=2),
+                         "4-d tokens in version 1": lambda x: p0(x)["sections"]["tokens"].update(
+                             shape=[p0(x)["num_frames"], 1, 3, 2])}.items():
+            self.assertFalse(index_v.is_valid(mutated(fn)), what)
         self.assertTrue(part_v.is_valid(part_json))
         bad_part = {"no tokenizer_sha256": lambda x: x.pop("tokenizer_sha256"),
                     "extra key": lambda x: x.update(index=0),
@@ -205,6 +221,16 @@ class TokenCrossCheck(unittest.TestCase):
                     "num_parts 0": lambda x: x.update(num_parts=0)}
         for what, fn in bad_part.items():
             self.assertFalse(part_v.is_valid(mutated(fn, part_json)), what)
+
+    def test_levels_must_match_the_part_header(self):
+        d, _ = self.dataset(CONFIGS[5])  # 4 levels a cell
+        index = json.loads((d / "index.json").read_text())
+        index["tokenizer"]["levels"] = 2
+        for part in index["parts"]:
+            part["sections"]["tokens"]["shape"][1] = 2
+        (d / "index.json").write_text(json.dumps(index))
+        self.assertFails(["--tokens", d, "--episode", 0], "part-00000.wmtok: header",
+                         "levels 4", "levels 2")
 
     def test_corrupt_section_is_named(self):
         d, _ = self.dataset(CONFIGS[1])  # 3 parts; part 1 holds episodes 2 and 3
@@ -278,10 +304,16 @@ class TokenCrossCheck(unittest.TestCase):
             fn(doc)
             index_path.write_text(json.dumps(doc))
 
-        write(lambda x: x.update(format_version=3))
+        write(lambda x: x.update(format_version=4))
         for args in (["--verify"], ["--info"], ["--episode", 0]):
-            self.assertFails(["--tokens", d, *args], "index.json", "format_version 3",
-                             "supports 1 and 2")
+            self.assertFails(["--tokens", d, *args], "index.json", "format_version 4",
+                             "supports 1, 2, 3")
+        write(lambda x: x.update(format_version=3, action_dim=7, action_space="eef_delta"))
+        self.assertFails(["--tokens", d, "--info"], "index.json", "tokenizer.levels in [2, 8]",
+                         "got None")
+        write(lambda x: x["tokenizer"].update(levels=2))  # in a version-1 index
+        self.assertFails(["--tokens", d, "--info"], "index.json",
+                         "levels is only written by format_version 3")
         write(lambda x: x.update(format_version=2))  # version 2 must say its action
         self.assertFails(["--tokens", d, "--info"], "index.json", "action_dim None")
         write(lambda x: x.update(format_version=2, action_dim=6, action_space="other"))

@@ -232,15 +232,31 @@ def check_encode_cli(label, run_dir, shards, tmp, model):
           "and some remain")
 
 
-def check_encode_refuses_levels(label, run_dir, shards, tmp):
-    """Token datasets hold one code per cell: encode names the checkpoint and its levels."""
+def check_encode_levels(label, run_dir, shards, tmp, model):
+    """A residual tokenizer's token dataset (format_version 3) holds every level's codes, [F,
+    levels, g, g], the twin's; code hysteresis (one code per cell) is refused, naming the
+    checkpoint and its levels."""
+    sys.path.insert(0, os.path.join(SOURCE, "scripts"))
+    import wmshard
+    out = os.path.join(tmp, "tokens_levels")
+    run([os.path.join(BIN, "wm-tokenize"), "encode", "--checkpoint", run_dir, "--data", shards,
+         "--out", out])
+    tokens, sampler = wmshard.TokenDataset(out), twin.FrameSampler([shards], "image", 32, 0)
+    levels = len(model.quantizer.levels)
+    ok = tokens.index["format_version"] == 3 and tokens.index["tokenizer"]["levels"] == levels
+    for k in range(tokens.num_episodes):
+        stored = np.array(tokens.episode(k)["tokens"])
+        ours = twin.encode(model, torch.from_numpy(sampler.frames(0, k))).numpy()
+        ok &= stored.shape[1] == levels and np.array_equal(stored, ours)
+    check(ok, f"{label}: wm-tokenize encode stores the twin's {levels} levels a cell "
+          f"(format_version 3, {tokens.num_episodes} episodes)")
     bad = subprocess.run([os.path.join(BIN, "wm-tokenize"), "encode", "--checkpoint", run_dir,
-                          "--data", shards, "--out", os.path.join(tmp, "tokens_levels")],
+                          "--data", shards, "--out", out + "_sticky", "--hysteresis", "0.002"],
                          capture_output=True, text=True)
     check(bad.returncode == 1 and "checkpoint.wmt" in bad.stderr and
-          "model.levels = 3" in bad.stderr and
-          not os.path.exists(os.path.join(tmp, "tokens_levels", "index.json")),
-          f"{label}: wm-tokenize encode refuses it, exit 1: {bad.stderr.strip()[-120:]}")
+          f"model.levels = {levels}" in bad.stderr and
+          not os.path.exists(os.path.join(out + "_sticky", "index.json")),
+          f"{label}: --hysteresis is refused, exit 1: {bad.stderr.strip()[-120:]}")
 
 
 def check_errors(run_dir, frames_path, tmp):
@@ -301,7 +317,7 @@ def main():
                 check_encode_cli(label, run_dir, shards, tmp, model.eval())
                 check_errors(run_dir, frames_path, tmp)
             if stored["model"].get("levels", 1) > 1:
-                check_encode_refuses_levels(label, run_dir, shards, tmp)
+                check_encode_levels(label, run_dir, shards, tmp, model.eval())
     print(f"{len(passed)} passed, {len(failures)} failed")
     return 1 if failures else 0
 

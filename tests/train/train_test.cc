@@ -159,6 +159,13 @@ TEST_F(DynamicsTrainTest, RefusesOverwriteOtherConfigAndMismatchedData) {
   grid.config.model.grid_w = 5;
   EXPECT_NE(wm::test::ErrorText([&] { TrainDynamics(grid); }).find("key 'model.grid_h'"),
             std::string::npos);
+  // A residual tokenizer's level stacks: refused until the model reads them.
+  wm::test::MakeTokenDataset(dir_ / "stacked", 4, 1, 4, 4, 32, 3, kActionDim, 2);
+  TrainOptions stacked = Options("stacked", 2);
+  stacked.token_dirs = {dir_ / "stacked"};
+  const std::string err = wm::test::ErrorText([&] { TrainDynamics(stacked); });
+  EXPECT_NE(err.find("2 codes per cell"), std::string::npos) << err;
+  EXPECT_NE(err.find("key 'tokenizer.levels'"), std::string::npos) << err;
   TrainOptions ddp = Options("ddp", 2);
   ddp.world_size = 3;
   EXPECT_NE(wm::test::ErrorText([&] { TrainDynamics(ddp); }).find("train.batch_size"),
