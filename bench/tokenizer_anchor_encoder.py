@@ -34,7 +34,6 @@ import os
 import sys
 import time
 
-import numpy as np
 import torch
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
@@ -138,18 +137,7 @@ def strip(path, load_dir, seed, variants, val):
         model = build(variant)({**twin.MODEL_DEFAULTS, **RECIPE})
         model.load_state_dict(torch.load(os.path.join(load_dir, f"{variant}_s{seed}.pt")))
         models.append(model.eval())
-    rows = flow_bench.per_episode(models[0], val)
-    order = np.argsort(-np.nan_to_num(rows[:, 5]))[:2]
-    panels = []
-    for e in order:
-        for k, model in enumerate(models):
-            _, real, rec, copy = flow_bench.scored_frames(model, val[e][0])
-            panels += [real] if k == 0 else []
-            panels.append(rec)
-        panels.append(copy)
-    flow_bench.write_strip(path, panels)
-    print(f"wrote {path} (episodes {order[0]} and {order[1]}; rows: real, "
-          f"{', '.join(variants)}, copy_last)")
+    flow_bench.draw_strip(path, models, variants, val, flow_bench.per_episode(models[0], val))
 
 
 def main():

@@ -21,7 +21,7 @@ way, loaded into the twin.
 
   bench/tokenizer_anchor_flow.py --train TRAIN --val VAL --variants base flow_change4 \
       --seeds 1 2 [--steps 2400] [--jobs 2] [--out rows.npz]
-  bench/tokenizer_anchor_flow.py --val VAL --checkpoints RUN_BASE RUN_OTHER...
+  bench/tokenizer_anchor_flow.py --val VAL --checkpoints RUN_BASE RUN_OTHER... [--strip PNG]
 """
 import argparse
 import itertools
@@ -116,14 +116,34 @@ def paired_line(a, b):
             f"{hi:+.3f}], block {block:+.3f} [{blo:+.3f}, {bhi:+.3f}]")
 
 
-def score_checkpoints(runs, val):
-    """The C++ runs, loaded into the twin (the same numbers as C++: tests/tokenize), paired."""
-    rows = [per_episode(twin.load_checkpoint(run)[0], val) for run in runs]
+def score_checkpoints(runs, val, strip=None):
+    """The C++ runs, loaded into the twin (the same numbers as C++: tests/tokenize), paired;
+    with `strip`, their picture (draw_strip)."""
+    models = [twin.load_checkpoint(run)[0].eval() for run in runs]
+    rows = [per_episode(model, val) for model in models]
     for run, r in zip(runs, rows):
         print(f"{run}: PSNR (steps 1-8) {r[:, 0].mean():.2f}, code changes {r[:, 1].mean():.3f}, "
               f"arm / copy_last {ratio(r, 2):.3f}, block / copy_last {ratio(r, 4):.3f}")
     for run, r in zip(runs[1:], rows[1:]):
         print(f"paired, {run} - {runs[0]}: {paired_line(rows[0], r)}")
+    if strip:
+        draw_strip(strip, models, runs, val, rows[0])
+
+
+def draw_strip(path, models, labels, val, rows):
+    """For the 2 episodes where copying's block error is largest (per_episode `rows`): real
+    frames, each model's reconstructions, copy_last; one PNG."""
+    order = np.argsort(-np.nan_to_num(rows[:, 5]))[:2]
+    panels = []
+    for e in order:
+        for k, model in enumerate(models):
+            _, real, rec, copy = scored_frames(model, val[e][0])
+            panels += [real] if k == 0 else []
+            panels.append(rec)
+        panels.append(copy)
+    write_strip(path, panels)
+    print(f"wrote {path} (episodes {order[0]} and {order[1]}; rows: real, "
+          f"{', '.join(labels)}, copy_last)")
 
 
 def run_variants(run, args):
@@ -167,9 +187,10 @@ def main():
     add_run_arguments(ap, VARIANTS, ["base", "change4"], [0, 1])
     ap.add_argument("--checkpoints", nargs="+", metavar="RUN_DIR",
                     help="score these wm-tokenize runs instead of training (the first is the base)")
+    ap.add_argument("--strip", metavar="PNG", help="with --checkpoints: their picture")
     args = ap.parse_args()
     if args.checkpoints:
-        return score_checkpoints(args.checkpoints, goal1.load(args.val, True))
+        return score_checkpoints(args.checkpoints, goal1.load(args.val, True), args.strip)
     if not args.train:
         ap.error("--train is needed to train variants (or score runs with --checkpoints)")
     DATA = (goal1.load(args.train, False), goal1.load(args.val, True))
