@@ -39,9 +39,11 @@ struct TokenizerInfo {
   std::string config_hash;        // of the tokenizer config
   int64_t num_codes = 0;
   int grid_h = 0, grid_w = 0;  // cells per frame = grid_h * grid_w
-  int levels = 1;              // codes per cell (residual VQ); tokens per frame = levels * cells
+  int levels = 1;              // codes per cell (residual VQ)
   int image_size = 0;          // frames were resized to image_size x image_size
   std::string image_key = "image";
+
+  int64_t tokens_per_frame() const { return int64_t{levels} * grid_h * grid_w; }
 };
 
 // The tokens section's shape in a part of `frames` frames: [F, h, w], or [F, levels, h, w].

@@ -118,8 +118,7 @@ const TokenEpisode& TokenDataset::episode(int64_t k) const {
   return state_->index.episodes[static_cast<size_t>(k)];
 }
 int64_t TokenDataset::tokens_per_frame() const {
-  const TokenizerInfo& t = state_->index.tokenizer;
-  return int64_t{t.levels} * t.grid_h * t.grid_w;
+  return state_->index.tokenizer.tokens_per_frame();
 }
 
 void TokenDataset::CopyTokens(int64_t k, int64_t first, int64_t count, int64_t* out) const {

@@ -89,7 +89,7 @@ TokenPartWriter::~TokenPartWriter() = default;
 void TokenPartWriter::AddEpisode(const TokenEpisode& meta, const std::vector<uint32_t>& tokens,
                                  const Episode& steps) {
   State& s = *state_;
-  const int64_t per_frame = int64_t{s.tokenizer.levels} * s.tokenizer.grid_h * s.tokenizer.grid_w;
+  const int64_t per_frame = s.tokenizer.tokens_per_frame();
   const std::string& where = meta.episode_key;
   Check(meta.num_frames > 0, "an episode needs at least one frame", {.file = where});
   const auto n = static_cast<size_t>(meta.num_frames);

@@ -208,25 +208,31 @@ def train_twin(label, run_dir, shards):
         check(moved > 0, f"{label}: the anchor's flow learned (max |weight| {moved:.1e})")
 
 
+def encode_with_cli(run_dir, shards, out, model, margin):
+    """Runs wm-tokenize encode (--hysteresis margin) into `out`; returns the dataset as
+    wmshard.py reads it and, per episode, (stored codes, the twin's codes of its frames)."""
+    sys.path.insert(0, os.path.join(SOURCE, "scripts"))
+    import wmshard
+    run([os.path.join(BIN, "wm-tokenize"), "encode", "--checkpoint", run_dir, "--data", shards,
+         "--out", out, "--hysteresis", margin])
+    tokens, sampler = wmshard.TokenDataset(out), twin.FrameSampler([shards], "image", 32, 0)
+    return tokens, [(np.array(tokens.episode(k)["tokens"]),
+                     twin.encode_episode(model, torch.from_numpy(sampler.frames(0, k)), margin))
+                    for k in range(tokens.num_episodes)]
+
+
 def check_encode_cli(label, run_dir, shards, tmp, model):
     """wm-tokenize encode (C++ JPEG decode + Tokenizer) stores the twin's codes, without and with
     code hysteresis (--hysteresis: fewer code changes, the twin's sticky codes)."""
-    sys.path.insert(0, os.path.join(SOURCE, "scripts"))
-    import wmshard
     changes = {}
     for margin in (0.0, 0.002):
         out = os.path.join(tmp, f"tokens{margin}")
         shutil.rmtree(out, ignore_errors=True)
-        run([os.path.join(BIN, "wm-tokenize"), "encode", "--checkpoint", run_dir, "--data",
-             shards, "--out", out, "--hysteresis", margin])
-        tokens, sampler = wmshard.TokenDataset(out), twin.FrameSampler([shards], "image", 32, 0)
-        ok, changes[margin] = True, 0
-        for k in range(tokens.num_episodes):
-            stored = np.array(tokens.episode(k)["tokens"])
-            ours = twin.encode_episode(model, torch.from_numpy(sampler.frames(0, k)), margin)
-            ok &= np.array_equal(stored, ours.numpy().reshape(stored.shape))
-            changes[margin] += int((ours[1:] != ours[:-1]).sum())
-        check(ok, f"{label}: wm-tokenize encode --hysteresis {margin} stores the twin's codes "
+        tokens, episodes = encode_with_cli(run_dir, shards, out, model, margin)
+        changes[margin] = sum(int((ours[1:] != ours[:-1]).sum()) for _, ours in episodes)
+        check(all(np.array_equal(stored, ours.numpy().reshape(stored.shape))
+                  for stored, ours in episodes),
+              f"{label}: wm-tokenize encode --hysteresis {margin} stores the twin's codes "
               f"({tokens.num_episodes} episodes, {changes[margin]} code changes)")
     check(0 < changes[0.002] < changes[0.0], f"{label}: hysteresis lowers the code changes, "
           "and some remain")
@@ -236,18 +242,12 @@ def check_encode_levels(label, run_dir, shards, tmp, model):
     """A residual tokenizer's token dataset (format_version 3) holds every level's codes, [F,
     levels, g, g], the twin's; code hysteresis (one code per cell) is refused, naming the
     checkpoint and its levels."""
-    sys.path.insert(0, os.path.join(SOURCE, "scripts"))
-    import wmshard
     out = os.path.join(tmp, "tokens_levels")
-    run([os.path.join(BIN, "wm-tokenize"), "encode", "--checkpoint", run_dir, "--data", shards,
-         "--out", out])
-    tokens, sampler = wmshard.TokenDataset(out), twin.FrameSampler([shards], "image", 32, 0)
+    tokens, episodes = encode_with_cli(run_dir, shards, out, model, 0.0)
     levels = len(model.quantizer.levels)
     ok = tokens.index["format_version"] == 3 and tokens.index["tokenizer"]["levels"] == levels
-    for k in range(tokens.num_episodes):
-        stored = np.array(tokens.episode(k)["tokens"])
-        ours = twin.encode(model, torch.from_numpy(sampler.frames(0, k))).numpy()
-        ok &= stored.shape[1] == levels and np.array_equal(stored, ours)
+    for stored, ours in episodes:
+        ok &= stored.shape[1] == levels and np.array_equal(stored, ours.numpy())
     check(ok, f"{label}: wm-tokenize encode stores the twin's {levels} levels a cell "
           f"(format_version 3, {tokens.num_episodes} episodes)")
     bad = subprocess.run([os.path.join(BIN, "wm-tokenize"), "encode", "--checkpoint", run_dir,
