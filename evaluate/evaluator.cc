@@ -298,11 +298,12 @@ struct EvalInputs {
 std::string EvaluateCheckpoint(const EvalOptions& all, size_t c, const EvalInputs& in) {
   const std::string name = ReportName(all, c);
   std::string dir = (fs::path(all.out_dir) / name).string();
+  // Loading checks that the checkpoint fits the data, so a misfit leaves no directory behind.
+  const CheckpointUnderEval checkpoint = LoadCheckpointUnderEval(all, c, name, in.tok, in.data);
   fs::create_directories(dir);
   // manifest.json is written last and marks a complete report: a killed run leaves none, so
   // wm-report refuses the folder instead of mixing old and new files.
   fs::remove(fs::path(dir) / "manifest.json");
-  const CheckpointUnderEval checkpoint = LoadCheckpointUnderEval(all, c, name, in.tok, in.data);
   const EvalOptions& o = checkpoint.options;
   auto score = [&] {
     return ScoreEpisodes(checkpoint, name, dir, in.tok, in.data, in.shards, in.mine, in.positions,

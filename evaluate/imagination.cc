@@ -58,6 +58,7 @@ CheckpointUnderEval LoadDynamicsCheckpoint(const EvalOptions& o, size_t c, const
                                            const tokenize::Tokenizer& tok,
                                            const tokens::TokenDataset& data) {
   std::shared_ptr<const train::DynamicsModel> model = LoadModelFor(o, o.checkpoints[c], data);
+  CheckModelFitsTokens(*model, data);  // before its report directory exists
   if (o.rollout.samples >= 2 && model->DecodeTemperature(o.rollout.temperature) == 0) {
     spdlog::warn(
         "{}: --samples {} with argmax decoding (temperature 0) imagines {} identical "

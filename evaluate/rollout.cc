@@ -84,13 +84,24 @@ ImaginedFrame ImagineNextFrame(const train::DynamicsModel& model,
   return out;
 }
 
+namespace {
+
+// "4 levels x 8x8 tokens of 1024 codes" (one level: "8x8 tokens of 1024 codes").
+std::string TokenShape(int levels, int grid_h, int grid_w, int64_t codes) {
+  return (levels == 1 ? "" : std::to_string(levels) + " levels x ") + std::to_string(grid_h) + "x" +
+         std::to_string(grid_w) + " tokens of " + std::to_string(codes) + " codes";
+}
+
+}  // namespace
+
 void CheckModelFitsTokens(const train::DynamicsModel& model, const tokens::TokenDataset& data) {
-  const int64_t n = data.tokens_per_frame();
-  Check(n == model.tokens_per_frame() &&
-            data.index().tokenizer.num_codes == model.config().model.num_codes,
-        "the model was trained on " + std::to_string(model.tokens_per_frame()) + " tokens of " +
-            std::to_string(model.config().model.num_codes) + " codes per frame; this data has " +
-            std::to_string(n) + " of " + std::to_string(data.index().tokenizer.num_codes),
+  const train::ModelConfig& m = model.config().model;
+  const tokens::TokenizerInfo& t = data.index().tokenizer;
+  Check(t.levels == m.levels && t.grid_h == m.grid_h && t.grid_w == m.grid_w &&
+            t.num_codes == m.num_codes,
+        "the model was trained on " + TokenShape(m.levels, m.grid_h, m.grid_w, m.num_codes) +
+            " per frame; this data has " + TokenShape(t.levels, t.grid_h, t.grid_w, t.num_codes) +
+            (t.levels != m.levels ? " (tokenizer.levels)" : ""),
         {.file = data.dir()});
   Check(model.action_dim() == data.action_dim(),
         "the model takes " + std::to_string(model.action_dim()) + "-dim actions of dataset '" +

@@ -10,7 +10,7 @@
 namespace wm::train {
 
 StepNoise DrawStepNoise(const DynamicsConfig& c, uint64_t seed, int64_t step, int64_t batch) {
-  const int64_t T = c.model.context_frames, N = int64_t{c.model.grid_h} * c.model.grid_w;
+  const int64_t T = c.model.context_frames, N = c.model.tokens_per_frame();
   at::Generator gen = at::detail::createCPUGenerator(MixSeed(seed ^ 0x6D61736Bull, step));
   StepNoise n;
   n.u_ratio = torch::rand({batch, T}, gen);
@@ -22,8 +22,7 @@ StepNoise DrawStepNoise(const DynamicsConfig& c, uint64_t seed, int64_t step, in
 
 SegmentBatch MakeSegmentBatch(const DynamicsConfig& c, const SegmentData& d, const StepNoise& noise,
                               int64_t first, int world_size, const torch::Device& device) {
-  const int64_t B = d.batch, T = c.model.context_frames;
-  const int64_t N = int64_t{c.model.grid_h} * c.model.grid_w;
+  const int64_t B = d.batch, T = c.model.context_frames, N = c.model.tokens_per_frame();
   auto host = [&](const auto& v, std::vector<int64_t> shape, torch::ScalarType type) {
     return torch::from_blob(const_cast<void*>(static_cast<const void*>(v.data())), shape,
                             torch::TensorOptions().dtype(type))

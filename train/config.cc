@@ -10,6 +10,7 @@
 #include "core/episode.h"
 #include "core/error.h"
 #include "core/sectioned_yaml.h"
+#include "core/tokens/token_dataset.h"
 #include "trainkit/train_fields.h"
 
 namespace wm::train {
@@ -77,6 +78,7 @@ DynamicsConfig LoadDynamicsConfig(const std::string& path) {
 nlohmann::json ConfigToJson(const DynamicsConfig& config) {
   nlohmann::json j = SectionedToJson(config, [](auto& c, auto&& f) { VisitFields(c, f); });
   if (config.model.action_dim != kActionDim) j["model"]["action_dim"] = config.model.action_dim;
+  if (config.model.levels != 1) j["model"]["levels"] = config.model.levels;
   // Configs and checkpoints from before rotary time keep their bytes and hashes.
   if (config.model.temporal_positions == "learned") j["model"].erase("temporal_positions");
   return j;
@@ -86,6 +88,9 @@ DynamicsConfig ConfigFromJson(const nlohmann::json& j) {
   auto c = SectionedFromJson<DynamicsConfig>(j, [](auto& c, auto&& f) { VisitFields(c, f); });
   if (j.contains("model") && j["model"].contains("action_dim")) {
     j["model"]["action_dim"].get_to(c.model.action_dim);
+  }
+  if (j.contains("model") && j["model"].contains("levels")) {
+    j["model"]["levels"].get_to(c.model.levels);
   }
   return c;
 }
@@ -114,6 +119,8 @@ void ValidateConfig(const DynamicsConfig& c, const std::string& file) {
   require(m.decode_temperature >= 0, "model.decode_temperature", "must be >= 0");
   require(m.action_dim >= 1 && m.action_dim <= kMaxActionDim, "model.action_dim",
           "must be in [1, " + std::to_string(kMaxActionDim) + "]");
+  require(m.levels >= 1 && m.levels <= tokens::kMaxTokenLevels, "model.levels",
+          "must be in [1, " + std::to_string(tokens::kMaxTokenLevels) + "]");
   const PolicyConfig& p = c.policy;
   require(p.num_heads > 0, "policy.num_heads", "must be > 0");
   require(p.d_model > 0 && p.d_model % p.num_heads == 0, "policy.d_model",

@@ -44,6 +44,15 @@ struct ModelConfig {
   // checkpoint's config as model.action_dim only when it is not 7, so 7-dim configs, hashes and
   // checkpoints keep their bytes and older checkpoints (without the key) load as 7.
   int action_dim = 7;
+  // Codes per cell: a residual tokenizer's levels (tokenizer.levels of the token data). Not a YAML
+  // key: wm-train sets it from the token data. A frame's tokens are level-major [levels, grid_h,
+  // grid_w], as token datasets and the tokenizer hold them. Stored in the checkpoint's config as
+  // model.levels only when it is not 1, so one-level configs, hashes and checkpoints keep their
+  // bytes.
+  int levels = 1;
+
+  int64_t cells() const { return int64_t{grid_h} * grid_w; }
+  int64_t tokens_per_frame() const { return levels * cells(); }
 };
 
 // The policy embedding model (WHALE Table 5; one width for posterior, prior and decoder).

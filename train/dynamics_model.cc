@@ -21,7 +21,7 @@ struct DynamicsModel::State {
   int64_t step = 0;
   std::string file;  // the loaded checkpoint.wmt
 
-  int64_t N() const { return int64_t{config.model.grid_h} * config.model.grid_w; }
+  int64_t N() const { return config.model.tokens_per_frame(); }
 
   // Refuses `tokens` with a code outside [0, num_codes), naming them as `what`.
   void CheckCodes(const torch::Tensor& tokens, const std::string& what) const {

@@ -14,6 +14,7 @@ namespace {
 const std::vector<std::string> kShapeKeys = {"model.grid_h",
                                              "model.grid_w",
                                              "model.num_codes",
+                                             "model.levels",
                                              "model.context_frames",
                                              "model.d_model",
                                              "model.num_layers",
@@ -33,10 +34,11 @@ const std::vector<std::string> kShapeKeys = {"model.grid_h",
                                              "policy.classes"};
 
 // The config as the shape check reads it: every key present (ConfigToJson leaves out a default
-// model.temporal_positions, which would read as null).
+// model.temporal_positions and model.levels, which would read as null).
 nlohmann::json ShapeJson(const DynamicsConfig& c) {
   nlohmann::json j = ConfigToJson(c);
   j["model"]["temporal_positions"] = c.model.temporal_positions;
+  j["model"]["levels"] = c.model.levels;
   return j;
 }
 

@@ -89,13 +89,9 @@ void Clip(const std::vector<torch::Tensor>& params, double max_norm) {
   if (max_norm > 0 && !params.empty()) torch::nn::utils::clip_grad_norm_(params, max_norm);
 }
 
-// The token datasets must have the config's grid and codebook.
+// The token datasets must have the config's grid and codebook (the levels per cell come from
+// the data, as the action width).
 void CheckTokensFit(const SegmentSampler& sampler, const ModelConfig& m) {
-  Check(sampler.levels() == 1,
-        "token data has " + std::to_string(sampler.levels()) +
-            " codes per cell (a residual tokenizer, tokenizer.levels in index.json); the dynamics "
-            "model reads one code per cell: encode with a one-level tokenizer",
-        {.key = "tokenizer.levels"});
   Check(sampler.grid_h() == m.grid_h && sampler.grid_w() == m.grid_w,
         "token data has " + std::to_string(sampler.grid_h()) + "x" +
             std::to_string(sampler.grid_w()) + " tokens per frame, config says " +
@@ -118,6 +114,7 @@ CheckpointMeta NewRunMeta(const DynamicsConfig& cfg, const SegmentSampler& sampl
       {"num_codes", sampler.num_codes()},
       {"grid_h", sampler.grid_h()},
       {"grid_w", sampler.grid_w()}};
+  if (sampler.levels() != 1) meta.tokenizer["levels"] = sampler.levels();
   meta.rng = {{"scheme",
                "counter: mt19937_64(MixSeed(seed, step)) segments, torch CPU generator "
                "noise; no state beyond seed and step"},
@@ -320,6 +317,7 @@ TrainSummary TrainDynamics(const TrainOptions& options) {
   // The model takes the data's action width (the widest dataset's; docs/dynamics.md).
   TrainOptions o = options;
   o.config.model.action_dim = static_cast<int>(sampler.action_dim());
+  o.config.model.levels = sampler.levels();  // a residual tokenizer's codes per cell
   std::optional<SegmentSampler> val;
   if (!o.val_dir.empty()) {
     val.emplace(std::vector<std::string>{o.val_dir}, o.config.model.context_frames, "",

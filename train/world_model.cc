@@ -23,9 +23,9 @@ torch::Tensor TrainingMask(const torch::Tensor& u_ratio, const torch::Tensor& u_
 }
 
 DynamicsNetImpl::DynamicsNetImpl(const ModelConfig& m, int64_t z_dim) : config(m), z_dim(z_dim) {
-  const int64_t d = m.d_model, N = int64_t{m.grid_h} * m.grid_w;
-  token_embed = register_module("token_embed", torch::nn::Embedding(m.num_codes + 1, d));
-  spatial_pos = register_parameter("spatial_pos", torch::randn({N, d}) * 0.02);
+  const int64_t d = m.d_model, L = m.levels;
+  token_embed = register_module("token_embed", torch::nn::Embedding(L * (m.num_codes + 1), d));
+  spatial_pos = register_parameter("spatial_pos", torch::randn({m.cells(), d}) * 0.02);
   if (!rope_time()) {
     temporal_pos = register_parameter("temporal_pos", torch::randn({m.context_frames, d}) * 0.02);
   }
@@ -41,12 +41,12 @@ DynamicsNetImpl::DynamicsNetImpl(const ModelConfig& m, int64_t z_dim) : config(m
                                                                   .rope_time = rope_time()},
                                                    m.num_layers));
   if (m.tied_token_head) {
-    token_bias = register_parameter("token_bias", torch::zeros({m.num_codes}));
+    token_bias = register_parameter("token_bias", torch::zeros({L * m.num_codes}));
   } else {
-    token_head = register_module("token_head", torch::nn::Linear(d, m.num_codes));
+    token_head = register_module("token_head", torch::nn::Linear(d, L * m.num_codes));
   }
   reward_head = register_module("reward_head", torch::nn::Linear(d, 2));
-  if (m.copy_prior) copy_gate = register_module("copy_gate", torch::nn::Linear(d, 1));
+  if (m.copy_prior) copy_gate = register_module("copy_gate", torch::nn::Linear(d, L));
   InitWeights(*this);
   if (copy_gate) {
     // Zero-init residual (DIAMOND, iVideoGPT's action projection): the gate starts as the
@@ -76,16 +76,41 @@ torch::Tensor DynamicsNetImpl::Embed(const torch::Tensor& tokens, const torch::T
     cond = cond + (shifted ? zc : F::pad(zc, F::PadFuncOptions({0, 0, 1, 0})));  // [B, T, D]
   }
   if (temporal_pos.defined()) cond = cond + temporal_pos.slice(0, 0, T);
-  return token_embed->forward(tokens) + spatial_pos + cond.unsqueeze(2);  // [B, T, N, D]
+  return EmbedCodes(tokens) + spatial_pos + cond.unsqueeze(2);  // [B, T, cells, D]
 }
 
+torch::Tensor DynamicsNetImpl::EmbedCodes(const torch::Tensor& tokens) {
+  const int64_t L = config.levels;
+  if (L == 1) return token_embed->forward(tokens);
+  const int64_t B = tokens.size(0), T = tokens.size(1);
+  const torch::Tensor first_row =
+      torch::arange(L, tokens.options()).mul_(config.num_codes + 1).view({L, 1});
+  return token_embed->forward(tokens.reshape({B, T, L, -1}) + first_row).sum(2);
+}
+
+namespace {
+
+// Per-cell, per-level outputs [B, T, cells, L * C] (level-major within a cell) as per-token
+// outputs [B, T, L * cells, C] in the frame's level-major token order.
+torch::Tensor TokenMajor(const torch::Tensor& x, int64_t L) {
+  const int64_t B = x.size(0), T = x.size(1), cells = x.size(2);
+  return x.reshape({B, T, cells, L, -1}).permute({0, 1, 3, 2, 4}).reshape({B, T, L * cells, -1});
+}
+
+}  // namespace
+
 torch::Tensor DynamicsNetImpl::TokenLogits(const torch::Tensor& h, const torch::Tensor& prev) {
-  const int64_t K = config.num_codes;
-  torch::Tensor logits = token_head
-                             ? token_head->forward(h)  // [B, T, N, K]
-                             : ApplyLinear(h, token_embed->weight.slice(0, 0, K), token_bias);
+  const int64_t K = config.num_codes, L = config.levels;
+  // Tied: each level's code rows of the input embedding (not its mask row) score its codes.
+  torch::Tensor logits =
+      token_head
+          ? token_head->forward(h)
+          : ApplyLinear(
+                h, token_embed->weight.view({L, K + 1, -1}).slice(1, 0, K).reshape({L * K, -1}),
+                token_bias);
+  logits = TokenMajor(logits, L);  // [B, T, N, K]
   if (!copy_gate) return logits;
-  torch::Tensor gate = copy_gate->forward(h);  // [B, T, N, 1]
+  torch::Tensor gate = TokenMajor(copy_gate->forward(h), L);  // [B, T, N, 1]
   gate = gate * (prev < K).unsqueeze(-1).to(gate.scalar_type());
   return logits.scatter_add(-1, prev.clamp_max(K - 1).unsqueeze(-1), gate.to(logits.scalar_type()));
 }
@@ -126,8 +151,12 @@ WorldModelImpl::WorldModelImpl(const DynamicsConfig& c) : config(c) {
 torch::Tensor WorldModelImpl::DynamicsZ(const torch::Tensor& tokens, const torch::Tensor& actions) {
   if (!policy) return {};
   torch::NoGradGuard no_grad;
-  torch::Tensor logits = policy->Prior(tokens, actions);  // [B, T, C, K]
-  return torch::softmax(logits, -1).flatten(2);           // [B, T, C*K]
+  torch::Tensor logits = policy->Prior(PolicyTokens(tokens), actions);  // [B, T, C, K]
+  return torch::softmax(logits, -1).flatten(2);                         // [B, T, C*K]
+}
+
+torch::Tensor WorldModelImpl::PolicyTokens(const torch::Tensor& tokens) const {
+  return tokens.slice(2, 0, config.model.cells());
 }
 
 DynamicsOutput WorldModelImpl::Dynamics(const torch::Tensor& tokens, const torch::Tensor& actions,
@@ -160,7 +189,7 @@ WorldModelLosses WorldModelImpl::Losses(const SegmentBatch& b) {
   const torch::Tensor actions = b.action_mask.defined() ? b.actions * b.action_mask : b.actions;
   torch::Tensor z;
   if (policy) {
-    PolicyOutput po = policy->forward(b.tokens, actions, b.z_noise);
+    PolicyOutput po = policy->forward(PolicyTokens(b.tokens), actions, b.z_noise);
     l.policy = policy->Losses(po, actions, b.action_mask);
     z = torch::softmax(po.prior_logits.detach(), -1).flatten(2);  // [B, T, C*K], stop-gradient
   }

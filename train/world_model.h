@@ -19,6 +19,7 @@
 namespace wm::train {
 
 // One training segment batch; every tensor on the model's device.
+// N below is the tokens per frame, ModelConfig::tokens_per_frame(): levels x cells, level-major.
 struct SegmentBatch {
   torch::Tensor tokens;   // [B, T, N] int64 codes (clean)
   torch::Tensor actions;  // [B, T, D] float, normalised with the dataset's statistics
@@ -67,21 +68,29 @@ struct DynamicsNetImpl : torch::nn::Module {
   void RewardHead(const torch::Tensor& h, DynamicsOutput& out);
   ModelConfig config;
   int64_t z_dim;
-  torch::nn::Embedding token_embed{nullptr};  // num_codes + 1 rows: the last is the mask token
+  // num_codes + 1 rows per level, the last the mask token: level l's code c is row
+  // l * (num_codes + 1) + c. A cell's input is the sum of its levels' rows (RQ-Transformer).
+  torch::nn::Embedding token_embed{nullptr};
   // [N, D], [T, D] (undefined with rotary time), [D]
   torch::Tensor spatial_pos, temporal_pos, action_start;
   torch::nn::Linear action_in{nullptr}, z_in{nullptr};
   StTransformer transformer{nullptr};
-  torch::nn::Linear token_head{nullptr}, reward_head{nullptr};  // token_head null when tied
-  torch::Tensor token_bias;                                     // [K], the tied head's bias
-  // model.copy_prior: the bonus added to the logit of the cell's previous code, per position
-  // (weight zero, bias log(num_codes) at init, so every position starts at "copy").
+  // token_head: levels x K logits per cell, level-major (null when tied); each level's codes are
+  // scored from the cell's output alone, independently of the other levels' codes.
+  torch::nn::Linear token_head{nullptr}, reward_head{nullptr};
+  torch::Tensor token_bias;  // [levels x K], the tied head's bias
+  // model.copy_prior: the bonus added to the logit of the cell's previous code, per position and
+  // level (weight zero, bias log(num_codes) at init, so every position starts at "copy").
   torch::nn::Linear copy_gate{nullptr};
   bool next_frame() const { return config.objective == "next_frame"; }
   bool rope_time() const { return config.temporal_positions == "rope"; }
   // Whether imagination can keep frames' temporal keys/values as the window slides
   // (train/rolling_imagination.h): one-pass decoding and keys that do not depend on the slot.
   bool can_roll() const { return next_frame() && rope_time(); }
+
+ private:
+  // The sum of each cell's level embeddings: tokens [B, T, levels x cells] -> [B, T, cells, D].
+  torch::Tensor EmbedCodes(const torch::Tensor& tokens);
 };
 TORCH_MODULE(DynamicsNet);
 
@@ -91,6 +100,9 @@ struct WorldModelImpl : torch::nn::Module {
   // z_h for the dynamics: the prior's class probabilities [B, T, C*K], detached (the policy
   // embedding is trained by eq. 4 only; the dynamics consumes it). Undefined when off.
   torch::Tensor DynamicsZ(const torch::Tensor& tokens, const torch::Tensor& actions);
+  // What the policy embedding reads of tokens [B, T, N]: the first level, [B, T, cells] (a
+  // residual tokenizer's coarse codes; all of them with one level).
+  torch::Tensor PolicyTokens(const torch::Tensor& tokens) const;
   // Teacher-forced losses over the whole segment (eq. 4 + eq. 5 + reward terms).
   WorldModelLosses Losses(const SegmentBatch& batch);
   // The raw forward: `tokens` [B, T, N] (mask token = num_codes allowed with "masked").

@@ -532,6 +532,19 @@ class WmEval(unittest.TestCase):
             self.assertEqual(p.returncode, 1, p.stderr)
             self.assertIn(f"wm-eval: error: {file}: key '{key}'", p.stderr)
             self.assertFalse(os.path.exists(out), "checked before anything is written")
+        # A residual tokenizer's level stacks, with their own tokenizer, for a one-level model.
+        config = derived_config("tokenizer", self.path("levels.yaml"), {"model": {"levels": 2}})
+        ok("wm-tokenize", "train", "--config", config, "--data", self.path("shards", "val"),
+           "--out", self.path("tok_levels"), "--steps", 1, "--threads", 1)
+        ok("wm-tokenize", "encode", "--checkpoint", self.path("tok_levels"), "--data",
+           self.path("shards", "val"), "--out", self.path("tokens", "levels"))
+        out = self.path("bad_levels")
+        p = tool("wm-eval", *self.eval_args(out, tokens="levels", tokenizer="tok_levels"))
+        self.assertEqual(p.returncode, 1, p.stderr)
+        self.assertIn(f"wm-eval: error: {self.path('tokens', 'levels')}: the model was trained on "
+                      "8x8 tokens of 1024 codes per frame; this data has 2 levels x 8x8 tokens of "
+                      "1024 codes (tokenizer.levels)", p.stderr)
+        self.assertFalse(os.path.exists(out), "checked before anything is written")
 
     def test_official_lpips_of_the_baselines_equals_wm_metrics(self):
         """--lpips-weights adds `lpips` (here with the exporter's seeded random weights): each

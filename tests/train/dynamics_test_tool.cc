@@ -1,7 +1,7 @@
 // dynamics_test_tool: fixtures for the Python checks of the dynamics model.
 //   make-tokens --out DIR ...        a moving-block token dataset (tests/train/moving_block.h)
 //   reference --out FILE [--rmsnorm] [--no-policy] [--tied] [--copy-prior] [--next-frame] [--rope]
-//             [--action-dim D] [--padded K]
+//             [--action-dim D] [--padded K] [--levels L]
 //                                    (--padded: row 1 is a K-dim dataset's, padded to D and
 //                                    masked, its padding filled with noise that must not matter)
 //                                    a tensor archive with random weights ("model/..."), inputs
@@ -28,7 +28,7 @@ using namespace wm::train;
 struct ReferenceFlags {
   bool rmsnorm = false, no_policy = false, tied = false, copy_prior = false, next_frame = false,
        rope = false;
-  int action_dim = 7, padded = 0;
+  int action_dim = 7, padded = 0, levels = 1;
 };
 
 void WriteReference(const std::string& path, const ReferenceFlags& f, uint64_t seed) {
@@ -40,6 +40,7 @@ void WriteReference(const std::string& path, const ReferenceFlags& f, uint64_t s
   c.model.objective = f.next_frame ? "next_frame" : "masked";
   c.model.temporal_positions = f.rope ? "rope" : "learned";
   c.model.action_dim = f.action_dim;
+  c.model.levels = f.levels;
   c.train.reward_weight = 0.7;
   c.train.terminal_weight = 0.3;
   c.train.policy_weight = 0.9;
@@ -53,7 +54,7 @@ void WriteReference(const std::string& path, const ReferenceFlags& f, uint64_t s
         p.value().add_(torch::randn_like(p.value()) * 0.1);
     }
   }
-  const int64_t B = 2, T = c.model.context_frames, N = int64_t{c.model.grid_h} * c.model.grid_w;
+  const int64_t B = 2, T = c.model.context_frames, N = c.model.tokens_per_frame();
   SegmentBatch b;
   b.tokens = torch::randint(c.model.num_codes, {B, T, N}, torch::kInt64);
   b.actions = torch::randn({B, T, f.action_dim});
@@ -91,7 +92,7 @@ void WriteReference(const std::string& path, const ReferenceFlags& f, uint64_t s
                            {"terminal_bce", l.terminal_bce.item<double>()},
                            {"total", l.total.item<double>()}};
   if (policy) {
-    PolicyOutput po = m->policy->forward(b.tokens, b.actions, b.z_noise);
+    PolicyOutput po = m->policy->forward(m->PolicyTokens(b.tokens), b.actions, b.z_noise);
     wm::trainkit::AddTensor(w, "output/z", z);
     wm::trainkit::AddTensor(w, "output/prior_logits", po.prior_logits);
     wm::trainkit::AddTensor(w, "output/posterior_logits", po.posterior_logits);
@@ -156,6 +157,7 @@ int main(int argc, char** argv) {
   make->add_option("--codes", mb.num_codes);
   make->add_option("--seed", mb.seed);
   make->add_flag("--uniform-moves", mb.uniform_moves);
+  make->add_option("--levels", mb.levels);
   std::string ref_out;
   ReferenceFlags flags;
   uint64_t seed = 0;
@@ -169,6 +171,7 @@ int main(int argc, char** argv) {
   ref->add_flag("--rope", flags.rope);
   ref->add_option("--action-dim", flags.action_dim);
   ref->add_option("--padded", flags.padded);
+  ref->add_option("--levels", flags.levels);
   ref->add_option("--seed", seed);
   std::string eval_run, eval_tokens;
   int eval_frames = 5, eval_windows = 200;

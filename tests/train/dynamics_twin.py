@@ -163,7 +163,9 @@ class DynamicsNet(nn.Module):
         super().__init__()
         d, n = m["d_model"], m["grid_h"] * m["grid_w"]
         self.z_dim = z_dim
-        self.token_embed = nn.Embedding(m["num_codes"] + 1, d)
+        # A residual tokenizer's codes per cell; level l's code c is embedding row l * (K + 1) + c.
+        self.levels = m.get("levels", 1)
+        self.token_embed = nn.Embedding(self.levels * (m["num_codes"] + 1), d)
         self.spatial_pos = nn.Parameter(torch.zeros(n, d))
         self.rope_time = m.get("temporal_positions", "learned") == "rope"
         if not self.rope_time:  # rotary time rotates queries and keys instead
@@ -178,12 +180,24 @@ class DynamicsNet(nn.Module):
         self.num_codes = m["num_codes"]
         self.next_frame = m.get("objective", "masked") == "next_frame"
         if m.get("tied_token_head", False):
-            self.token_bias = nn.Parameter(torch.zeros(m["num_codes"]))
+            self.token_bias = nn.Parameter(torch.zeros(self.levels * m["num_codes"]))
         else:
-            self.token_head = nn.Linear(d, m["num_codes"])
+            self.token_head = nn.Linear(d, self.levels * m["num_codes"])
         self.reward_head = nn.Linear(d, 2)
         if m.get("copy_prior", False):
-            self.copy_gate = nn.Linear(d, 1)
+            self.copy_gate = nn.Linear(d, self.levels)
+
+    def embed_codes(self, tokens):
+        """[B, T, levels * cells] (level-major) -> [B, T, cells, D]: the sum over levels."""
+        b, t = tokens.shape[:2]
+        first_row = torch.arange(self.levels).view(-1, 1) * (self.num_codes + 1)
+        return self.token_embed(tokens.reshape(b, t, self.levels, -1) + first_row).sum(2)
+
+    def token_major(self, x):
+        """Per-cell outputs [B, T, cells, levels * C] -> per-token [B, T, levels * cells, C]."""
+        b, t, cells = x.shape[:3]
+        return x.reshape(b, t, cells, self.levels, -1).permute(0, 1, 3, 2, 4).reshape(
+            b, t, self.levels * cells, -1)
 
     def forward(self, tokens, actions, z):
         """Logits of frame j at position j ("masked") or of frame j+1 ("next_frame")."""
@@ -200,16 +214,18 @@ class DynamicsNet(nn.Module):
                 cond = cond + F.pad(self.z_in(z[:, :t - 1]), (0, 0, 1, 0))
         if not self.rope_time:
             cond = cond + self.temporal_pos[:t]
-        h = self.transformer(self.token_embed(tokens) + self.spatial_pos + cond.unsqueeze(2))
+        h = self.transformer(self.embed_codes(tokens) + self.spatial_pos + cond.unsqueeze(2))
         reward, terminal = self.reward_head(h.mean(2)).unbind(-1)
         if hasattr(self, "token_head"):
             logits = self.token_head(h)
-        else:  # tied: the input embedding's code rows (not the mask row) score the codes
-            logits = F.linear(h, self.token_embed.weight[:k], self.token_bias)
+        else:  # tied: each level's code rows of the input embedding (not its mask row)
+            rows = self.token_embed.weight.view(self.levels, k + 1, -1)[:, :k]
+            logits = F.linear(h, rows.reshape(self.levels * k, -1), self.token_bias)
+        logits = self.token_major(logits)
         if hasattr(self, "copy_gate"):  # bonus on the code the predicted cell had a frame earlier
             prev = tokens if self.next_frame else torch.cat(
                 [torch.full_like(tokens[:, :1], k), tokens[:, :-1]], 1)
-            gate = self.copy_gate(h) * (prev < k).unsqueeze(-1).to(h.dtype)
+            gate = self.token_major(self.copy_gate(h)) * (prev < k).unsqueeze(-1).to(h.dtype)
             logits = logits.scatter_add(-1, prev.clamp(max=k - 1).unsqueeze(-1), gate)
         return logits, reward, terminal
 
@@ -223,11 +239,17 @@ class WorldModel(nn.Module):
         self.dynamics = DynamicsNet(m, z_dim)
         self.policy = PolicyEmbedding(m, p) if m["policy_conditioning"] else None
 
+    def policy_tokens(self, tokens):
+        """The policy embedding reads the first level (a residual tokenizer's coarse codes)."""
+        m = self.config["model"]
+        return tokens[:, :, :m["grid_h"] * m["grid_w"]]
+
     def dynamics_z(self, tokens, actions):
         if self.policy is None:
             return None
         with torch.no_grad():
-            return self.policy.prior_logits(tokens, actions).softmax(-1).flatten(2)
+            prior = self.policy.prior_logits(self.policy_tokens(tokens), actions)
+            return prior.softmax(-1).flatten(2)
 
     def losses(self, tokens, actions, rewards, terminals, mask, z_noise, action_mask=None):
         """The training objective (WHALE eq. 4 + eq. 5 + reward terms) as the C++ computes it.
@@ -238,7 +260,7 @@ class WorldModel(nn.Module):
         keep = torch.ones_like(actions) if action_mask is None else action_mask.expand_as(actions)
         actions = actions * keep
         if self.policy is not None:
-            post, prior, mean, log_std = self.policy(tokens, actions, z_noise)
+            post, prior, mean, log_std = self.policy(self.policy_tokens(tokens), actions, z_noise)
             nll = ((0.5 * ((actions - mean) * torch.exp(-log_std)).pow(2) + log_std +
                     0.5 * math.log(2 * math.pi)) * keep).sum(-1).sum(1).mean()
             log_q = post.log_softmax(-1).unsqueeze(1)

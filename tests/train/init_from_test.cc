@@ -136,6 +136,12 @@ TEST_F(DynamicsInitFromTest, ShapeErrorsNameTheKeyAndBothValues) {
   EXPECT_EQ(
       wm::test::ErrorText([&] { TrainDynamics(norm); }),
       "--init-from " + given + ": model.norm is \"layernorm\" in the parent, \"rmsnorm\" here");
+  test::WriteMovingBlockTokens(dir_ / "stacked",
+                               {.episodes = 4, .steps = 6, .seed = 2, .levels = 3});
+  TrainOptions stacked = FineTune("stacked", 2);  // a residual tokenizer's codes, set by the data
+  stacked.token_dirs = {dir_ / "stacked"};
+  EXPECT_EQ(wm::test::ErrorText([&] { TrainDynamics(stacked); }),
+            "--init-from " + given + ": model.levels is 1 in the parent, 3 here");
   TrainOptions no_parent = Options("none", 2);
   no_parent.freeze = {"policy"};
   EXPECT_NE(

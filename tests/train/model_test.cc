@@ -6,6 +6,7 @@
 #include <cmath>
 #include <limits>
 #include <numbers>
+#include <tuple>
 
 #include "tests/train/test_config.h"
 #include "train/batch.h"
@@ -21,7 +22,7 @@ struct Inputs {
 
 Inputs RandomInputs(const DynamicsConfig& c, int64_t B, uint64_t seed) {
   torch::manual_seed(seed);
-  const int64_t T = c.model.context_frames, N = int64_t{c.model.grid_h} * c.model.grid_w;
+  const int64_t T = c.model.context_frames, N = c.model.tokens_per_frame();
   return {torch::randint(c.model.num_codes, {B, T, N}, torch::kInt64), torch::randn({B, T, 7})};
 }
 
@@ -298,16 +299,18 @@ TEST(MaskGit, TokenEntropyIsTheOneOfTheRoundThatFixedTheToken) {
   EXPECT_NEAR(entropy[0][1].item<float>(), std::log(4.f), 1e-6);
 }
 
-// model.copy_prior starts at the copy rule on any grid and either objective; without it an
-// untrained model's argmax is unrelated to the last frame.
+// model.copy_prior starts at the copy rule on any grid, either objective and every level of a
+// residual tokenizer's cells; without it an untrained model's argmax is unrelated to the last
+// frame.
 TEST(CopyPrior, UntrainedModelPredictsTheLastFrame) {
   for (const char* objective : {"masked", "next_frame"})
-    for (auto [gh, gw] : {std::pair{2, 3}, std::pair{5, 4}})
+    for (auto [gh, gw, levels] : {std::tuple{2, 3, 1}, std::tuple{5, 4, 1}, std::tuple{2, 3, 3}})
       for (bool copy_prior : {true, false}) {
         DynamicsConfig c = test::TinyConfig(true);
         c.model.objective = objective;
         c.model.grid_h = gh;
         c.model.grid_w = gw;
+        c.model.levels = levels;
         c.model.num_codes = 64;
         c.model.tied_token_head = true;
         c.model.copy_prior = copy_prior;
@@ -322,13 +325,42 @@ TEST(CopyPrior, UntrainedModelPredictsTheLastFrame) {
         const double copied = (logp.argmax(-1) == last).to(torch::kDouble).mean().item<double>();
         const double p_copy = logp.gather(-1, last.unsqueeze(-1)).exp().mean().item<double>();
         if (copy_prior) {
-          EXPECT_EQ(copied, 1.0) << objective << " " << gh << "x" << gw;
+          EXPECT_EQ(copied, 1.0) << objective << " " << gh << "x" << gw << " x" << levels;
           EXPECT_GT(p_copy, 0.4) << objective;  // ~ K / (K + K - 1): bias log(K) over ~0 logits
           EXPECT_LT(p_copy, 0.6) << objective;
         } else {
-          EXPECT_LT(copied, 0.3) << objective;
+          // The tied head scores codes with the input's embedding rows, which the residual stream
+          // carries: an untrained next-frame model over three levels leans to its input's codes
+          // (0.44 of them at this seed), far from the copy rule still.
+          EXPECT_LT(copied, levels == 1 ? 0.3 : 0.6) << objective << " x" << levels;
         }
       }
+}
+
+// A residual tokenizer's codes per cell: the cell's input is the sum of its levels' embeddings,
+// so a code of any level reaches the later predictions (not the earlier: causal time); the policy
+// embedding reads the first level only.
+TEST(Levels, EveryLevelReachesTheModelAndThePolicyReadsTheFirst) {
+  DynamicsConfig c = test::TinyConfig(true);
+  c.model.levels = 3;
+  const int64_t K = c.model.num_codes, cells = c.model.cells();
+  torch::manual_seed(30);
+  WorldModel m(c);
+  Inputs in = RandomInputs(c, 2, 31);  // tokens [2, T, 3 x cells], level-major
+  auto with_code_changed = [&](int64_t level, int64_t cell) {
+    torch::Tensor t = in.tokens.clone();
+    t.select(1, 1).select(1, level * cells + cell).add_(1).remainder_(K);  // in frame 1
+    return t;
+  };
+  const torch::Tensor fine = with_code_changed(2, 4), coarse = with_code_changed(0, 4);
+  ExpectPrefixEqual(RunModel(m, in.tokens, in.actions).logits, RunModel(m, fine, in.actions).logits,
+                    1, "a level-2 code");
+  torch::NoGradGuard no_grad;
+  const torch::Tensor z = m->DynamicsZ(in.tokens, in.actions);
+  EXPECT_TRUE(torch::equal(z, m->DynamicsZ(fine, in.actions)));
+  EXPECT_FALSE(torch::equal(z, m->DynamicsZ(coarse, in.actions)));
+  EXPECT_EQ(RunModel(m, in.tokens, in.actions).logits.sizes(),
+            (std::vector<int64_t>{2, c.model.context_frames, 3 * cells, K}));
 }
 
 TEST(NextFrame, DecodingIsOnePassOverTheContext) {
@@ -348,8 +380,12 @@ TEST(NextFrame, DecodingIsOnePassOverTheContext) {
   EXPECT_FALSE(torch::equal(m->NextFrameLogits(ctx, act, z), m->NextFrameLogits(ctx, moved, z)));
 }
 
-TEST(Overfit, TinyBatchReachesNearZeroLoss) {
+class Overfit : public ::testing::TestWithParam<int> {};
+
+// One level, and three (a residual tokenizer's codes: every level is a target).
+TEST_P(Overfit, TinyBatchReachesNearZeroLoss) {
   DynamicsConfig c = test::TinyConfig(true);
+  c.model.levels = GetParam();
   torch::manual_seed(12);
   WorldModel m(c);
   Inputs in = RandomInputs(c, 2, 13);
@@ -358,7 +394,7 @@ TEST(Overfit, TinyBatchReachesNearZeroLoss) {
   b.actions = in.actions;
   b.rewards = torch::tensor({{0.f, 1.f, 0.f, 0.5f}, {1.f, 0.f, 0.f, 0.f}});
   b.terminals = torch::tensor({{0.f, 0.f, 1.f, 0.f}, {0.f, 1.f, 0.f, 0.f}});
-  b.mask = torch::ones({2, 4, 6}, torch::kBool);
+  b.mask = torch::ones({2, 4, c.model.tokens_per_frame()}, torch::kBool);
   b.mask.select(1, 0).fill_(false);
   b.z_noise = torch::rand({2, 4, 4});
   std::vector<std::pair<std::string, torch::Tensor>> named;
@@ -376,6 +412,8 @@ TEST(Overfit, TinyBatchReachesNearZeroLoss) {
   EXPECT_LT(l.reward_mse.item<double>(), 1e-3);
   EXPECT_LT(l.terminal_bce.item<double>(), 0.1);
 }
+
+INSTANTIATE_TEST_SUITE_P(Levels, Overfit, ::testing::Values(1, 3));
 
 }  // namespace
 }  // namespace wm::train

@@ -16,6 +16,7 @@ void WriteMovingBlockTokens(const std::string& dir, const MovingBlockOptions& o)
                     .num_codes = o.num_codes,
                     .grid_h = o.grid_h,
                     .grid_w = o.grid_w,
+                    .levels = o.levels,
                     .image_size = 8 * o.grid_h};
   base.token_dtype = o.num_codes > 65536 ? "uint32" : "uint16";
   base.action_dim = o.action_dim;
@@ -27,7 +28,7 @@ void WriteMovingBlockTokens(const std::string& dir, const MovingBlockOptions& o)
   tokens::TokenPartWriter writer(dir, 0, 1, base);
   for (int k = 0; k < o.episodes; ++k) {
     const bool eager = k % 2 == 0;  // policy "eager" pushes right more often
-    std::vector<uint32_t> background(N);
+    std::vector<uint32_t> background(static_cast<size_t>(o.levels * N));  // [levels, N]
     for (auto& b : background) b = 8 + static_cast<uint32_t>(rng() % (o.num_codes - 8));
     int x = 0, y = static_cast<int>(rng() % o.grid_h);
     Episode e;
@@ -37,8 +38,11 @@ void WriteMovingBlockTokens(const std::string& dir, const MovingBlockOptions& o)
     e.action_space = base.action_space;
     std::vector<uint32_t> frames;
     for (int t = 0; t < o.steps; ++t) {
-      for (int i = 0; i < N; ++i) {
-        frames.push_back(i == y * o.grid_w + x ? 1 + static_cast<uint32_t>(k % 7) : background[i]);
+      for (int l = 0; l < o.levels; ++l) {
+        for (int i = 0; i < N; ++i) {
+          frames.push_back(i == y * o.grid_w + x ? 1 + static_cast<uint32_t>((k + l) % 7)
+                                                 : background[l * N + i]);
+        }
       }
       const double u = uniform();
       int dx = u < (eager ? 0.6 : 0.3) ? 1 : (u < 0.8 ? 0 : -1);

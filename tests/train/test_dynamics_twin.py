@@ -42,7 +42,8 @@ def check_case(tool, flags, tmp):
         compare("terminal_logit", terminal, tensors["output/terminal_logit"])
         if model.policy is not None:
             compare("z (prior probs)", z, tensors["output/z"])
-            post, prior, mean, log_std = model.policy(t["tokens"], t["actions"], t["z_noise"])
+            post, prior, mean, log_std = model.policy(model.policy_tokens(t["tokens"]),
+                                                      t["actions"], t["z_noise"])
             compare("posterior_logits", post, tensors["output/posterior_logits"])
             compare("prior_logits", prior, tensors["output/prior_logits"])
             compare("action_mean", mean, tensors["output/action_mean"])
@@ -63,7 +64,10 @@ def main():
                       ["--next-frame"], ["--tied", "--copy-prior", "--next-frame"],
                       ["--tied", "--copy-prior", "--next-frame", "--rope"],
                       ["--action-dim", "26"],  # a G1-wide joint action
-                      ["--action-dim", "14", "--padded", "7"]):  # a 7 + 14 mixture's padding
+                      ["--action-dim", "14", "--padded", "7"],  # a 7 + 14 mixture's padding
+                      ["--levels", "3"],  # a residual tokenizer's codes per cell
+                      ["--levels", "3", "--tied", "--copy-prior"],
+                      ["--levels", "2", "--tied", "--copy-prior", "--next-frame", "--rope"]):
             failures += check_case(tool, flags, tmp)
     if failures:
         print("FAILED:\n  " + "\n  ".join(failures))

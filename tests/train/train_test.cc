@@ -159,17 +159,39 @@ TEST_F(DynamicsTrainTest, RefusesOverwriteOtherConfigAndMismatchedData) {
   grid.config.model.grid_w = 5;
   EXPECT_NE(wm::test::ErrorText([&] { TrainDynamics(grid); }).find("key 'model.grid_h'"),
             std::string::npos);
-  // A residual tokenizer's level stacks: refused until the model reads them.
-  wm::test::MakeTokenDataset(dir_ / "stacked", 4, 1, 4, 4, 32, 3, kActionDim, 2);
-  TrainOptions stacked = Options("stacked", 2);
-  stacked.token_dirs = {dir_ / "stacked"};
-  const std::string err = wm::test::ErrorText([&] { TrainDynamics(stacked); });
-  EXPECT_NE(err.find("2 codes per cell"), std::string::npos) << err;
-  EXPECT_NE(err.find("key 'tokenizer.levels'"), std::string::npos) << err;
   TrainOptions ddp = Options("ddp", 2);
   ddp.world_size = 3;
   EXPECT_NE(wm::test::ErrorText([&] { TrainDynamics(ddp); }).find("train.batch_size"),
             std::string::npos);
+}
+
+// A residual tokenizer's level stacks (token format version 3): the model takes the data's
+// levels (recorded in the checkpoint; one-level runs keep their bytes, without the key), learns
+// from every level and predicts whole stacks through the public API.
+TEST_F(DynamicsTrainTest, TrainsOnResidualLevelStacks) {
+  test::WriteMovingBlockTokens(dir_ / "stacked",
+                               {.episodes = 8, .steps = 10, .seed = 1, .levels = 3});
+  TrainOptions o = Options("stacked", 20);
+  o.token_dirs = {dir_ / "stacked"};
+  const TrainSummary s = TrainDynamics(o);
+  EXPECT_LT(s.last_loss, s.first_loss);
+  const auto meta = nlohmann::json::parse(ReadFile(dir_ / "stacked/checkpoint.json"));
+  EXPECT_EQ(meta["config"]["model"]["levels"], 3);
+  EXPECT_EQ(meta["tokenizer"]["levels"], 3);
+  auto model = DynamicsModel::Load(dir_ / "stacked");
+  EXPECT_EQ(model->tokens_per_frame(), 3 * 16);
+  tokens::TokenDataset data(dir_ / "stacked");
+  FrameContext ctx{.batch = 1, .frames = 3};
+  ctx.tokens.resize(3 * 48);
+  data.CopyTokens(0, 0, 3, ctx.tokens.data());
+  ctx.actions.assign(data.actions(0), data.actions(0) + 3 * 7);
+  const std::vector<int64_t> next = model->PredictNextFrame(ctx, 5, 4, 1.0);
+  EXPECT_EQ(next.size(), 48u);
+  EXPECT_EQ(model->ImagineStep(ctx, 5, 4, 1.0).tokens, next);
+  TrainDynamics(Options("one", 2));
+  EXPECT_FALSE(
+      nlohmann::json::parse(ReadFile(dir_ / "one/checkpoint.json"))["config"]["model"].contains(
+          "levels"));
 }
 
 TEST_F(DynamicsTrainTest, SamplerIsCounterBasedAndNormalisesActions) {
