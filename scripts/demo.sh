@@ -139,7 +139,8 @@ SCORED="early run" "${EVAL[@]}" "$RUN/early/dynamics" "$RUN/dynamics" "$RUN/moti
 if [ "$HELDOUT_EPISODES" -gt 0 ]; then
   echo
   echo "== the motion model on the $HELDOUT_EPISODES held-out episodes -> $OUT/reports_heldout"
-  EVAL_ARGS="$SCORING --episodes $HELDOUT_EPISODES --strips 0 --videos 0" \
+  # Nothing else runs now: two shard jobs, one a core (the same report as one job's).
+  EVAL_JOBS=2 EVAL_ARGS="$SCORING --episodes $HELDOUT_EPISODES --strips 0 --videos 0" \
     bash scripts/eval.sh "$BIN" "$OUT/reports_heldout" "$RUN/tokenizer" "$OUT/heldout/shards" \
     "$OUT/heldout/tokens" "$RUN/motion"
 fi

@@ -8,10 +8,12 @@
 # To score some checkpoints while others still train: REPORT=0 scores without comparing; a later
 # call with SCORED="NAME..." (report names already in REPORTS) scores only the others, then
 # compares and plots them all; a SCORED report must be of the checkpoint given now (the sha256
-# its manifest records).
+# its manifest records). EVAL_JOBS=N (default 1) scores as N shard jobs at once on this machine
+# (wm-eval --shard-index i --num-shards N): the job that finishes last writes each report,
+# byte-identical to one job's.
 set -euo pipefail
 if [ $# -lt 6 ]; then
-  sed -n '2,11p' "$0" >&2
+  sed -n '2,13p' "$0" >&2
   exit 2
 fi
 BIN=$1 REPORTS=$2 TOKENIZER=$3 VAL=$4 VAL_TOKENS=$5
@@ -54,11 +56,33 @@ for ckpt in "$@"; do
     *) to_score+=("$ckpt") score_names+=("$name") ;;
   esac
 done
-if [ ${#to_score[@]} -gt 0 ]; then
-  echo "== wm-eval ${score_names[*]} on $VAL -> $REPORTS"
+jobs=${EVAL_JOBS:-1}
+if ! [[ $jobs =~ ^[1-9][0-9]*$ ]]; then
+  echo "eval.sh: EVAL_JOBS must be a positive integer (the number of shard jobs), got '$jobs'" >&2
+  exit 2
+fi
+score() {
   # shellcheck disable=SC2086
   "$BIN/wm-eval" --checkpoint "${to_score[@]}" --name "${score_names[@]}" --tokenizer "$TOKENIZER" \
-    --data "$VAL" --tokens "$VAL_TOKENS" --out "$REPORTS" ${EVAL_ARGS:-}
+    --data "$VAL" --tokens "$VAL_TOKENS" --out "$REPORTS" ${EVAL_ARGS:-} "$@"
+}
+if [ ${#to_score[@]} -gt 0 ]; then
+  echo "== wm-eval ${score_names[*]} on $VAL -> $REPORTS"
+  if [ "$jobs" = 1 ]; then
+    score
+  else
+    pids=()
+    for ((i = 0; i < jobs; i++)); do
+      score --shard-index "$i" --num-shards "$jobs" &
+      pids+=($!)
+    done
+    failed=0
+    for pid in "${pids[@]}"; do wait "$pid" || failed=1; done
+    if [ "$failed" = 1 ]; then
+      echo "eval.sh: a wm-eval shard job failed (its error above)" >&2
+      exit 1
+    fi
+  fi
 fi
 [ "${REPORT:-1}" = 0 ] && exit 0
 dirs=()

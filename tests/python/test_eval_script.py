@@ -3,7 +3,8 @@
 the motion model trains): REPORT=0 scores without comparing; SCORED="NAME..." skips the
 scoring of reports already written, still comparing them, in the order given (the first is
 the baseline); a SCORED name without its report, or whose report scored another checkpoint
-(a retrained one), is refused. Runs eval.sh against a BIN of
+(a retrained one), is refused; EVAL_JOBS=N scores as N shard jobs at once, then compares once.
+Runs eval.sh against a BIN of
 recording shell scripts in place of wm-eval and wm-report (the tools have their own tests);
 well under a second."""
 import os
@@ -18,6 +19,8 @@ SRC = os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "..")
 # checkpoint's sha256 and wm-report its --markdown table, as the real ones do.
 RECORDER = """#!/usr/bin/env bash
 echo "$(basename "$0") $*" >> "$CALLS"
+# FAIL_ON: a call whose arguments contain it fails, as a crashed job would.
+if [ -n "${FAIL_ON:-}" ] && [[ "$*" == *"$FAIL_ON"* ]]; then exit 3; fi
 if [ "$(basename "$0")" = wm-eval ]; then
   out="" names=() checkpoints=() list=""
   while [ $# -gt 0 ]; do
@@ -110,6 +113,30 @@ class EvalScriptTest(unittest.TestCase):
         self.assertIn("SCORED names r, but", out.stderr)
         self.assertIn("drop r from SCORED", out.stderr)
         self.assertEqual(calls, [])
+
+    def test_eval_jobs_scores_as_shard_jobs_then_compares_once(self):
+        out, calls = self.eval_sh(["r/early/dynamics", "r/motion"], EVAL_JOBS="2")
+        self.assertEqual(out.returncode, 0, out.stderr)
+        scoring = sorted(c for c in calls if c.startswith("wm-eval"))
+        self.assertEqual(len(scoring), 2, calls)
+        for i, call in enumerate(scoring):
+            self.assertIn("--name early motion ", call)
+            self.assertTrue(call.endswith(f"--shard-index {i} --num-shards 2"), call)
+        self.assertEqual(len([c for c in calls if c.startswith("wm-report compare")]), 1)
+
+    def test_a_failed_shard_job_fails_the_script_before_comparing(self):
+        out, calls = self.eval_sh(["r/early/dynamics", "r/motion"], EVAL_JOBS="2",
+                                  FAIL_ON="--shard-index 1 ")
+        self.assertEqual(out.returncode, 1)
+        self.assertIn("a wm-eval shard job failed", out.stderr)
+        self.assertEqual([c for c in calls if c.startswith("wm-report")], [])
+
+    def test_eval_jobs_must_be_a_positive_integer(self):
+        for bad in ("0", "two", "-1"):
+            out, calls = self.eval_sh(["r/early/dynamics"], EVAL_JOBS=bad)
+            self.assertEqual(out.returncode, 2, bad)
+            self.assertIn("EVAL_JOBS must be a positive integer", out.stderr)
+            self.assertEqual(calls, [])
 
 
 if __name__ == "__main__":
