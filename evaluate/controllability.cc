@@ -51,14 +51,15 @@ std::vector<float> PerturbActions(const float* actions, int64_t dim, int64_t num
 std::vector<EpisodeRollout> PerturbedRollout(const train::DynamicsModel& model,
                                              const tokens::TokenDataset& data,
                                              const std::vector<int64_t>& episodes,
-                                             RolloutOptions options, Perturbation p) {
+                                             RolloutOptions options, Perturbation p,
+                                             Progress* progress) {
   options.samples = 1;  // only sample 0 is scored against the plain rollout
   std::vector<std::vector<float>> actions;
   for (int64_t k : episodes) {
     actions.push_back(PerturbActions(data.actions(k), data.action_dim(), data.episode(k).num_frames,
                                      p, options.seed, k));
   }
-  return Rollout(model, data, episodes, RolloutMode::kPlain, options, &actions);
+  return Rollout(model, data, episodes, RolloutMode::kPlain, options, &actions, progress);
 }
 
 }  // namespace wm::evaluate

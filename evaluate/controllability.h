@@ -31,10 +31,12 @@ std::vector<float> PerturbActions(const float* actions, int64_t dim, int64_t num
                                   Perturbation p, uint64_t seed, int64_t episode);
 
 // The plain rollout of `episodes` again, fed PerturbActions(...) of each (sample 0 only, with
-// the plain rollout's sampling seeds, so that the actions are the only difference).
+// the plain rollout's sampling seeds, so that the actions are the only difference). `progress`
+// as Rollout's.
 std::vector<EpisodeRollout> PerturbedRollout(const train::DynamicsModel& model,
                                              const tokens::TokenDataset& data,
                                              const std::vector<int64_t>& episodes,
-                                             RolloutOptions options, Perturbation p);
+                                             RolloutOptions options, Perturbation p,
+                                             Progress* progress = nullptr);
 
 }  // namespace wm::evaluate

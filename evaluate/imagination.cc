@@ -4,8 +4,10 @@
 
 #include <algorithm>
 #include <memory>
+#include <optional>
 
 #include "core/error.h"
+#include "core/progress.h"
 #include "core/tokens/token_dataset.h"
 #include "evaluate/clip_decode.h"
 #include "evaluate/controllability.h"
@@ -74,13 +76,24 @@ CheckpointUnderEval LoadDynamicsCheckpoint(const EvalOptions& o, size_t c, const
     CheckRetraceKs(o.retrace_ks, ContextFrames(*model, o.rollout.context));
     CheckRolloutModeFits(RolloutMode::kRetrace, data);
   }
-  auto start = [o, model, &tok, &data](const std::vector<int64_t>& episodes) -> Imagination {
-    std::map<RolloutMode, std::vector<EpisodeRollout>> rollouts;
-    for (RolloutMode m : o.modes) rollouts[m] = Rollout(*model, data, episodes, m, o.rollout);
-    std::vector<EpisodeRollout> perturbed;
-    if (ScoresControllability(o)) {
-      perturbed = PerturbedRollout(*model, data, episodes, o.rollout, o.controllability);
+  auto start = [o, model, &tok, &data, name](const std::vector<int64_t>& episodes) -> Imagination {
+    // Rolling out is most of a token model's evaluation (scoring has its own bar, after it).
+    const bool perturb = ScoresControllability(o);
+    std::optional<Progress> progress;
+    if (o.show_progress) {
+      progress.emplace("imagine " + name, episodes.size() * (o.modes.size() + (perturb ? 1 : 0)),
+                       "rollouts");
     }
+    Progress* bar = progress ? &*progress : nullptr;
+    std::map<RolloutMode, std::vector<EpisodeRollout>> rollouts;
+    for (RolloutMode m : o.modes) {
+      rollouts[m] = Rollout(*model, data, episodes, m, o.rollout, nullptr, bar);
+    }
+    std::vector<EpisodeRollout> perturbed;
+    if (perturb) {
+      perturbed = PerturbedRollout(*model, data, episodes, o.rollout, o.controllability, bar);
+    }
+    if (progress) progress->Finish();
     std::vector<RetraceVariants> variants;
     if (!o.retrace_ks.empty()) {
       variants = ImagineRetraceVariants(*model, data, rollouts.at(RolloutMode::kPlain),

@@ -5,6 +5,7 @@
 
 #include "core/atomic_file.h"
 #include "core/error.h"
+#include "core/progress.h"
 #include "core/tokens/token_dataset.h"
 #include "evaluate/retrace.h"
 #include "train/dynamics_model.h"
@@ -136,7 +137,8 @@ std::vector<EpisodeRollout> Rollout(const train::DynamicsModel& model,
                                     const tokens::TokenDataset& data,
                                     const std::vector<int64_t>& episodes, RolloutMode mode,
                                     const RolloutOptions& o,
-                                    const std::vector<std::vector<float>>* actions_given) {
+                                    const std::vector<std::vector<float>>* actions_given,
+                                    Progress* progress) {
   CheckModelFitsTokens(model, data);
   CheckRolloutModeFits(mode, data);
   const int64_t n = data.tokens_per_frame(), dim = data.action_dim();
@@ -170,6 +172,7 @@ std::vector<EpisodeRollout> Rollout(const train::DynamicsModel& model,
         frames.insert(frames.end(), next.tokens.begin(), next.tokens.end());
       }
     }
+    if (progress) progress->Add(1);
   }
   return out;
 }

@@ -8,6 +8,9 @@
 
 #include "evaluate/retrace.h"
 
+namespace wm {
+class Progress;
+}
 namespace wm::tokens {
 class TokenDataset;
 }
@@ -45,13 +48,15 @@ struct EpisodeRollout {
 // sampling seed, so an episode's result does not depend on which other episodes are rolled out.
 // `actions`, when given, holds per episode of `episodes` the actions ([num_frames, D]) to feed
 // instead of the logged ones (controllability.h); the policy prior still sees the logged ones.
+// `progress`, when given, advances by one per episode rolled out (all its samples).
 // Throws wm::Error when the model and the token data disagree on grid, codebook or action width,
 // and for a retracing rollout of actions that are not end-effector deltas.
 std::vector<EpisodeRollout> Rollout(const train::DynamicsModel& model,
                                     const tokens::TokenDataset& data,
                                     const std::vector<int64_t>& episodes, RolloutMode mode,
                                     const RolloutOptions& options,
-                                    const std::vector<std::vector<float>>* actions = nullptr);
+                                    const std::vector<std::vector<float>>* actions = nullptr,
+                                    Progress* progress = nullptr);
 
 // Throws wm::Error naming the token dataset when the model and the token data disagree on grid,
 // codebook or action width.

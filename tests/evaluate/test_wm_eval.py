@@ -17,6 +17,7 @@ import csv
 import hashlib
 import json
 import os
+import re
 import subprocess
 import sys
 import tempfile
@@ -192,8 +193,9 @@ class WmEval(unittest.TestCase):
            "--threads", 1)
         cls.reports = [path(out, "dyn") for out in ("reports", "rerun")]
         # The rerun also exports its frames, which must not change a byte of the report.
-        for report, extra in zip(cls.reports, ([], ["--save-rollouts", path("exported")])):
-            ok("wm-eval", *cls.eval_args(os.path.dirname(report)), *extra)
+        cls.eval_logs = [ok("wm-eval", *cls.eval_args(os.path.dirname(report)), *extra).stderr
+                         for report, extra in zip(cls.reports,
+                                                  ([], ["--save-rollouts", path("exported")]))]
 
     @classmethod
     def read_references(cls):
@@ -326,6 +328,18 @@ class WmEval(unittest.TestCase):
                  self.path("motion"), "--policy", "idle=true")
         self.assertEqual(p.returncode, 1, p.stderr)
         self.assertIn("needs --success-model", p.stderr)
+
+    def test_rolling_out_shows_its_progress_before_scoring(self):
+        # A token model imagines every episode up front (plain, retrace, perturbed actions):
+        # minutes on a few hundred episodes, which must not pass in silence.
+        log = self.eval_logs[0]
+        done = re.findall(r"imagine dyn +100% (\d+)/(\d+) rollouts", log)
+        self.assertEqual(len(done), 1, log)
+        rollouts = int(done[0][1])
+        self.assertEqual(int(done[0][0]), rollouts)
+        # plain and retrace (eef_delta actions), and plain again with perturbed actions
+        self.assertEqual(rollouts, 3 * EPISODES, log)
+        self.assertLess(log.index("imagine dyn"), log.index("score dyn"), log)
 
     def test_rerun_gives_the_same_bytes_and_the_manifest_names_the_inputs(self):
         # The manifest records no time or host, so it is byte-identical too.
