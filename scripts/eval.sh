@@ -56,9 +56,9 @@ for ckpt in "$@"; do
     *) to_score+=("$ckpt") score_names+=("$name") ;;
   esac
 done
-jobs=${EVAL_JOBS:-1}
-if ! [[ $jobs =~ ^[1-9][0-9]*$ ]]; then
-  echo "eval.sh: EVAL_JOBS must be a positive integer (the number of shard jobs), got '$jobs'" >&2
+num_jobs=${EVAL_JOBS:-1}
+if ! [[ $num_jobs =~ ^[1-9][0-9]*$ ]]; then
+  echo "eval.sh: EVAL_JOBS must be a positive integer (shard jobs at once), got '$num_jobs'" >&2
   exit 2
 fi
 score() {
@@ -68,12 +68,12 @@ score() {
 }
 if [ ${#to_score[@]} -gt 0 ]; then
   echo "== wm-eval ${score_names[*]} on $VAL -> $REPORTS"
-  if [ "$jobs" = 1 ]; then
+  if [ "$num_jobs" = 1 ]; then
     score
   else
     pids=()
-    for ((i = 0; i < jobs; i++)); do
-      score --shard-index "$i" --num-shards "$jobs" &
+    for ((i = 0; i < num_jobs; i++)); do
+      score --shard-index "$i" --num-shards "$num_jobs" &
       pids+=($!)
     done
     failed=0
