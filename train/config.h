@@ -9,9 +9,9 @@
 namespace wm::train {
 
 struct ModelConfig {
-  int grid_h = 8, grid_w = 8;       // tokens per frame = grid_h * grid_w; must match the token data
+  int grid_h = 8, grid_w = 8;       // cells per frame; must match the token data
   int num_codes = 1024;             // tokenizer codebook size; the embedding has num_codes + 1 rows
-                                    // (the last is the MaskGIT mask token)
+                                    // per level (the last is the MaskGIT mask token)
   int context_frames = 6;           // frames per training segment (T) = max frames in one forward
   int d_model = 128;                // transformer width (WHALE Table 6 "d_model")
   int num_layers = 4;               // ST blocks (Table 6 "num_layers")

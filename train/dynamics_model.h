@@ -16,7 +16,7 @@ namespace wm::train {
 // at each (actions[b, t] leads from frame t to frame t+1).
 struct FrameContext {
   int64_t batch = 1, frames = 0;
-  std::vector<int64_t> tokens;  // [batch, frames, grid_h * grid_w] codes in [0, num_codes)
+  std::vector<int64_t> tokens;  // [batch, frames, tokens_per_frame()] codes in [0, num_codes)
   std::vector<float> actions;   // [batch, frames, action_dim()] raw actions (normalised inside)
   // Optional [batch, categories * classes] class probabilities (or one-hots) used as z for
   // every step instead of the prior's inference; empty = the prior p(z | tau_h) (WHALE eq. 5).

@@ -29,7 +29,7 @@ torch::Tensor GaussianNll(const torch::Tensor& a, const torch::Tensor& mean,
 
 PolicyEmbeddingImpl::PolicyEmbeddingImpl(const ModelConfig& m, const PolicyConfig& p) : config(p) {
   const int64_t d = p.d_model, zdim = int64_t{p.categories} * p.classes;
-  const int64_t N = int64_t{m.grid_h} * m.grid_w, A = m.action_dim;
+  const int64_t N = m.cells(), A = m.action_dim;  // it reads a frame's first level
   token_embed = register_module("token_embed", torch::nn::Embedding(m.num_codes, d));
   spatial_pos = register_parameter("spatial_pos", torch::randn({N, d}) * 0.02);
   temporal_pos = register_parameter("temporal_pos", torch::randn({m.context_frames, d}) * 0.02);
