@@ -100,8 +100,7 @@ void WriteEvalManifest(const std::string& dir, const std::string& name,
                        const std::string& checkpoint, const EvalOptions& o,
                        const CheckpointInfo& info, const tokenize::Tokenizer& tok,
                        const tokens::TokenDataset& data, const shard::DatasetReader& shards) {
-  nlohmann::json m =
-      MakeProvenance("wm-eval", EvalConfigJson(o), {{"libtorch", trainkit::TorchVersion()}});
+  nlohmann::json m = MakeProvenance("wm-eval", EvalConfigJson(o), trainkit::TorchLibraryVersions());
   m["checkpoint"] = {{"name", name},
                      {"path_basename", fs::path(checkpoint).filename().string()},
                      {"sha256", Sha256File(info.file)},

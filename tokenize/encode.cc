@@ -49,7 +49,7 @@ tokens::TokenIndex BaseIndex(const Tokenizer& tok, const shard::DatasetIndex& so
   x.provenance =
       MakeProvenance("wm-tokenize encode",
                      {{"tokenizer_sha256", tok.checkpoint_sha256()}, {"hysteresis", hysteresis}},
-                     {{"libtorch", trainkit::TorchVersion()}});
+                     trainkit::TorchLibraryVersions());
   return x;
 }
 

@@ -26,7 +26,7 @@ std::string RunDir::File(const std::string& name) const { return (fs::path(dir_)
 
 nlohmann::json RunDir::Manifest(const std::string& tool, const nlohmann::json& config, int64_t step,
                                 const nlohmann::json& init_from) const {
-  nlohmann::json manifest = MakeProvenance(tool, config, {{"libtorch", TorchVersion()}});
+  nlohmann::json manifest = MakeProvenance(tool, config, TorchLibraryVersions());
   if (!init_from.is_null()) {
     manifest["config_hash"] = ConfigHash(HashedConfig(config, init_from));
     manifest["init_from"] = init_from;

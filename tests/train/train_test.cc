@@ -76,6 +76,7 @@ TEST_F(DynamicsTrainTest, LossDecreasesAndMetricsAreWritten) {
   EXPECT_EQ(manifest.at("data")[0].at("index_sha256").get<std::string>().size(), 64u);
   EXPECT_TRUE(manifest.contains("git_commit"));
   EXPECT_FALSE(manifest.at("libraries").at("libtorch").get<std::string>().empty());
+  EXPECT_FALSE(manifest.at("libraries").at("blas").get<std::string>().empty());
 }
 
 TEST_F(DynamicsTrainTest, SameSeedGivesIdenticalCheckpointBytes) {

@@ -5,6 +5,9 @@
 #include <chrono>
 #include <cstdlib>
 #include <filesystem>
+#include <fstream>
+#include <iterator>
+#include <string>
 #include <thread>
 
 #include "core/atomic_file.h"
@@ -19,6 +22,7 @@
 #include "trainkit/run_dir.h"
 #include "trainkit/schedule.h"
 #include "trainkit/step_log.h"
+#include "trainkit/torch_runtime.h"
 #include "trainkit/training_loop.h"
 
 namespace wm::trainkit {
@@ -41,6 +45,28 @@ TEST(AdamW, MatchesLibTorchAdamW) {
     ref.step();
   }
   EXPECT_TRUE(torch::allclose(a, b, 1e-6, 1e-7)) << (a - b).abs().max().item<float>();
+}
+
+// The kernel's list of what this process mapped, an independent record of the BLAS loaded.
+std::string MappedFiles() {
+  std::ifstream maps("/proc/self/maps");
+  return {std::istreambuf_iterator<char>(maps), std::istreambuf_iterator<char>()};
+}
+
+TEST(BlasLibrary, NamesTheBlasThisProcessLoaded) {
+  torch::mm(torch::ones({64, 64}), torch::ones({64, 64}));  // a GEMM through LibTorch's BLAS
+  const std::string blas = BlasLibrary(), mapped = MappedFiles();
+  ASSERT_FALSE(blas.empty());
+  if (blas.rfind("OpenBLAS ", 0) == 0) {
+    EXPECT_NE(mapped.find("libopenblas"), std::string::npos) << blas;
+  } else if (blas != "none loaded") {
+    EXPECT_EQ(blas.front(), '/') << blas;
+    EXPECT_NE(mapped.find(blas), std::string::npos) << blas << " is not mapped";
+  } else {
+    EXPECT_EQ(mapped.find("/libblas.so"), std::string::npos) << "a libblas is mapped";
+  }
+  EXPECT_EQ(TorchLibraryVersions().at("blas"), blas);
+  EXPECT_EQ(TorchLibraryVersions().at("libtorch"), TorchVersion());
 }
 
 TEST(PhaseTimer, ChargesEachPhaseItsOwnTimeAndIsOffUnlessAskedFor) {
