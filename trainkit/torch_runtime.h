@@ -11,10 +11,10 @@ namespace wm::trainkit {
 std::string TorchVersion();
 
 // The BLAS LibTorch's CPU matmuls run on, which decides their last bits: OpenBLAS's own
-// description when it is loaded ("OpenBLAS 0.3.21 DYNAMIC_ARCH NO_AFFINITY Zen MAX_THREADS=64":
-// version, build, the kernels it picked for this CPU), otherwise the file the process loaded
-// as libblas.so.3 (Debian's update-alternatives picks it: ATLAS, reference BLAS), otherwise
-// "none loaded" (a LibTorch with its own, such as pip's MKL).
+// description when it is loaded ("OpenBLAS 0.3.21 NO_LAPACKE DYNAMIC_ARCH NO_AFFINITY USE_OPENMP
+// Zen MAX_THREADS=64": version, build, the kernels it picked for this CPU), otherwise the file
+// the process loaded as libblas.so.3 (Debian's update-alternatives picks it: ATLAS, reference
+// BLAS), otherwise "none loaded" (a LibTorch with its own, such as pip's MKL).
 std::string BlasLibrary();
 
 // {"libtorch": TorchVersion(), "blas": BlasLibrary()}: what manifests record next to
