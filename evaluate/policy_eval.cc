@@ -26,6 +26,7 @@
 #include "success/success_model.h"
 #include "tokenize/tokenizer.h"
 #include "train/dynamics_model.h"
+#include "trainkit/torch_runtime.h"
 
 namespace wm::evaluate {
 namespace {
@@ -191,7 +192,8 @@ void WriteWpe(const EvalOptions& o, const std::string& dir, const std::string& c
   for (const PolicyRun& run : runs) model.push_back(Estimate(run));
   const std::vector<WpeRow> rows =
       PairWithTruth(model, ReadTrueValues(o.policy_eval.true_values), o.policy_eval.true_values);
-  nlohmann::json provenance = MakeProvenance("wm-eval", EvalConfigJson(o));
+  nlohmann::json provenance =
+      MakeProvenance("wm-eval", EvalConfigJson(o), trainkit::TorchLibraryVersions());
   provenance["inputs"] = {{"checkpoint_sha256", Sha256File(checkpoint_file)},
                           {"true_values_sha256", Sha256File(o.policy_eval.true_values)}};
   if (!success_file.empty())

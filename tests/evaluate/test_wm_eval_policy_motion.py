@@ -142,6 +142,8 @@ class WmEvalPolicyMotion(ClosedLoopCase, unittest.TestCase):
         self.assertEqual(manifest["config"]["policy_eval"]["success_model_sha256"], success_sha)
         summary = read_json(os.path.join(self.report, "wpe_summary.json"))
         self.assertEqual(summary["provenance"]["inputs"]["success_model_sha256"], success_sha)
+        self.assertEqual(summary["provenance"]["libraries"]["blas"],
+                         manifest["libraries"]["blas"])  # the closed loop's values ran on it too
 
     def test_success_checkpoint_manifest_validates(self):
         """checkpoint.json of the success run against schemas/success-checkpoint.schema.json,
