@@ -64,13 +64,23 @@ std::vector<AnchorRef> FrameSampler::TrainingAnchors(const std::vector<FrameRef>
 }
 
 void FrameSampler::Load(const std::vector<AnchorRef>& anchors, float* out) const {
-  std::vector<FrameRef> refs;
-  for (const AnchorRef& a : anchors) refs.push_back(a.frame);
-  Load(refs, out);
+  Load({}, anchors, nullptr, out);
+}
+
+void FrameSampler::Load(const std::vector<FrameRef>& refs, const std::vector<AnchorRef>& anchors,
+                        float* frames_out, float* anchors_out) const {
   const size_t floats = 3ull * size_ * size_;
+  std::vector<std::pair<FrameRef, float*>> slots;
+  for (size_t b = 0; b < refs.size(); ++b) slots.emplace_back(refs[b], frames_out + b * floats);
   for (size_t b = 0; b < anchors.size(); ++b) {
-    if (anchors[b].blank) std::fill(out + b * floats, out + (b + 1) * floats, 0.f);
+    float* out = anchors_out + b * floats;
+    if (anchors[b].blank) {
+      std::fill(out, out + floats, 0.f);
+    } else {
+      slots.emplace_back(anchors[b].frame, out);
+    }
   }
+  LoadInto(slots);
 }
 
 std::vector<FrameRef> FrameSampler::BatchRefs(int64_t step, int batch_size) const {
@@ -104,21 +114,26 @@ std::vector<std::vector<FrameRef>> FrameSampler::EpisodeRefs(size_t max_episodes
 }
 
 void FrameSampler::Load(const std::vector<FrameRef>& refs, float* out) const {
-  const size_t frame_floats = 3ull * size_ * size_;
-  std::vector<bool> done(refs.size(), false);
-  for (size_t i = 0; i < refs.size(); ++i) {
+  Load(refs, {}, out, nullptr);
+}
+
+void FrameSampler::LoadInto(const std::vector<std::pair<FrameRef, float*>>& slots) const {
+  std::vector<bool> done(slots.size(), false);
+  for (size_t i = 0; i < slots.size(); ++i) {
     if (done[i]) continue;
-    const shard::DatasetReader& reader = *readers_[refs[i].dataset];
-    const size_t k = refs[i].episode;
+    const FrameRef& first = slots[i].first;
+    const shard::DatasetReader& reader = *readers_[first.dataset];
+    const size_t k = first.episode;
     Episode episode = reader.ReadEpisode(k);
     auto it = episode.images.find(image_key_);
     Check(it != episode.images.end() && !it->second.frames.empty(),
           "episode has no image stream '" + image_key_ + "'",
           {.file = reader.dir(), .record = static_cast<int64_t>(k), .record_label = "episode"});
-    for (size_t j = i; j < refs.size(); ++j) {  // every slot drawn from this episode
-      if (done[j] || refs[j].dataset != refs[i].dataset || refs[j].episode != k) continue;
+    for (size_t j = i; j < slots.size(); ++j) {  // every slot drawn from this episode
+      const FrameRef& ref = slots[j].first;
+      if (done[j] || ref.dataset != first.dataset || ref.episode != k) continue;
       try {
-        DecodeFrame(it->second.frames.at(refs[j].step), size_, out + frame_floats * j);
+        DecodeFrame(it->second.frames.at(ref.step), size_, slots[j].second);
       } catch (const Error& e) {
         throw e.WithFile(reader.dir()).WithRecord(static_cast<int64_t>(k), "episode");
       }

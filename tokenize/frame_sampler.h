@@ -9,6 +9,7 @@
 #include <memory>
 #include <nlohmann/json.hpp>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "trainkit/frame_decode.h"
@@ -59,6 +60,10 @@ class FrameSampler {
   void Load(const std::vector<FrameRef>& refs, float* out) const;
   // The same for anchors; a blank anchor is all zeros (mid-grey), the model's "no anchor".
   void Load(const std::vector<AnchorRef>& anchors, float* out) const;
+  // Load(refs, frames_out) and Load(anchors, anchors_out) in one pass: an anchor comes from its
+  // frame's episode, so each episode is read and checked once, and blank anchors are not decoded.
+  void Load(const std::vector<FrameRef>& refs, const std::vector<AnchorRef>& anchors,
+            float* frames_out, float* anchors_out) const;
 
   std::vector<std::string> dataset_names() const;
   std::vector<double> step_counts() const;
@@ -69,6 +74,9 @@ class FrameSampler {
   nlohmann::json DataProvenance() const;
 
  private:
+  // Decodes each frame into its destination (3 * size * size floats), reading each episode once.
+  void LoadInto(const std::vector<std::pair<FrameRef, float*>>& slots) const;
+
   std::vector<std::unique_ptr<shard::DatasetReader>> readers_;
   std::vector<double> weights_prefix_;  // cumulative normalised weights, last = 1
   std::string image_key_;

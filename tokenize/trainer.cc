@@ -299,11 +299,13 @@ class TokenizerStage : public trainkit::TrainingStage {
     const size_t floats = static_cast<size_t>(B) * 3 * S * S;
     std::vector<float> batch(cfg_.model.anchor_decoder ? 2 * floats : floats);
     const std::vector<FrameRef> refs = s_.sampler->BatchRefs(step, B);
-    s_.sampler->Load(refs, batch.data());
     if (cfg_.model.anchor_decoder) {
-      s_.sampler->Load(s_.sampler->TrainingAnchors(refs, step, cfg_.train.anchor_max_gap,
+      s_.sampler->Load(refs,
+                       s_.sampler->TrainingAnchors(refs, step, cfg_.train.anchor_max_gap,
                                                    cfg_.train.anchor_dropout),
-                       batch.data() + floats);
+                       batch.data(), batch.data() + floats);
+    } else {
+      s_.sampler->Load(refs, batch.data());
     }
     return batch;
   }

@@ -2,6 +2,7 @@
 // reproducible, resume equals an uninterrupted run, and config errors name file and key.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <filesystem>
 
 #include "core/atomic_file.h"
@@ -55,6 +56,28 @@ TEST_F(TrainTest, SamplerDrawsAreAPureFunctionOfSeedAndStep) {
     EXPECT_LT(r.episode, 3u);
     EXPECT_LT(r.step, 6u);
   }
+}
+
+TEST_F(TrainTest, FramesAndAnchorsLoadedTogetherEqualEachLoadedAlone) {
+  FrameSampler sampler({data_dir()}, "image", 32, 3);
+  const std::vector<FrameRef> refs = sampler.BatchRefs(4, 12);
+  const std::vector<AnchorRef> anchors = sampler.TrainingAnchors(refs, 4, 3, 0.5);
+  const size_t floats = refs.size() * 3 * 32 * 32;
+  std::vector<float> frames(floats), anchored(floats), together(2 * floats, 7.f);
+  sampler.Load(refs, frames.data());
+  sampler.Load(anchors, anchored.data());
+  sampler.Load(refs, anchors, together.data(), together.data() + floats);
+  EXPECT_EQ(std::vector<float>(together.begin(), together.begin() + floats), frames);
+  EXPECT_EQ(std::vector<float>(together.begin() + floats, together.end()), anchored);
+  int blank = 0, real = 0;
+  for (size_t b = 0; b < anchors.size(); ++b) {
+    const float* a = anchored.data() + b * 3 * 32 * 32;
+    const bool zeros = std::all_of(a, a + 3 * 32 * 32, [](float v) { return v == 0.f; });
+    EXPECT_EQ(zeros, anchors[b].blank) << "slot " << b;  // blank anchors are mid-grey zeros
+    (anchors[b].blank ? blank : real)++;
+  }
+  EXPECT_GT(blank, 0);  // the draw covers both kinds
+  EXPECT_GT(real, 0);
 }
 
 TEST_F(TrainTest, MixtureWeightsSetHowOftenEachDatasetIsDrawn) {
