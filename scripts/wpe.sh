@@ -5,8 +5,8 @@
 # (wm-sim-policy), their values estimated closed loop in the token world model and in the motion
 # model (wm-eval --policy; the motion model's imagined frames scored by a success classifier,
 # wm-success train, trained here on the same training frames), and each model's WPE table
-# (wpe.csv) and summary (wpe_summary.json). About 12 minutes on a quiet 2-core machine from
-# nothing (estimated from its stages; 29 minutes measured with other jobs loading the cores).
+# (wpe.csv) and summary (wpe_summary.json). 12.5 minutes on a quiet 2-core machine from nothing
+# (753 s measured, session 58, OpenBLAS; 29 minutes with other jobs loading the cores).
 #   scripts/wpe.sh BIN OUT
 # Settings (environment): SIM_EPISODES (100: episodes per policy in the simulator), STARTS (16:
 # held-out first frames the world models start from, the demo's whole val split), HORIZON (40:
