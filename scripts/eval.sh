@@ -88,6 +88,7 @@ fi
 dirs=()
 for n in "${names[@]}"; do dirs+=("$REPORTS/$n"); done
 echo "== wm-report compare -> $REPORTS/compare.csv"
+# shellcheck disable=SC2086 # COMPARE_ARGS is a list of flags, split on purpose
 "$BIN/wm-report" compare "${dirs[@]}" --baseline "${names[0]}" --out "$REPORTS/compare.csv" \
   --markdown "$REPORTS/compare.md" ${COMPARE_ARGS:-}
 cat "$REPORTS/compare.md"

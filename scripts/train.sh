@@ -13,7 +13,7 @@ fi
 BIN=$1 RUN=$2 TRAIN=$3 VAL=$4
 TOK_CONFIG=${5:-configs/tokenizer/tiny.yaml}
 DYN_CONFIG=${6:-configs/dynamics/tiny.yaml}
-resume_flag() { [ -f "$1/checkpoint.wmt" ] && echo --resume || true; }
+resume_flag() { if [ -f "$1/checkpoint.wmt" ]; then echo --resume; fi; }
 
 echo "== tokenizer: $TOK_CONFIG on $TRAIN -> $RUN/tokenizer"
 # shellcheck disable=SC2046,SC2086

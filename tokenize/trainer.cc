@@ -159,10 +159,12 @@ class Validation {
     auto sampler = MakeSampler(o, o.val_dirs, MixBits(o.config.train.seed ^ 0x76616cull), false);
     const auto refs = sampler->BatchRefs(0, o.config.train.val_frames);
     frames_.resize(refs.size() * 3 * size_ * size_);
-    sampler->Load(refs, frames_.data());
     if (o.config.model.anchor_decoder) {  // the hardest gap the decoder was trained on
       anchors_.resize(frames_.size());
-      sampler->Load(FixedGapAnchors(refs, o.config.train.anchor_max_gap), anchors_.data());
+      sampler->Load(refs, FixedGapAnchors(refs, o.config.train.anchor_max_gap), frames_.data(),
+                    anchors_.data());
+    } else {
+      sampler->Load(refs, frames_.data());
     }
     for (const auto& clip : sampler->EpisodeRefs(kFlickerEpisodes)) {
       std::vector<float>& e = episodes_.emplace_back(clip.size() * 3 * size_ * size_);
