@@ -4,7 +4,7 @@
 # dynamics model (an early and a final checkpoint) -> wm-eval -> wm-report compare + plots (and
 # the motion model's on 300 held-out episodes: scripts/demo_heldout.sh), with
 # the pixel-space motion model (wm-motion) trained beside the tokenizer and dynamics model on the
-# other core. 8-9 minutes on 2 cores (README); every stage is rerunnable and resumes (delete
+# other core. 7-10 minutes on 2 cores (README); every stage is rerunnable and resumes (delete
 # OUT to start over: a finished stage is reused as it is, whatever the settings now).
 set -euo pipefail
 BIN=${1:-build/bin}
