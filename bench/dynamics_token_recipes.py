@@ -6,7 +6,8 @@ lets the tiny dynamics model predict change at all. Each row trains, on 1 thread
      its conv encoder, or a *cell-local* encoder (pixel unshuffle by the patch, then 1x1 convs:
      a token sees only its own 8x8 cell, so a cell whose pixels stay keeps its code), with K codes;
   2. the dynamics twin's body (bench/dynamics_objective.py: tiny preset, next-frame CE, policy
-     conditioning off) for 300 steps on those tokens, with or without the copy prior;
+     conditioning off) for 300 steps (--dynamics-steps) on those tokens, with or without the
+     copy prior;
 
 and reports the tokenizer (PSNR over rollout steps 1..8, flicker, token change rate), the
 dynamics on val windows (argmax right where the code changes / stays, p(copy) where it changes,
@@ -16,7 +17,7 @@ arm / object MSE vs copy_last, PSNR with the actions reversed. `--strips DIR` wr
 real / predicted / reversed-actions / tokenizer rows for val episodes 0 and 1.
 
   bench/dynamics_token_recipes.py --train data/demo/shards/train --val data/demo/shards/val \
-      [--only N..] [--strips DIR]
+      [--only N..] [--strips DIR] [--dynamics-steps N] [--seed S]
 """
 import argparse
 import os
@@ -44,7 +45,7 @@ VARIANTS = [  # (label, cell-local encoder, codes, copy prior)
     ("cell-local encoder, 64 codes, copy prior", True, 64, True),
     ("cell-local encoder, 64 codes, no copy prior", True, 64, False),
 ]
-TOKENIZER_STEPS, DYNAMICS_STEPS, HORIZON, ROLLOUTS = 1200, 300, goal1.HORIZON, 8
+TOKENIZER_STEPS, HORIZON, ROLLOUTS = 1200, goal1.HORIZON, 8
 
 
 class CellLocalVqVae(twin.VqVae):
@@ -139,11 +140,11 @@ def rollouts(dyn, tokenizer, val_eps):
     return mean, np.concatenate(rows, 0)
 
 
-def run(label, cell_local, num_codes, copy_prior, train_eps, val_eps):
+def run(label, cell_local, num_codes, copy_prior, train_eps, val_eps, dynamics_steps, seed):
     over = {**anchor_bench.P8, "num_codes": num_codes}
     start = time.time()
     tokenizer, config = anchor_bench.train(over, TOKENIZER_STEPS, 0.5,
-                                           [(f, s) for f, s, _ in train_eps],
+                                           [(f, s) for f, s, _ in train_eps], seed=seed,
                                            build=CellLocalVqVae if cell_local else twin.VqVae)
     tok = anchor_bench.evaluate(tokenizer, config, [(f, s) for f, s, _ in val_eps])
     codes = {split: [twin.encode(tokenizer, f).reshape(len(f), -1).numpy() for f, _, _ in eps]
@@ -151,8 +152,8 @@ def run(label, cell_local, num_codes, copy_prior, train_eps, val_eps):
     dyn = dob.Experiment.on_episodes(
         "ce", tokenizer.quantizer.codes().detach(),
         [(c, a) for c, (_, _, a) in zip(codes["train"], train_eps)],
-        [(c, a) for c, (_, _, a) in zip(codes["val"], val_eps)], copy_prior)
-    dyn.fit(DYNAMICS_STEPS)
+        [(c, a) for c, (_, _, a) in zip(codes["val"], val_eps)], copy_prior, seed)
+    dyn.fit(dynamics_steps, seed)
     changed_acc, static_acc, _, _, _ = dyn.score()
     p_copy, moved_ratio = one_step(dyn, tokenizer, val_eps)
     r, strip = rollouts(dyn, tokenizer, val_eps)
@@ -172,6 +173,10 @@ def main():
     ap.add_argument("--val", required=True)
     ap.add_argument("--only", type=int, nargs="*", help="row numbers to run (default all)")
     ap.add_argument("--strips", help="directory for one strip PNG per row")
+    ap.add_argument("--dynamics-steps", type=int, default=300,
+                    help="the dynamics model's steps (a cosine schedule to the last)")
+    ap.add_argument("--seed", type=int, default=0,
+                    help="weights and batch draws of both the tokenizer and the dynamics model")
     args = ap.parse_args()
     torch.set_num_threads(1)
     sys.path.insert(0, os.path.join(dob.SRC, "scripts"))
@@ -184,7 +189,8 @@ def main():
     for i, (label, cell_local, num_codes, copy_prior) in enumerate(VARIANTS):
         if args.only and i not in args.only:
             continue
-        strip = run(label, cell_local, num_codes, copy_prior, train_eps, val_eps)
+        strip = run(label, cell_local, num_codes, copy_prior, train_eps, val_eps,
+                    args.dynamics_steps, args.seed)
         if args.strips:
             os.makedirs(args.strips, exist_ok=True)
             cv2.imwrite(os.path.join(args.strips, f"row{i}.png"),
