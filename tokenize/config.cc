@@ -23,6 +23,7 @@ void VisitFields(Config& c, F&& f) {
   f("model", "image_size", m.image_size);
   f("model", "patch_size", m.patch_size);
   f("model", "stem_factor", m.stem_factor);
+  f("model", "encoder", m.encoder);
   f("model", "encoder_channels", m.encoder_channels);
   f("model", "encoder_layers", m.encoder_layers);
   f("model", "decoder_channels", m.decoder_channels);
@@ -79,6 +80,8 @@ void ValidateConfig(const TokenizerConfig& c, const std::string& file) {
   const bool stem_pow2 = m.stem_factor > 0 && (m.stem_factor & (m.stem_factor - 1)) == 0;
   require(stem_pow2 && m.stem_factor <= m.patch_size, "model.stem_factor",
           "must be a power of 2 no larger than model.patch_size");
+  require(m.encoder == "conv" || m.encoder == "cell_local", "model.encoder",
+          "must be conv or cell_local");
   require(m.encoder_channels > 0, "model.encoder_channels", "must be > 0");
   require(m.decoder_channels > 0, "model.decoder_channels", "must be > 0");
   require(m.min_channels >= 0 && m.min_channels <= std::min(m.encoder_channels, m.decoder_channels),

@@ -14,6 +14,9 @@ struct ModelConfig {
                                 // image_size / patch_size
   int stem_factor = 1;          // pixel-unshuffle factor before the first conv (power of 2
                                 // dividing patch_size; 1 = a full-resolution conv stem)
+  std::string encoder = "conv";  // "conv": strided convs and residual blocks; "cell_local":
+                                 // each token sees only its own patch (docs/tokenizer.md,
+                                 // "Cell-local encoder")
   int encoder_channels = 64;    // conv width of the encoder (Table 4 "Encoder d_model")
   int encoder_layers = 1;       // residual blocks at token resolution (Table 4 "num_layers")
   int decoder_channels = 64;    // conv width of the decoder (Table 4 "Decoder d_model")

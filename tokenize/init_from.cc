@@ -12,7 +12,7 @@ const std::vector<std::string> kShapeKeys = {
     "model.encoder_channels", "model.encoder_layers", "model.decoder_channels",
     "model.decoder_layers",   "model.min_channels",   "model.latent_dim",
     "model.num_codes",        "model.l2_normalize",   "model.anchor_decoder",
-    "model.anchor_flow",      "model.levels"};
+    "model.anchor_flow",      "model.levels",         "model.encoder"};
 
 }  // namespace
 

@@ -117,6 +117,53 @@ int Log2(int x) {
   return n;
 }
 
+// Conv width `level` resolutions above the token grid: halved per level, floored at
+// min_channels (0: constant width).
+int64_t Width(const ModelConfig& c, int64_t channels, int level) {
+  return c.min_channels > 0 ? std::max<int64_t>(c.min_channels, channels >> level) : channels;
+}
+
+// model.encoder "conv": the stem trades resolution for channels (pixel unshuffle) so no conv
+// runs at full resolution; the strided convs do the rest of patch_size. -> [B, D, h, w]
+torch::nn::Sequential ConvEncoder(const ModelConfig& c) {
+  using torch::nn::Conv2dOptions;
+  const int f = c.stem_factor, downs = Log2(c.patch_size / f);
+  const int64_t ce = c.encoder_channels;
+  torch::nn::Sequential encoder;
+  if (f > 1) encoder->push_back(SpaceToChannels(f));  // [B, 3f^2, H/f, W/f]
+  encoder->push_back(
+      torch::nn::Conv2d(Conv2dOptions(3 * f * f, Width(c, ce, downs), 3).padding(1)));
+  encoder->push_back(torch::nn::ReLU());  // [B, Ce(downs), H/f, W/f]
+  for (int level = downs; level > 0; --level) {
+    encoder->push_back(torch::nn::Conv2d(
+        Conv2dOptions(Width(c, ce, level), Width(c, ce, level - 1), 4).stride(2).padding(1)));
+    encoder->push_back(torch::nn::ReLU());  // halves H and W
+  }
+  for (int i = 0; i < c.encoder_layers; ++i) encoder->push_back(ResBlock(ce));
+  encoder->push_back(torch::nn::ReLU());
+  encoder->push_back(torch::nn::Conv2d(Conv2dOptions(ce, c.latent_dim, 1)));
+  return encoder;
+}
+
+// model.encoder "cell_local": pixel unshuffle by the whole patch, then 1x1 convs only, so a
+// token is a function of its own patch's pixels. A cell whose pixels do not change keeps its
+// code whatever moves next to it: the tokens stop flickering, and a dynamics model sees change
+// only where the frame changed (docs/tokenizer.md, "Cell-local encoder").
+torch::nn::Sequential CellLocalEncoder(const ModelConfig& c) {
+  using torch::nn::Conv2dOptions;
+  const int64_t p = c.patch_size, ce = c.encoder_channels;
+  torch::nn::Sequential encoder;
+  encoder->push_back(SpaceToChannels(p));  // [B, 3p^2, h, w]
+  encoder->push_back(torch::nn::Conv2d(Conv2dOptions(3 * p * p, ce, 1)));
+  for (int i = 0; i < 2; ++i) {
+    encoder->push_back(torch::nn::ReLU());
+    encoder->push_back(torch::nn::Conv2d(Conv2dOptions(ce, ce, 1)));
+  }
+  encoder->push_back(torch::nn::ReLU());
+  encoder->push_back(torch::nn::Conv2d(Conv2dOptions(ce, c.latent_dim, 1)));
+  return encoder;
+}
+
 }  // namespace
 
 VectorQuantizerImpl::VectorQuantizerImpl(QuantizerOptions options) : options(options) {
@@ -338,27 +385,11 @@ torch::Tensor DetailWeight(const torch::Tensor& images, double alpha) {
 VqVaeImpl::VqVaeImpl(const ModelConfig& c) : config(c) {
   using torch::nn::Conv2dOptions;
   using torch::nn::ConvTranspose2dOptions;
-  // The stem trades resolution for channels (pixel unshuffle) so no conv runs at full
-  // resolution; the strided convs do the rest of patch_size.
   const int f = c.stem_factor, downs = Log2(c.patch_size / f);
   const int64_t d = c.latent_dim, pixels = 3 * f * f;
-  // Width `level` resolutions above the token grid: halved per level, floored at min_channels.
-  auto width = [&c](int64_t channels, int level) {
-    return c.min_channels > 0 ? std::max<int64_t>(c.min_channels, channels >> level) : channels;
-  };
-  const int64_t ce = c.encoder_channels, cd = c.decoder_channels;
-  encoder = torch::nn::Sequential();
-  if (f > 1) encoder->push_back(SpaceToChannels(f));  // [B, 3f^2, H/f, W/f]
-  encoder->push_back(torch::nn::Conv2d(Conv2dOptions(pixels, width(ce, downs), 3).padding(1)));
-  encoder->push_back(torch::nn::ReLU());  // [B, Ce(downs), H/f, W/f]
-  for (int level = downs; level > 0; --level) {
-    encoder->push_back(torch::nn::Conv2d(
-        Conv2dOptions(width(ce, level), width(ce, level - 1), 4).stride(2).padding(1)));
-    encoder->push_back(torch::nn::ReLU());  // halves H and W
-  }
-  for (int i = 0; i < c.encoder_layers; ++i) encoder->push_back(ResBlock(ce));
-  encoder->push_back(torch::nn::ReLU());
-  encoder->push_back(torch::nn::Conv2d(Conv2dOptions(ce, d, 1)));  // [B, D, h, w]
+  auto width = [&c](int64_t channels, int level) { return Width(c, channels, level); };
+  const int64_t cd = c.decoder_channels;
+  encoder = c.encoder == "cell_local" ? CellLocalEncoder(c) : ConvEncoder(c);
 
   decoder = torch::nn::Sequential(torch::nn::Conv2d(Conv2dOptions(d, cd, 3).padding(1)));
   for (int i = 0; i < c.decoder_layers; ++i) decoder->push_back(ResBlock(cd));

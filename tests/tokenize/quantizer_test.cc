@@ -186,5 +186,30 @@ TEST(VqVae, TinyPresetGivesEightByEightTokens) {
   EXPECT_EQ(out.reconstruction.sizes(), (std::vector<int64_t>{2, 3, 64, 64}));
 }
 
+// model.encoder cell_local: a token is a function of its own 8x8 patch. Repainting one patch
+// changes that cell's latent and no other; the conv encoder's receptive field spills over.
+TEST(VqVae, CellLocalEncoderKeepsEveryOtherCellsLatent) {
+  TokenizerConfig c =
+      LoadTokenizerConfig(test::SourceDir() + "/configs/tokenizer/stable64.yaml");
+  ASSERT_EQ(c.model.encoder, "cell_local");
+  auto changed_cells = [](const ModelConfig& model_config) {
+    torch::manual_seed(1);
+    VqVae model(model_config);
+    torch::NoGradGuard no_grad;
+    torch::Tensor frame = torch::rand({1, 3, 64, 64}) * 2 - 1;
+    torch::Tensor painted = frame.clone();
+    painted.narrow(2, 24, 8).narrow(3, 16, 8).fill_(0.9);  // the patch of cell (3, 2)
+    torch::Tensor moved = (model->Encode(painted) - model->Encode(frame)).abs().amax(1)[0] > 0;
+    return moved;
+  };
+  torch::Tensor local = changed_cells(c.model);
+  EXPECT_EQ(local.sizes(), (std::vector<int64_t>{8, 8}));
+  EXPECT_TRUE(local[3][2].item<bool>());
+  EXPECT_EQ(local.sum().item<int64_t>(), 1);
+  ModelConfig conv = c.model;
+  conv.encoder = "conv";
+  EXPECT_GT(changed_cells(conv).sum().item<int64_t>(), 1);
+}
+
 }  // namespace
 }  // namespace wm::tokenize

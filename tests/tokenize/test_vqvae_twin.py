@@ -8,7 +8,8 @@ levels), L2-normalised lookup and the detail-weighted L1
 stem (factor 2) and 2 levels, C with the anchor decoder (model.anchor_decoder; anchors drawn as
 FrameSampler::TrainingAnchors, and the previous frame in the inference checks), D with the
 anchor's flow and the change weight (model.anchor_flow, model.change_weight), E with 3 residual
-levels (model.levels: codes [n, 3, g, g], each residual codebook re-seeded on its own). For each,
+levels (model.levels: codes [n, 3, g, g], each residual codebook re-seeded on its own), F with
+the cell-local encoder (model.encoder: cell_local). For each,
 the twin loads checkpoint.wmt with its own archive reader and must give, on the set's frames plus
 random frames (tokenizer_ref_tool runs the C++ side):
   - identical codes (Tokenizer::Encode), reconstructions and encoder features within 1e-5;
@@ -75,6 +76,14 @@ model: {image_size: 32, patch_size: 8, stem_factor: 2, encoder_channels: 16, enc
         num_codes: 16, l2_normalize: true, beta: 0.25, dead_code_steps: 3, levels: 3}
 train: {batch_size: 8, steps: 20, max_lr: 3.0e-3, min_lr: 3.0e-4, warmup_steps: 3, threads: 1,
         seed: 8, checkpoint_every: 20, log_every: 5}
+""",
+    "F (cell-local encoder, anchor decoder)": """
+model: {image_size: 32, patch_size: 8, stem_factor: 2, encoder: cell_local, encoder_channels: 16,
+        decoder_channels: 16, decoder_layers: 1, latent_dim: 8, num_codes: 16,
+        l2_normalize: true, beta: 0.25, dead_code_steps: 3, detail_weight: 2,
+        anchor_decoder: true}
+train: {batch_size: 8, steps: 20, max_lr: 3.0e-3, min_lr: 3.0e-4, warmup_steps: 3, threads: 1,
+        seed: 9, checkpoint_every: 20, log_every: 5, anchor_max_gap: 3, anchor_dropout: 0.5}
 """,
 }
 

@@ -154,7 +154,7 @@ TEST_F(TrainTest, RefusesToOverwriteOrResumeWithAnotherConfig) {
 }
 
 TEST(TokenizerConfig, PresetsLoad) {
-  for (const char* name : {"tiny", "tiny16", "meta64", "whale-x"}) {
+  for (const char* name : {"tiny", "tiny16", "meta64", "whale-x", "stable64"}) {
     EXPECT_NO_THROW(LoadTokenizerConfig(test::SourceDir() + "/configs/tokenizer/" + name + ".yaml"))
         << name;
   }
@@ -170,6 +170,13 @@ TEST(TokenizerConfig, PresetsLoad) {
   TokenizerConfig back = ConfigFromJson(ConfigToJson(tiny));  // session 50's keys round-trip
   EXPECT_TRUE(back.model.anchor_flow);
   EXPECT_EQ(back.model.change_weight, 4.0);
+  EXPECT_EQ(back.model.encoder, "conv");  // the default, and what checkpoints without the key get
+  TokenizerConfig stable =
+      LoadTokenizerConfig(test::SourceDir() + "/configs/tokenizer/stable64.yaml");
+  EXPECT_EQ(ConfigFromJson(ConfigToJson(stable)).model.encoder, "cell_local");
+  nlohmann::json old = ConfigToJson(stable);
+  old["model"].erase("encoder");  // a checkpoint written before the key existed
+  EXPECT_EQ(ConfigFromJson(old).model.encoder, "conv");
 }
 
 TEST(TokenizerConfig, ErrorsNameFileAndKey) {
@@ -191,6 +198,8 @@ TEST(TokenizerConfig, ErrorsNameFileAndKey) {
   EXPECT_EQ(error("model:\n  change_weight: 2\n"),
             "cfg.yaml: key 'model.change_weight': needs model.anchor_decoder: true (change is "
             "measured against the anchor)");
+  EXPECT_EQ(error("model:\n  encoder: local\n"),
+            "cfg.yaml: key 'model.encoder': must be conv or cell_local");
   EXPECT_EQ(error("model:\n  anchor_decoder: true\n  change_weight: -1\n"),
             "cfg.yaml: key 'model.change_weight': must be >= 0");
 }

@@ -33,7 +33,8 @@ SOURCE = os.environ.get("WM_SOURCE_DIR", os.path.join(os.path.dirname(os.path.ab
 DTYPES = {"float32": "<f4", "float64": "<f8", "float16": "<f2", "int32": "<i4", "int64": "<i8",
           "uint8": "u1"}
 # ModelConfig's defaults (tokenize/config.h): ConfigFromJson keeps them for absent keys.
-MODEL_DEFAULTS = {"image_size": 64, "patch_size": 8, "stem_factor": 1, "encoder_channels": 64, "encoder_layers": 1,
+MODEL_DEFAULTS = {"image_size": 64, "patch_size": 8, "stem_factor": 1, "encoder": "conv",
+                  "encoder_channels": 64, "encoder_layers": 1,
                   "decoder_channels": 64, "decoder_layers": 1, "min_channels": 0, "latent_dim": 32,
                   "num_codes": 1024, "l2_normalize": True, "beta": 0.25, "dead_code_steps": 100,
                   "detail_weight": 0.0, "anchor_decoder": False, "anchor_flow": False,
@@ -232,12 +233,18 @@ class VqVae(nn.Module):
             return max(mc, channels >> level) if mc > 0 else channels
 
         ce, cd, d = c["encoder_channels"], c["decoder_channels"], c["latent_dim"]
-        enc = [nn.PixelUnshuffle(f)] if f > 1 else []  # [B, 3f^2, H/f, W/f]
-        enc += [nn.Conv2d(3 * f * f, width(ce, downs), 3, padding=1), nn.ReLU()]
-        for level in range(downs, 0, -1):  # each halves H and W
-            enc += [nn.Conv2d(width(ce, level), width(ce, level - 1), 4, stride=2, padding=1),
-                    nn.ReLU()]
-        enc += [ResBlock(ce) for _ in range(c["encoder_layers"])]
+        if c["encoder"] == "cell_local":  # 1x1 convs on each unshuffled patch
+            p = c["patch_size"]
+            enc = [nn.PixelUnshuffle(p), nn.Conv2d(3 * p * p, ce, 1)]
+            for _ in range(2):
+                enc += [nn.ReLU(), nn.Conv2d(ce, ce, 1)]
+        else:
+            enc = [nn.PixelUnshuffle(f)] if f > 1 else []  # [B, 3f^2, H/f, W/f]
+            enc += [nn.Conv2d(3 * f * f, width(ce, downs), 3, padding=1), nn.ReLU()]
+            for level in range(downs, 0, -1):  # each halves H and W
+                enc += [nn.Conv2d(width(ce, level), width(ce, level - 1), 4, stride=2,
+                                  padding=1), nn.ReLU()]
+            enc += [ResBlock(ce) for _ in range(c["encoder_layers"])]
         enc += [nn.ReLU(), nn.Conv2d(ce, d, 1)]  # [B, D, h, w]
         encoder = nn.Sequential(*enc)
         dec = [nn.Conv2d(d, cd, 3, padding=1)]
