@@ -360,10 +360,11 @@ torch::Tensor MoveByFlow(const torch::Tensor& images, const torch::Tensor& flow)
                          (2.0 / S);
   torch::Tensor identity = torch::eye(2, 3, images.options()).expand({B, 2, 3});
   torch::Tensor grid = F::affine_grid(identity, {B, 3, S, S}, /*align_corners=*/false);
-  return F::grid_sample(images, grid + offset, F::GridSampleFuncOptions()
-                                                   .mode(torch::kBilinear)
-                                                   .padding_mode(torch::kBorder)
-                                                   .align_corners(false));
+  return F::grid_sample(images, grid + offset,
+                        F::GridSampleFuncOptions()
+                            .mode(torch::kBilinear)
+                            .padding_mode(torch::kBorder)
+                            .align_corners(false));
 }
 
 torch::Tensor ChangedPixels(const torch::Tensor& images, const torch::Tensor& anchors) {
@@ -437,8 +438,8 @@ VqVaeImpl::VqVaeImpl(const ModelConfig& c) : config(c) {
                                                                     .beta = c.beta,
                                                                     .levels = c.levels}));
   if (c.anchor_flow) {  // created last: the other layers draw the weights they drew without it
-    anchor_flow = register_module(
-        "anchor_flow", torch::nn::Conv2d(Conv2dOptions(top, 2, 3).padding(1)));
+    anchor_flow =
+        register_module("anchor_flow", torch::nn::Conv2d(Conv2dOptions(top, 2, 3).padding(1)));
     torch::NoGradGuard no_grad;  // zero flow at step 0: the anchor decoder without it
     anchor_flow->weight.zero_();
     anchor_flow->bias.zero_();

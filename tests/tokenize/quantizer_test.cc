@@ -189,8 +189,7 @@ TEST(VqVae, TinyPresetGivesEightByEightTokens) {
 // model.encoder cell_local: a token is a function of its own 8x8 patch. Repainting one patch
 // changes that cell's latent and no other; the conv encoder's receptive field spills over.
 TEST(VqVae, CellLocalEncoderKeepsEveryOtherCellsLatent) {
-  TokenizerConfig c =
-      LoadTokenizerConfig(test::SourceDir() + "/configs/tokenizer/stable64.yaml");
+  TokenizerConfig c = LoadTokenizerConfig(test::SourceDir() + "/configs/tokenizer/stable64.yaml");
   ASSERT_EQ(c.model.encoder, "cell_local");
   auto changed_cells = [](const ModelConfig& model_config) {
     torch::manual_seed(1);

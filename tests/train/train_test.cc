@@ -420,8 +420,8 @@ TEST_F(DynamicsTrainTest, RollingImaginationOfARotaryTimeModel) {
 }
 
 TEST(DynamicsConfig, PresetsLoadAndErrorsNameFileAndKey) {
-  for (const char* name :
-       {"tiny", "meta64", "whale-x-small", "whale-x-medium", "whale-x-base", "whale-x-large"}) {
+  for (const char* name : {"tiny", "stable64", "meta64", "whale-x-small", "whale-x-medium",
+                           "whale-x-base", "whale-x-large"}) {
     EXPECT_NO_THROW(
         LoadDynamicsConfig(wm::test::SourceDir() + "/configs/dynamics/" + name + ".yaml"))
         << name;
@@ -429,6 +429,10 @@ TEST(DynamicsConfig, PresetsLoadAndErrorsNameFileAndKey) {
   DynamicsConfig m = LoadDynamicsConfig(wm::test::SourceDir() + "/configs/dynamics/meta64.yaml");
   EXPECT_EQ(m.model.num_layers, 12);
   EXPECT_EQ(ConfigFromJson(ConfigToJson(m)).model.d_model, 512);
+  // For configs/tokenizer/stable64.yaml's 64 codes, learning from scratch (no copy prior).
+  DynamicsConfig s = LoadDynamicsConfig(wm::test::SourceDir() + "/configs/dynamics/stable64.yaml");
+  EXPECT_EQ(s.model.num_codes, 64);
+  EXPECT_FALSE(s.model.copy_prior);
   auto error = [](const std::string& yaml) {
     return wm::test::ErrorText([&] { ParseDynamicsConfig(yaml, "dyn.yaml"); });
   };
