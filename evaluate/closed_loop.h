@@ -142,6 +142,13 @@ WorldFactory TokenWorlds(const train::DynamicsModel& model, const tokenize::Toke
 WorldsFactory TokenWorldBatches(const train::DynamicsModel& model, const tokenize::Tokenizer& tok,
                                 const ClosedLoopOptions& options);
 
+// `worlds` judged by a success classifier trained on real frames: each step's success score
+// becomes the classifier's P(success | the imagined frame), one call per step for the running
+// rows, and there is no terminal head (evaluate/success_scored_worlds.cc). The motion model's
+// only judge; for a token model (wm-eval --policy --success-model) it replaces the reward head,
+// so the two kinds of model are judged alike.
+WorldsFactory ScoredBySuccess(WorldsFactory worlds, const success::SuccessModel& success);
+
 // The motion model (deterministic: every rollout of a start imagines the same under the same
 // actions), each imagined frame scored by the success classifier's P(success); no terminal
 // head (evaluate/motion_closed_loop.cc). One episode at a time: the reference

@@ -1,9 +1,9 @@
 // The motion model in closed loop (wm-eval --policy with a motion checkpoint and
 // --success-model): each imagined frame is the model's next under the policy's action, and
-// the success classifier's P(success | frame) is the step's success score (docs/reports.md,
-// "Policy evaluation in the world model"). The starts of a batch are the rows of one
-// MotionModel::Rollout, scored by one classifier call per step; one episode at a time is the
-// same with a batch of one.
+// the success classifier's P(success | frame) is the step's success score (ScoredBySuccess;
+// docs/reports.md, "Policy evaluation in the world model"). The starts of a batch are the rows
+// of one MotionModel::Rollout, scored by one classifier call per step; one episode at a time is
+// the same with a batch of one.
 #include <algorithm>
 #include <memory>
 #include <string>
@@ -12,18 +12,16 @@
 #include "core/error.h"
 #include "evaluate/closed_loop.h"
 #include "motion/motion_model.h"
-#include "success/success_model.h"
 
 namespace wm::evaluate {
 namespace {
 
-// The motion model's imagination of a batch of starts, a row each, all at the same step.
+// The motion model's imagination of a batch of starts, a row each, all at the same step; its
+// steps carry no success score (ScoredBySuccess adds the classifier's).
 class MotionBatch : public ImaginedWorlds {
  public:
-  MotionBatch(const motion::MotionModel& model, const success::SuccessModel& success,
-              const std::vector<const ClosedLoopStart*>& starts)
+  MotionBatch(const motion::MotionModel& model, const std::vector<const ClosedLoopStart*>& starts)
       : model_(model),
-        success_(success),
         rollout_(model.StartRollout(FirstFrames(starts), static_cast<int64_t>(starts.size()))),
         size_(static_cast<int>(model.image_size())),
         step_actions_(starts.size() * static_cast<size_t>(model.action_dim()), 0.f) {}
@@ -39,18 +37,10 @@ class MotionBatch : public ImaginedWorlds {
     }
     const std::vector<float> all = rollout_->Next(step_actions_);  // [batch, 3, S, S]
     const size_t frame = static_cast<size_t>(3) * size_ * size_;
-    std::vector<float> running;  // [rows, 3, S, S]: only these are scored
+    std::vector<ImaginedStep> out;  // only the running rows
     for (size_t row : rows) {
-      running.insert(running.end(), all.begin() + row * frame, all.begin() + (row + 1) * frame);
-    }
-    const std::vector<float> rewards =
-        success_.Probabilities(running, static_cast<int64_t>(rows.size()));
-    std::vector<ImaginedStep> out;
-    for (size_t k = 0; k < rows.size(); ++k) {
       out.push_back(
-          {.frame = {1, size_, {running.begin() + k * frame, running.begin() + (k + 1) * frame}},
-           .reward = rewards[k],
-           .terminal_prob = 0});
+          {.frame = {1, size_, {all.begin() + row * frame, all.begin() + (row + 1) * frame}}});
     }
     return out;
   }
@@ -65,7 +55,6 @@ class MotionBatch : public ImaginedWorlds {
   }
 
   const motion::MotionModel& model_;
-  const success::SuccessModel& success_;
   std::unique_ptr<motion::MotionModel::Rollout> rollout_;
   const int size_;
   // [batch, D]: each row's newest action. A row that has ended repeats its last one: rows are
@@ -76,32 +65,32 @@ class MotionBatch : public ImaginedWorlds {
 // One start as a batch of one.
 class MotionWorld : public ImaginedWorld {
  public:
-  MotionWorld(const motion::MotionModel& model, const success::SuccessModel& success,
-              const ClosedLoopStart& start)
-      : batch_(model, success, {&start}) {}
+  explicit MotionWorld(std::unique_ptr<ImaginedWorlds> batch) : batch_(std::move(batch)) {}
 
   ImaginedStep Next(const std::vector<float>& actions, int64_t t) override {
-    return batch_.Next({0}, {&actions}, t).front();
+    return batch_->Next({0}, {&actions}, t).front();
   }
 
  private:
-  MotionBatch batch_;
+  std::unique_ptr<ImaginedWorlds> batch_;
 };
 
 }  // namespace
 
 WorldFactory MotionWorlds(const motion::MotionModel& model, const success::SuccessModel& success) {
-  return [&model, &success](const ClosedLoopStart& start, int) {
-    return std::make_unique<MotionWorld>(model, success, start);
+  return [batches = MotionWorldBatches(model, success)](const ClosedLoopStart& start, int) {
+    return std::make_unique<MotionWorld>(batches({&start}, 0));
   };
 }
 
 WorldsFactory MotionWorldBatches(const motion::MotionModel& model,
                                  const success::SuccessModel& success) {
-  return [&model, &success](const std::vector<const ClosedLoopStart*>& starts,
-                            int) -> std::unique_ptr<ImaginedWorlds> {
-    return std::make_unique<MotionBatch>(model, success, starts);
-  };
+  return ScoredBySuccess(
+      [&model](const std::vector<const ClosedLoopStart*>& starts,
+               int) -> std::unique_ptr<ImaginedWorlds> {
+        return std::make_unique<MotionBatch>(model, starts);
+      },
+      success);
 }
 
 }  // namespace wm::evaluate

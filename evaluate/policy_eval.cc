@@ -206,15 +206,40 @@ void WriteWpe(const EvalOptions& o, const std::string& dir, const std::string& c
       s.num_policies, s.spearman, s.kendall, s.pairwise_accuracy, s.mean_abs_gap);
 }
 
-// The token model of `checkpoint` with its reward and terminal heads.
+// Refuses a classifier of another frame size than the model imagines; what the report records
+// of it.
+nlohmann::json DescribeSuccessModel(const success::SuccessModel& success, int64_t image_size,
+                                    const std::string& imagines) {
+  Check(success.image_size() == image_size,
+        "the success classifier scores " + std::to_string(success.image_size()) + " px frames, " +
+            imagines + " imagines " + std::to_string(image_size) +
+            " px ones (train both at one image_size)",
+        {.file = success.checkpoint_file(), .key = "model.image_size"});
+  return {{"sha256", Sha256File(success.checkpoint_file())},
+          {"step", success.step()},
+          {"config_hash", ConfigHash(success::ConfigToJson(success.config()))}};
+}
+
+// The token model of `checkpoint`: its reward and terminal heads score each step, or the success
+// classifier `success` when there is one (the motion model's judge, so the two are comparable).
 ClosedLoopModel LoadTokenModel(const EvalOptions& o, const std::string& checkpoint,
+                               const std::shared_ptr<const success::SuccessModel>& success,
                                const tokenize::Tokenizer& tok, const tokens::TokenDataset& data) {
   std::shared_ptr<const train::DynamicsModel> model = LoadModelFor(o, checkpoint, data);
   CheckModelFitsTokens(*model, data);
-  return {.worlds = TokenWorldBatches(*model, tok, o.policy_eval.loop),
-          .action_dim = model->action_dim(),
-          .info = DescribeDynamicsCheckpoint(*model),
-          .keep = model};
+  ClosedLoopModel loaded{.worlds = TokenWorldBatches(*model, tok, o.policy_eval.loop),
+                         .action_dim = model->action_dim(),
+                         .info = DescribeDynamicsCheckpoint(*model),
+                         .keep = model};
+  if (success) {
+    loaded.info.extra["success_model"] =
+        DescribeSuccessModel(*success, tok.image_size(), "the token model");
+    loaded.worlds = ScoredBySuccess(std::move(loaded.worlds), *success);
+    loaded.keep =
+        std::make_shared<std::pair<std::shared_ptr<const train::DynamicsModel>,
+                                   std::shared_ptr<const success::SuccessModel>>>(model, success);
+  }
+  return loaded;
 }
 
 // The motion model of `checkpoint` with the success classifier `success` (not null) scoring its
@@ -223,15 +248,8 @@ ClosedLoopModel LoadMotionModel(const EvalOptions& o, const std::string& checkpo
                                 const std::shared_ptr<const success::SuccessModel>& success,
                                 const tokenize::Tokenizer& tok, const tokens::TokenDataset& data) {
   LoadedMotionModel motion = LoadMotionModelFor(o, checkpoint, tok, data);
-  Check(success->image_size() == motion.model->image_size(),
-        "the success classifier scores " + std::to_string(success->image_size()) +
-            " px frames, the motion model imagines " + std::to_string(motion.model->image_size()) +
-            " px ones (train both at one image_size)",
-        {.file = success->checkpoint_file(), .key = "model.image_size"});
-  const nlohmann::json config = success::ConfigToJson(success->config());
-  motion.info.extra["success_model"] = {{"sha256", Sha256File(success->checkpoint_file())},
-                                        {"step", success->step()},
-                                        {"config_hash", ConfigHash(config)}};
+  motion.info.extra["success_model"] =
+      DescribeSuccessModel(*success, motion.model->image_size(), "the motion model");
   auto keep = std::make_shared<std::pair<std::shared_ptr<const motion::MotionModel>,
                                          std::shared_ptr<const success::SuccessModel>>>(
       motion.model, success);
@@ -280,7 +298,7 @@ std::vector<std::string> EvaluatePolicies(const EvalOptions& o) {
     const bool is_motion = motion::MotionModel::IsMotionCheckpoint(o.checkpoints[c]);
     const ClosedLoopModel model = is_motion
                                       ? LoadMotionModel(o, o.checkpoints[c], success, tok, data)
-                                      : LoadTokenModel(o, o.checkpoints[c], tok, data);
+                                      : LoadTokenModel(o, o.checkpoints[c], success, tok, data);
     std::vector<PolicyRun> runs;
     for (const policy::PolicySpec& spec : o.policy_eval.policies) {
       runs.push_back(RunPolicy(o, spec, model, tok, starts));
@@ -292,7 +310,7 @@ std::vector<std::string> EvaluatePolicies(const EvalOptions& o) {
     WriteFileAtomically((fs::path(dir) / "wm_values.csv").string(), ValuesCsv(runs));
     WriteStrips(dir, runs, starts, logged);
     if (!o.policy_eval.true_values.empty()) {
-      WriteWpe(o, dir, model.info.file, is_motion ? success->checkpoint_file() : "", runs);
+      WriteWpe(o, dir, model.info.file, success ? success->checkpoint_file() : "", runs);
     }
     WriteEvalManifest(dir, name, o.checkpoints[c], o, model.info, tok, data, shards);
     written.push_back(dir);

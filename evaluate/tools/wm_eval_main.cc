@@ -46,7 +46,7 @@ frame of each of the first --episodes held-out episodes, for --policy-horizon st
 reward head says success (reward > 0.5) or the terminal head says done; --policy-rollouts per
 start; --policy-batch starts imagined together in lockstep (one model call per step). A motion checkpoint has no reward head: pass --success-model RUN_DIR (wm-success train, a
 classifier trained on real frames), and a step whose imagined frame it gives P(success) > 0.5 is
-a success (docs/success.md). Writes wm_values.csv (success rate, Wilson 95%), wm_episodes.csv,
+a success (docs/success.md); with a token checkpoint it replaces the reward head the same way. Writes wm_values.csv (success rate, Wilson 95%), wm_episodes.csv,
 strips/episode_K.png and, with --true-values (wm-sim-policy's policy_values.json), wpe.csv and
 wpe_summary.json; no open-loop scores. Example:
   wm-eval --checkpoint runs/dyn-tiny --tokenizer runs/tok-tiny --data data/tabletop/val \
@@ -92,8 +92,9 @@ void AddPolicyOptions(CLI::App& app, PolicyArgs& a, wm::evaluate::PolicyEvalOpti
                  "wm-sim-policy's policy_values.json: writes wpe.csv and wpe_summary.json")
       ->check(CLI::ExistingFile);
   app.add_option("--success-model", p.success_model,
-                 "Closed loop of motion checkpoints: wm-success train's RUN_DIR, whose "
-                 "P(success | imagined frame) > 0.5 is a success")
+                 "Closed loop: wm-success train's RUN_DIR, whose P(success | imagined frame) > "
+                 "0.5 is a success (needed by motion checkpoints; replaces a token model's "
+                 "reward head)")
       ->check(CLI::ExistingPath);
   app.add_option("--policy-timeout", p.step_timeout_s, "Seconds a policy may take per answer")
       ->capture_default_str();

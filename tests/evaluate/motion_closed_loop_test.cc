@@ -11,6 +11,7 @@
 #include <cstdio>
 #include <cstdlib>
 #include <limits>
+#include <memory>
 #include <set>
 
 #include "core/shard/dataset_reader.h"
@@ -165,6 +166,54 @@ TEST_F(MotionClosedLoopTest, OneBatchImaginesWhatOneEpisodeAtATimeDoes) {
   // Rows left the batch at different steps.
   std::printf("episode lengths: %zu distinct\n", lengths.size());
   EXPECT_GE(lengths.size(), 3u);
+}
+
+// Some world's steps: each running row's start frame, with a reward and terminal of its own.
+class FixedFrames : public ImaginedWorlds {
+ public:
+  explicit FixedFrames(const std::vector<const ClosedLoopStart*>& starts) : starts_(starts) {}
+  std::vector<ImaginedStep> Next(const std::vector<size_t>& rows,
+                                 const std::vector<const std::vector<float>*>&, int64_t) override {
+    std::vector<ImaginedStep> out;
+    for (size_t row : rows) {
+      out.push_back({.frame = starts_[row]->first_frame, .reward = 7, .terminal_prob = 0.9f});
+    }
+    return out;
+  }
+
+ private:
+  std::vector<const ClosedLoopStart*> starts_;
+};
+
+// A token model judged by the classifier: the rows' frames pass through, each step's score is the
+// classifier's P(success) of that row's frame (its own call on the frame alone gives the same),
+// and the inner world's reward and terminal are dropped.
+TEST_F(MotionClosedLoopTest, ScoredBySuccessScoresEachRunningRowsFrameWithTheClassifier) {
+  const std::vector<ClosedLoopStart> starts = Starts();
+  std::vector<const ClosedLoopStart*> all;
+  for (const ClosedLoopStart& s : starts) all.push_back(&s);
+  const WorldsFactory scored = ScoredBySuccess(
+      [](const std::vector<const ClosedLoopStart*>& rows, int) -> std::unique_ptr<ImaginedWorlds> {
+        return std::make_unique<FixedFrames>(rows);
+      },
+      *success_);
+  const std::vector<size_t> rows = {1, 4, 5};
+  const std::vector<float> no_actions;
+  const std::vector<ImaginedStep> steps =
+      scored(all, 0)->Next(rows, {&no_actions, &no_actions, &no_actions}, 0);
+  ASSERT_EQ(steps.size(), rows.size());
+  std::set<float> distinct;
+  for (size_t k = 0; k < rows.size(); ++k) {
+    const Clip& frame = starts[rows[k]].first_frame;
+    EXPECT_EQ(steps[k].frame.pixels, frame.pixels);
+    EXPECT_EQ(steps[k].terminal_prob, 0);
+    const float alone = success_->Probabilities(frame.pixels, 1).front();
+    EXPECT_NEAR(steps[k].reward, alone, kRewardTolerance);
+    EXPECT_GE(steps[k].reward, 0);
+    EXPECT_LE(steps[k].reward, 1);
+    distinct.insert(steps[k].reward);
+  }
+  EXPECT_GE(distinct.size(), 2u);  // the rows' own frames, not one score for all
 }
 
 }  // namespace
