@@ -220,6 +220,13 @@ nlohmann::json DescribeSuccessModel(const success::SuccessModel& success, int64_
           {"config_hash", ConfigHash(success::ConfigToJson(success.config()))}};
 }
 
+// One keep-alive handle for two models a closed loop refers to.
+template <typename A, typename B>
+std::shared_ptr<const void> KeepBoth(std::shared_ptr<A> a, std::shared_ptr<B> b) {
+  return std::make_shared<std::pair<std::shared_ptr<A>, std::shared_ptr<B>>>(std::move(a),
+                                                                             std::move(b));
+}
+
 // The token model of `checkpoint`: its reward and terminal heads score each step, or the success
 // classifier `success` when there is one (the motion model's judge, so the two are comparable).
 ClosedLoopModel LoadTokenModel(const EvalOptions& o, const std::string& checkpoint,
@@ -235,9 +242,7 @@ ClosedLoopModel LoadTokenModel(const EvalOptions& o, const std::string& checkpoi
     loaded.info.extra["success_model"] =
         DescribeSuccessModel(*success, tok.image_size(), "the token model");
     loaded.worlds = ScoredBySuccess(std::move(loaded.worlds), *success);
-    loaded.keep =
-        std::make_shared<std::pair<std::shared_ptr<const train::DynamicsModel>,
-                                   std::shared_ptr<const success::SuccessModel>>>(model, success);
+    loaded.keep = KeepBoth(model, success);
   }
   return loaded;
 }
@@ -250,13 +255,10 @@ ClosedLoopModel LoadMotionModel(const EvalOptions& o, const std::string& checkpo
   LoadedMotionModel motion = LoadMotionModelFor(o, checkpoint, tok, data);
   motion.info.extra["success_model"] =
       DescribeSuccessModel(*success, motion.model->image_size(), "the motion model");
-  auto keep = std::make_shared<std::pair<std::shared_ptr<const motion::MotionModel>,
-                                         std::shared_ptr<const success::SuccessModel>>>(
-      motion.model, success);
   return {.worlds = MotionWorldBatches(*motion.model, *success),
           .action_dim = motion.model->action_dim(),
           .info = std::move(motion.info),
-          .keep = keep};
+          .keep = KeepBoth(motion.model, success)};
 }
 
 }  // namespace

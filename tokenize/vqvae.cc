@@ -388,7 +388,6 @@ VqVaeImpl::VqVaeImpl(const ModelConfig& c) : config(c) {
   using torch::nn::ConvTranspose2dOptions;
   const int f = c.stem_factor, downs = Log2(c.patch_size / f);
   const int64_t d = c.latent_dim, pixels = 3 * f * f;
-  auto width = [&c](int64_t channels, int level) { return Width(c, channels, level); };
   const int64_t cd = c.decoder_channels;
   encoder = c.encoder == "cell_local" ? CellLocalEncoder(c) : ConvEncoder(c);
 
@@ -397,9 +396,11 @@ VqVaeImpl::VqVaeImpl(const ModelConfig& c) : config(c) {
   for (int level = 0; level < downs; ++level) {
     decoder->push_back(torch::nn::ReLU());
     decoder->push_back(torch::nn::ConvTranspose2d(
-        ConvTranspose2dOptions(width(cd, level), width(cd, level + 1), 4).stride(2).padding(1)));
+        ConvTranspose2dOptions(Width(c, cd, level), Width(c, cd, level + 1), 4)
+            .stride(2)
+            .padding(1)));
   }  // [B, Cd(downs), H/f, W/f]
-  const int64_t top = width(cd, downs);
+  const int64_t top = Width(c, cd, downs);
   // The pixel head; anchor-decoded frames are the anchor plus its output (unshuffled).
   auto pixel_head = [&](torch::nn::Sequential& seq) {
     seq->push_back(torch::nn::ReLU());
