@@ -4,7 +4,10 @@ lets the tiny dynamics model predict change at all. Each row trains, on 1 thread
 
   1. the anchored tiny tokenizer twin (bench/tokenizer_anchor.py, 1200 steps, dropout 0.5) with
      its conv encoder, or a *cell-local* encoder (pixel unshuffle by the patch, then 1x1 convs:
-     a token sees only its own 8x8 cell, so a cell whose pixels stay keeps its code), with K codes;
+     a token sees only its own 8x8 cell, so a cell whose pixels stay keeps its code; the twin's
+     `model.encoder: cell_local`, wm-tokenize's: until session 61 this bench built its own copy,
+     which drew the conv encoder's initial weights first, so older tables differ in the last
+     digits), with K codes;
   2. the dynamics twin's body (bench/dynamics_objective.py: tiny preset, next-frame CE, policy
      conditioning off) for 300 steps (--dynamics-steps) on those tokens, with or without the
      copy prior;
@@ -27,7 +30,6 @@ import time
 import cv2
 import numpy as np
 import torch
-from torch import nn
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 import dynamics_objective as dob  # noqa: E402
@@ -46,18 +48,6 @@ VARIANTS = [  # (label, cell-local encoder, codes, copy prior)
     ("cell-local encoder, 64 codes, no copy prior", True, 64, False),
 ]
 TOKENIZER_STEPS, HORIZON, ROLLOUTS = 1200, goal1.HORIZON, 8
-
-
-class CellLocalVqVae(twin.VqVae):
-    """The anchored twin with an encoder that never mixes cells."""
-
-    def __init__(self, config, channels=64):
-        super().__init__(config)
-        p, d = config["patch_size"], config["latent_dim"]
-        self.encoder = nn.Sequential(nn.PixelUnshuffle(p), nn.Conv2d(3 * p * p, channels, 1),
-                                     nn.ReLU(), nn.Conv2d(channels, channels, 1), nn.ReLU(),
-                                     nn.Conv2d(channels, channels, 1), nn.ReLU(),
-                                     nn.Conv2d(channels, d, 1))
 
 
 def load(directory):
@@ -141,11 +131,11 @@ def rollouts(dyn, tokenizer, val_eps):
 
 
 def run(label, cell_local, num_codes, copy_prior, train_eps, val_eps, dynamics_steps, seed):
-    over = {**anchor_bench.P8, "num_codes": num_codes}
+    over = {**anchor_bench.P8, "num_codes": num_codes,
+            "encoder": "cell_local" if cell_local else "conv"}  # the twin's, as wm-tokenize's
     start = time.time()
     tokenizer, config = anchor_bench.train(over, TOKENIZER_STEPS, 0.5,
-                                           [(f, s) for f, s, _ in train_eps], seed=seed,
-                                           build=CellLocalVqVae if cell_local else twin.VqVae)
+                                           [(f, s) for f, s, _ in train_eps], seed=seed)
     tok = anchor_bench.evaluate(tokenizer, config, [(f, s) for f, s, _ in val_eps])
     codes = {split: [twin.encode(tokenizer, f).reshape(len(f), -1).numpy() for f, _, _ in eps]
              for split, eps in (("train", train_eps), ("val", val_eps))}
