@@ -38,12 +38,14 @@ VARIANTS = [  # (label, model overrides, steps, anchor dropout); max gap 8 throu
 MAX_GAP, HORIZON = 8, goal1.HORIZON
 
 
-def train(model_over, steps, dropout, episodes, seed=0):
-    """The twin trained as the C++ trainer trains an anchored tokenizer."""
+def train(model_over, steps, dropout, episodes, seed=0, build=twin.VqVae):
+    """The twin trained as the C++ trainer trains an anchored tokenizer; `build(config)` makes
+    the model (bench/tokenizer_anchor_encoder.py and tokenizer_flow_teachers.py swap in their
+    own)."""
     config = {**twin.MODEL_DEFAULTS, **model_over}
     t = {**goal1.TRAIN, "steps": steps}
     torch.manual_seed(seed)
-    model = twin.VqVae(config)
+    model = build(config)
     opt = torch.optim.AdamW(model.parameters(), lr=t["max_lr"], betas=(0.9, 0.9),
                             weight_decay=1e-4)
     draws, codes_rng = np.random.default_rng(seed), twin.Mt19937_64(seed)
