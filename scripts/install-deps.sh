@@ -38,8 +38,10 @@ SUDO=""
 if [ "$(id -u)" -ne 0 ]; then SUDO="sudo"; fi
 echo "install-deps: installing ${#missing[@]} missing packages: ${missing[*]}"
 export DEBIAN_FRONTEND=noninteractive
-# An empty package list means apt-get update never ran on this machine.
-if [ -z "$(ls -A /var/lib/apt/lists 2>/dev/null | grep -v -e lock -e partial)" ] ||
+# No package index means apt-get update never ran on this machine (an unmatched glob stays
+# literal, so the first entry then does not exist).
+indexes=(/var/lib/apt/lists/*_Packages*)
+if [ ! -e "${indexes[0]}" ] ||
    ! apt-cache policy "${missing[0]}" 2>/dev/null | grep -q Candidate; then
   $SUDO apt-get update -q
 fi
