@@ -2,7 +2,8 @@
 """Why a tokenizer's `val.csv` PSNR can fall while its reconstructions get better.
 
 `val.csv`'s PSNR (tokenize/validation.cc) is the mean over frames of each frame's PSNR, anchored
-as FixedGapAnchors does (the frame 8 back, frame 0 for the first 8, none for frame 0). A decoder
+as FixedGapAnchors does (the frame train.anchor_max_gap back, 8 in the presets; frame 0 for
+the first ones; none for frame 0). A decoder
 that copies its anchor exactly where nothing moved scores 45-50 dB on those frames, and a few of
 them lift the mean by several dB; the median and the pooled PSNR (from the mean MSE) do not
 care. This scores C++ tokenizer runs (loaded into the twin, tests/tokenize/vqvae_twin.py) on
@@ -21,13 +22,10 @@ sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 import tokenizer_goal1 as goal1  # noqa: E402
 from tokenizer_goal1 import twin  # noqa: E402
 
-GAP = 8  # configs' train.anchor_max_gap: val.csv's anchors are this many frames back
-
-
-def frame_mse(model, frames):
+def frame_mse(model, frames, gap):
     """Per-frame MSE on [0, 255] levels of `frames` [T, 3, S, S] decoded from their own codes
-    with val.csv's anchors."""
-    anchors = frames[[max(t - GAP, 0) for t in range(len(frames))]].clone()
+    with val.csv's anchors, `gap` frames back."""
+    anchors = frames[[max(t - gap, 0) for t in range(len(frames))]].clone()
     anchors[0] = 0  # frame 0 has no earlier frame: a blank anchor, as in training
     codes = twin.encode(model, frames, anchors)
     recon = goal1.to_uint8(twin.decode(model, codes, anchors)).astype(np.float64)
@@ -48,8 +46,9 @@ def main():
     val = goal1.load(args.val, False)
     print("run | frames | mean of per-frame PSNR | median | pooled | frames over 40 dB")
     for run in args.checkpoints:
-        model = twin.load_checkpoint(run)[0].eval()
-        mse = np.concatenate([frame_mse(model, frames) for frames, _ in val])
+        model, config, _ = twin.load_checkpoint(run)
+        gap = config["train"]["anchor_max_gap"]  # the run's own, as its val.csv used
+        mse = np.concatenate([frame_mse(model.eval(), frames, gap) for frames, _ in val])
         exact = mse == 0  # val.csv skips infinite PSNRs
         per_frame = psnr(np.where(exact, 1.0, mse))
         print(f"{run} | {len(mse)} | {per_frame[~exact].mean():.2f} | {np.median(per_frame):.2f} | "
