@@ -37,6 +37,7 @@ void VisitFields(Config& c, F&& f) {
   f("model", "objective", m.objective);
   f("model", "copy_prior", m.copy_prior);
   f("model", "temporal_positions", m.temporal_positions);
+  f("model", "adaptive_norm", m.adaptive_norm);
   f("model", "decode_steps", m.decode_steps);
   f("model", "decode_temperature", m.decode_temperature);
   auto& p = c.policy;
@@ -81,6 +82,7 @@ nlohmann::json ConfigToJson(const DynamicsConfig& config) {
   if (config.model.levels != 1) j["model"]["levels"] = config.model.levels;
   // Configs and checkpoints from before rotary time keep their bytes and hashes.
   if (config.model.temporal_positions == "learned") j["model"].erase("temporal_positions");
+  if (config.model.adaptive_norm == "none") j["model"].erase("adaptive_norm");
   return j;
 }
 
@@ -115,6 +117,8 @@ void ValidateConfig(const DynamicsConfig& c, const std::string& file) {
           "must be 'masked' or 'next_frame'");
   require(m.temporal_positions == "learned" || m.temporal_positions == "rope",
           "model.temporal_positions", "must be 'learned' or 'rope'");
+  require(m.adaptive_norm == "none" || m.adaptive_norm == "identity" || m.adaptive_norm == "zero",
+          "model.adaptive_norm", "must be 'none', 'identity' or 'zero'");
   require(m.decode_steps > 0, "model.decode_steps", "must be > 0");
   require(m.decode_temperature >= 0, "model.decode_temperature", "must be >= 0");
   require(m.action_dim >= 1 && m.action_dim <= kMaxActionDim, "model.action_dim",

@@ -37,6 +37,11 @@ struct ModelConfig {
   // counts, so imagination can keep each frame's temporal keys/values as the window slides:
   // train/rolling_imagination.h). Stored in the checkpoint's config only when "rope".
   std::string temporal_positions = "learned";
+  // How each ST block takes the frame's action (and z) besides the input embedding: "none", or
+  // adaLN (DiT) with a per-frame shift, scale and gate of every sublayer, starting as the
+  // unconditioned block ("identity") or as the identity ("zero", DiT's adaLN-Zero). Stored in
+  // the checkpoint's config only when not "none".
+  std::string adaptive_norm = "none";
   int decode_steps = 8;             // MaskGIT iterations per predicted frame at inference
   double decode_temperature = 1.0;  // sampling temperature at inference (0 = argmax)
   // Values per action the model takes (D). Not a YAML key: wm-train sets it from the token data

@@ -14,6 +14,10 @@ torch::Tensor LastFrame(const torch::Tensor& x) {  // [B, T, ...] -> [B, 1, ...]
   return x.slice(1, x.size(1) - 1, x.size(1));
 }
 
+StInput LastFrame(const StInput& in) {
+  return {LastFrame(in.x), in.cond.defined() ? LastFrame(in.cond) : in.cond};
+}
+
 }  // namespace
 
 CachedWindow::CachedWindow(WorldModel& model, const torch::Tensor& tokens,
@@ -27,7 +31,7 @@ CachedWindow::CachedWindow(WorldModel& model, const torch::Tensor& tokens,
   last_output_ = LastFrame(h);
 }
 
-torch::Tensor CachedWindow::NewFrameOutput(const torch::Tensor& x) {
+torch::Tensor CachedWindow::NewFrameOutput(const StInput& x) {
   // The window's frames were encoded as frames 0..Tc-1 (rotary time): the new one is frame Tc.
   return model_->dynamics->transformer->ForwardAppended(LastFrame(x), cache_,
                                                         tokens_.size(1));  // [B, 1, N, D]

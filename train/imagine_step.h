@@ -43,7 +43,7 @@ class CachedWindow {
  private:
   // The transformer's output [B, 1, N, D] at position Tc for the embedded window extended by
   // one frame, x [B, Tc + 1, N, D].
-  torch::Tensor NewFrameOutput(const torch::Tensor& x);
+  torch::Tensor NewFrameOutput(const StInput& x);
 
   WorldModel& model_;
   torch::Tensor tokens_, actions_, z_;

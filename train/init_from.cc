@@ -25,6 +25,7 @@ const std::vector<std::string> kShapeKeys = {"model.grid_h",
                                              "model.tied_token_head",
                                              "model.copy_prior",
                                              "model.temporal_positions",
+                                             "model.adaptive_norm",
                                              "policy.d_model",
                                              "policy.num_heads",
                                              "policy.posterior_layers",
@@ -34,10 +35,11 @@ const std::vector<std::string> kShapeKeys = {"model.grid_h",
                                              "policy.classes"};
 
 // The config as the shape check reads it: every key present (ConfigToJson leaves out a default
-// model.temporal_positions and model.levels, which would read as null).
+// model.temporal_positions, model.adaptive_norm and model.levels, which would read as null).
 nlohmann::json ShapeJson(const DynamicsConfig& c) {
   nlohmann::json j = ConfigToJson(c);
   j["model"]["temporal_positions"] = c.model.temporal_positions;
+  j["model"]["adaptive_norm"] = c.model.adaptive_norm;
   j["model"]["levels"] = c.model.levels;
   return j;
 }

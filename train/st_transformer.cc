@@ -3,6 +3,7 @@
 #include <cmath>
 #include <cstdlib>
 #include <cstring>
+#include <functional>
 
 #include "core/error.h"
 
@@ -33,6 +34,14 @@ namespace {
 }
 
 thread_local int onednn_scopes = 0;  // OneDnnLinearScope objects alive on this thread
+
+torch::Tensor Modulated(const torch::Tensor& h, const Modulation& m) {
+  return m.scale.defined() ? h * (1 + m.scale) + m.shift : h;
+}
+
+torch::Tensor Gated(const torch::Tensor& y, const Modulation& m) {
+  return m.gate.defined() ? y * m.gate : y;
+}
 
 torch::Tensor ApplyLayer(torch::nn::LinearImpl& linear, const torch::Tensor& x) {
   return ApplyLinear(x, linear.weight, linear.bias);
@@ -112,6 +121,38 @@ StBlockImpl::StBlockImpl(const StBlockOptions& o) : options(o) {
   norm3 = register_module("norm3", Norm(o.dim, o.rms_norm));
   fc1 = register_module("fc1", torch::nn::Linear(o.dim, o.mlp_ratio * o.dim));
   fc2 = register_module("fc2", torch::nn::Linear(o.mlp_ratio * o.dim, o.dim));
+  if (o.adaptive_norm != AdaptiveNorm::kOff) {
+    modulation = register_module("modulation", torch::nn::Linear(o.dim, 9 * o.dim));
+  }
+}
+
+void StBlockImpl::ZeroModulation() {
+  if (!modulation) return;
+  torch::NoGradGuard no_grad;
+  modulation->weight.zero_();
+  modulation->bias.zero_();
+}
+
+std::array<Modulation, 3> StBlockImpl::Modulations(const torch::Tensor& cond, int64_t N) {
+  if (!modulation) return {};
+  const int64_t B = cond.size(0), T = cond.size(1), D = cond.size(2);
+  const auto terms = ApplyLayer(*modulation, torch::silu(cond)).chunk(9, -1);  // 9x [B, T, D]
+  // Each sublayer's input layout: frames ([B*T, N, D]), grid positions ([B*N, T, D]), [B,T,N,D].
+  const std::array<std::function<torch::Tensor(const torch::Tensor&)>, 3> layouts = {
+      [&](const torch::Tensor& t) {
+        return t.reshape({B * T, 1, D});
+      },
+      [&](const torch::Tensor& t) {
+        return t.unsqueeze(1).expand({B, N, T, D}).reshape({B * N, T, D});
+      },
+      [&](const torch::Tensor& t) { return t.unsqueeze(2); }};
+  const double gate_start = options.adaptive_norm == AdaptiveNorm::kZero ? 0.0 : 1.0;
+  std::array<Modulation, 3> out;
+  for (size_t i = 0; i < 3; ++i) {
+    out[i] = {layouts[i](terms[3 * i]), layouts[i](terms[3 * i + 1]),
+              layouts[i](terms[3 * i + 2] + gate_start)};
+  }
+  return out;
 }
 
 namespace {
@@ -150,41 +191,49 @@ torch::Tensor RotateByFrame(const torch::Tensor& x, int64_t first) {
   return torch::cat({x1 * r.cos - x2 * r.sin, x1 * r.sin + x2 * r.cos}, -1);
 }
 
-AttentionInputs StBlockImpl::TemporalInputs(const torch::Tensor& x, int64_t first) {
-  AttentionInputs in = temporal->Project(norm2->forward(x));
+AttentionInputs StBlockImpl::TemporalInputs(const torch::Tensor& x, int64_t first,
+                                            const Modulation& mod) {
+  AttentionInputs in = temporal->Project(Modulated(norm2->forward(x), mod));
   if (options.rope_time) in.q = RotateByFrame(in.q, first), in.k = RotateByFrame(in.k, first);
   return in;
 }
 
-torch::Tensor StBlockImpl::Forward(const torch::Tensor& x_in, TemporalCache* cache,
+torch::Tensor StBlockImpl::Forward(const StInput& input, TemporalCache* cache,
                                    const TimeAxis& time) {
-  const int64_t B = x_in.size(0), T = x_in.size(1), N = x_in.size(2), D = x_in.size(3);
+  const int64_t B = input.x.size(0), T = input.x.size(1), N = input.x.size(2), D = input.x.size(3);
+  const auto mod = Modulations(input.cond, N);
   // Spatial: every frame on its own, all tokens see each other.
-  torch::Tensor x = x_in.reshape({B * T, N, D});  // [B*T, N, D]
-  x = x + spatial->forward(norm1->forward(x), /*causal=*/false);
+  torch::Tensor x = input.x.reshape({B * T, N, D});  // [B*T, N, D]
+  x = x + Gated(spatial->forward(Modulated(norm1->forward(x), mod[0]), /*causal=*/false), mod[0]);
   // Temporal: every grid position on its own, causal over frames.
   x = x.view({B, T, N, D}).transpose(1, 2).reshape({B * N, T, D});  // [B*N, T, D]
-  const AttentionInputs in = TemporalInputs(x, time.first);
+  const AttentionInputs in = TemporalInputs(x, time.first, mod[1]);
   if (cache) cache->keys.push_back(in.k), cache->values.push_back(in.v);
-  x = x + temporal->Attend(in, options.causal_time, time.span);
+  x = x + Gated(temporal->Attend(in, options.causal_time, time.span), mod[1]);
   x = x.view({B, N, T, D}).transpose(1, 2);  // [B, T, N, D]
-  return x + ApplyLayer(*fc2, torch::gelu(ApplyLayer(*fc1, norm3->forward(x))));
+  return x + MlpBranch(x, mod[2]);
 }
 
-torch::Tensor StBlockImpl::ForwardAppended(const torch::Tensor& x_in, const torch::Tensor& past_k,
+torch::Tensor StBlockImpl::MlpBranch(const torch::Tensor& x, const Modulation& mod) {
+  return Gated(ApplyLayer(*fc2, torch::gelu(ApplyLayer(*fc1, Modulated(norm3->forward(x), mod)))),
+               mod);
+}
+
+torch::Tensor StBlockImpl::ForwardAppended(const StInput& input, const torch::Tensor& past_k,
                                            const torch::Tensor& past_v, int64_t index,
                                            torch::Tensor* new_k, torch::Tensor* new_v) {
-  const int64_t B = x_in.size(0), N = x_in.size(2), D = x_in.size(3);
-  torch::Tensor x = x_in.reshape({B, N, D});  // [B, N, D]: the new frame's tokens
-  x = x + spatial->forward(norm1->forward(x), /*causal=*/false);
+  const int64_t B = input.x.size(0), N = input.x.size(2), D = input.x.size(3);
+  const auto mod = Modulations(input.cond, N);
+  torch::Tensor x = input.x.reshape({B, N, D});  // [B, N, D]: the new frame's tokens
+  x = x + Gated(spatial->forward(Modulated(norm1->forward(x), mod[0]), /*causal=*/false), mod[0]);
   x = x.reshape({B * N, 1, D});  // [B*N, 1, D]: each grid position's new frame
-  AttentionInputs in = TemporalInputs(x, index);
+  AttentionInputs in = TemporalInputs(x, index, mod[1]);
   if (new_k) *new_k = in.k, *new_v = in.v;
   // The new frame is the window's last: it sees every cached frame and itself, no mask needed.
   in.k = torch::cat({past_k, in.k}, 2), in.v = torch::cat({past_v, in.v}, 2);  // [B*N,H,T+1,hd]
-  x = x + temporal->Attend(in, /*causal=*/false);
+  x = x + Gated(temporal->Attend(in, /*causal=*/false), mod[1]);
   x = x.view({B, 1, N, D});
-  return x + ApplyLayer(*fc2, torch::gelu(ApplyLayer(*fc1, norm3->forward(x))));
+  return x + MlpBranch(x, mod[2]);
 }
 
 StTransformerImpl::StTransformerImpl(const StBlockOptions& options, int64_t layers) {
@@ -193,27 +242,34 @@ StTransformerImpl::StTransformerImpl(const StBlockOptions& options, int64_t laye
   norm = register_module("norm", Norm(options.dim, options.rms_norm));
 }
 
-torch::Tensor StTransformerImpl::Forward(torch::Tensor x, const TimeAxis& time) {
-  for (const auto& block : *blocks) x = block->as<StBlock>()->Forward(x, nullptr, time);
+void StTransformerImpl::ZeroModulation() {
+  for (const auto& block : *blocks) block->as<StBlock>()->ZeroModulation();
+}
+
+torch::Tensor StTransformerImpl::Forward(const StInput& in, const TimeAxis& time) {
+  torch::Tensor x = in.x;
+  for (const auto& block : *blocks) x = block->as<StBlock>()->Forward({x, in.cond}, nullptr, time);
   return norm->forward(x);
 }
 
-torch::Tensor StTransformerImpl::ForwardCaching(torch::Tensor x, TemporalCache& cache) {
+torch::Tensor StTransformerImpl::ForwardCaching(const StInput& in, TemporalCache& cache) {
   cache = {};
-  for (const auto& block : *blocks) x = block->as<StBlock>()->Forward(x, &cache, {});
+  torch::Tensor x = in.x;
+  for (const auto& block : *blocks) x = block->as<StBlock>()->Forward({x, in.cond}, &cache, {});
   return norm->forward(x);
 }
 
-torch::Tensor StTransformerImpl::ForwardAppended(torch::Tensor x, const TemporalCache& cache,
+torch::Tensor StTransformerImpl::ForwardAppended(const StInput& in, const TemporalCache& cache,
                                                  int64_t index, TemporalCache* appended) {
   Check(cache.keys.size() == blocks->size(), "temporal cache of another transformer");
   if (appended) {
     appended->keys.assign(blocks->size(), torch::Tensor());
     appended->values.assign(blocks->size(), torch::Tensor());
   }
+  torch::Tensor x = in.x;
   for (size_t i = 0; i < blocks->size(); ++i) {
-    x = blocks[i]->as<StBlock>()->ForwardAppended(x, cache.keys[i], cache.values[i], index,
-                                                  appended ? &appended->keys[i] : nullptr,
+    x = blocks[i]->as<StBlock>()->ForwardAppended({x, in.cond}, cache.keys[i], cache.values[i],
+                                                  index, appended ? &appended->keys[i] : nullptr,
                                                   appended ? &appended->values[i] : nullptr);
   }
   return norm->forward(x);

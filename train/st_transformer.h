@@ -5,7 +5,9 @@
 // O(T N^2 + N T^2) instead of O((T N)^2). Internal header (includes torch).
 #include <torch/torch.h>
 
+#include <array>
 #include <string>
+#include <utility>
 #include <vector>
 
 namespace wm::train {
@@ -73,6 +75,19 @@ struct TimeAxis {
   int64_t first = 0, span = 0;
 };
 
+// The transformer's input: x [B, T, N, D], and for blocks with adaptive norm each frame's
+// conditioning cond [B, T, D] (undefined otherwise). Converts from a bare x.
+struct StInput {
+  StInput(torch::Tensor x, torch::Tensor cond = {}) : x(std::move(x)), cond(std::move(cond)) {}
+  torch::Tensor x, cond;
+};
+
+// How a block's sublayers take a frame's conditioning (DiT's adaLN): off; `identity`: a shift,
+// scale and gate per sublayer from Linear(SiLU(cond)), all starting at zero with the gate added to
+// 1, so every block starts as the unconditioned one; `zero` (DiT's adaLN-Zero): the same with the
+// gate itself starting at zero, so every block starts as the identity.
+enum class AdaptiveNorm { kOff, kIdentity, kZero };
+
 struct StBlockOptions {
   int64_t dim = 128, heads = 4, mlp_ratio = 4;
   bool rms_norm = false;
@@ -80,30 +95,44 @@ struct StBlockOptions {
   // Rotary position embedding (RoFormer) on the temporal attention's queries and keys, by frame
   // index: attention then depends on how far apart two frames are, not where they sit.
   bool rope_time = false;
+  AdaptiveNorm adaptive_norm = AdaptiveNorm::kOff;
 };
 
 // Queries or keys [M, H, L, hd] rotated by frame index first + l (RoFormer's rotation, applied to
 // the two halves of each head: GPT-NeoX's layout, base 10000).
 torch::Tensor RotateByFrame(const torch::Tensor& x, int64_t first);
 
-// x + spatial(norm(x)); x + temporal(norm(x)); x + mlp(norm(x)). x: [B, T, N, D].
+// One sublayer's adaptive-norm terms, shaped to broadcast over its input (undefined: none):
+// sublayer(norm(x) * (1 + scale) + shift) * gate.
+struct Modulation {
+  torch::Tensor shift, scale, gate;
+};
+
+// x + spatial(norm(x)); x + temporal(norm(x)); x + mlp(norm(x)). x: [B, T, N, D]; with adaptive
+// norm each sublayer modulated by the frame's conditioning (StBlockOptions::adaptive_norm).
 struct StBlockImpl : torch::nn::Module {
   explicit StBlockImpl(const StBlockOptions& options);
   torch::Tensor forward(const torch::Tensor& x) { return Forward(x, nullptr, {}); }
   // forward() that also appends this block's temporal keys and values to `cache` (when not null).
-  torch::Tensor Forward(const torch::Tensor& x, TemporalCache* cache, const TimeAxis& time);
-  // One frame x [B, 1, N, D], frame `index` of the episode, after the frames whose temporal
-  // keys/values are `past_k`/`past_v` (all of them visible). `new_k`/`new_v`, when not null,
-  // receive the frame's own.
-  torch::Tensor ForwardAppended(const torch::Tensor& x, const torch::Tensor& past_k,
+  torch::Tensor Forward(const StInput& in, TemporalCache* cache, const TimeAxis& time);
+  // One frame x [B, 1, N, D] (cond [B, 1, D]), frame `index` of the episode, after the frames
+  // whose temporal keys/values are `past_k`/`past_v` (all of them visible). `new_k`/`new_v`, when
+  // not null, receive the frame's own.
+  torch::Tensor ForwardAppended(const StInput& in, const torch::Tensor& past_k,
                                 const torch::Tensor& past_v, int64_t index,
                                 torch::Tensor* new_k = nullptr, torch::Tensor* new_v = nullptr);
+  // Sets the adaptive norm's layer to zero (the constructors' InitWeights draws it first).
+  void ZeroModulation();
   StBlockOptions options;
   // The temporal attention's inputs for x [B*N, T, D] whose first frame has index `first`.
-  AttentionInputs TemporalInputs(const torch::Tensor& x, int64_t first);
+  AttentionInputs TemporalInputs(const torch::Tensor& x, int64_t first, const Modulation& mod);
+  // The spatial, temporal and MLP sublayers' terms for cond [B, T, D] and N tokens a frame.
+  std::array<Modulation, 3> Modulations(const torch::Tensor& cond, int64_t N);
+  torch::Tensor MlpBranch(const torch::Tensor& x, const Modulation& mod);  // x: [B, T, N, D]
   Norm norm1{nullptr}, norm2{nullptr}, norm3{nullptr};
   Attention spatial{nullptr}, temporal{nullptr};
   torch::nn::Linear fc1{nullptr}, fc2{nullptr};
+  torch::nn::Linear modulation{nullptr};  // D -> 9 D; null without adaptive norm
 };
 TORCH_MODULE(StBlock);
 
@@ -111,15 +140,16 @@ TORCH_MODULE(StBlock);
 struct StTransformerImpl : torch::nn::Module {
   StTransformerImpl(const StBlockOptions& options, int64_t layers);
   torch::Tensor forward(torch::Tensor x) { return Forward(x, {}); }  // [B,T,N,D] -> [B,T,N,D]
-  torch::Tensor Forward(torch::Tensor x, const TimeAxis& time);
+  torch::Tensor Forward(const StInput& in, const TimeAxis& time);
   // forward() that fills `cache` (emptied first) with the window's temporal keys and values.
-  torch::Tensor ForwardCaching(torch::Tensor x, TemporalCache& cache);
+  torch::Tensor ForwardCaching(const StInput& in, TemporalCache& cache);
   // The output for one frame x [B, 1, N, D] appended to the window `cache` holds: what forward()
   // of the window extended by it gives at the new frame, up to float rounding. `index`: the new
   // frame's index in the episode (rotary time; the cache's keys carry their own). `appended`,
   // when not null, receives each block's keys/values of the new frame ([B*N, H, 1, hd]).
-  torch::Tensor ForwardAppended(torch::Tensor x, const TemporalCache& cache, int64_t index = 0,
+  torch::Tensor ForwardAppended(const StInput& in, const TemporalCache& cache, int64_t index = 0,
                                 TemporalCache* appended = nullptr);
+  void ZeroModulation();  // every block's (StBlockImpl::ZeroModulation)
   torch::nn::ModuleList blocks{nullptr};
   Norm norm{nullptr};
 };

@@ -22,6 +22,16 @@ torch::Tensor TrainingMask(const torch::Tensor& u_ratio, const torch::Tensor& u_
   return (rank < count.unsqueeze(-1)).logical_and_(target.unsqueeze(-1));              // [B, T, N]
 }
 
+namespace {
+
+AdaptiveNorm BlockNorm(const std::string& adaptive_norm) {  // model.adaptive_norm
+  if (adaptive_norm == "identity") return AdaptiveNorm::kIdentity;
+  if (adaptive_norm == "zero") return AdaptiveNorm::kZero;
+  return AdaptiveNorm::kOff;
+}
+
+}  // namespace
+
 DynamicsNetImpl::DynamicsNetImpl(const ModelConfig& m, int64_t z_dim) : config(m), z_dim(z_dim) {
   const int64_t d = m.d_model, L = m.levels;
   token_embed = register_module("token_embed", torch::nn::Embedding(L * (m.num_codes + 1), d));
@@ -32,14 +42,15 @@ DynamicsNetImpl::DynamicsNetImpl(const ModelConfig& m, int64_t z_dim) : config(m
   action_start = register_parameter("action_start", torch::randn({d}) * 0.02);
   action_in = register_module("action_in", torch::nn::Linear(m.action_dim, d));
   if (z_dim > 0) z_in = register_module("z_in", torch::nn::Linear(z_dim, d));
-  transformer =
-      register_module("transformer", StTransformer(StBlockOptions{.dim = d,
-                                                                  .heads = m.num_heads,
-                                                                  .mlp_ratio = m.mlp_ratio,
-                                                                  .rms_norm = m.norm == "rmsnorm",
-                                                                  .causal_time = true,
-                                                                  .rope_time = rope_time()},
-                                                   m.num_layers));
+  transformer = register_module(
+      "transformer", StTransformer(StBlockOptions{.dim = d,
+                                                  .heads = m.num_heads,
+                                                  .mlp_ratio = m.mlp_ratio,
+                                                  .rms_norm = m.norm == "rmsnorm",
+                                                  .causal_time = true,
+                                                  .rope_time = rope_time(),
+                                                  .adaptive_norm = BlockNorm(m.adaptive_norm)},
+                                   m.num_layers));
   if (m.tied_token_head) {
     token_bias = register_parameter("token_bias", torch::zeros({L * m.num_codes}));
   } else {
@@ -48,6 +59,7 @@ DynamicsNetImpl::DynamicsNetImpl(const ModelConfig& m, int64_t z_dim) : config(m
   reward_head = register_module("reward_head", torch::nn::Linear(d, 2));
   if (m.copy_prior) copy_gate = register_module("copy_gate", torch::nn::Linear(d, L));
   InitWeights(*this);
+  transformer->ZeroModulation();
   if (copy_gate) {
     // Zero-init residual (DIAMOND, iVideoGPT's action projection): the gate starts as the
     // constant log(K), which puts the previous code clearly on top of the N(0, 0.02)-initialised
@@ -58,8 +70,8 @@ DynamicsNetImpl::DynamicsNetImpl(const ModelConfig& m, int64_t z_dim) : config(m
   }
 }
 
-torch::Tensor DynamicsNetImpl::Embed(const torch::Tensor& tokens, const torch::Tensor& actions,
-                                     const torch::Tensor& z) {
+StInput DynamicsNetImpl::Embed(const torch::Tensor& tokens, const torch::Tensor& actions,
+                               const torch::Tensor& z) {
   const int64_t B = tokens.size(0), T = tokens.size(1);
   // "masked": position j carries a_{j-1} and z_{j-1} (eq. 5: x_{h+1} | x_{1:h}, a_{1:h}, z_h) and
   // a learned start vector at j = 0. "next_frame": position j carries a_j and z_j and predicts
@@ -75,8 +87,10 @@ torch::Tensor DynamicsNetImpl::Embed(const torch::Tensor& tokens, const torch::T
     torch::Tensor zc = z_in->forward(z.slice(1, 0, n_cond));
     cond = cond + (shifted ? zc : F::pad(zc, F::PadFuncOptions({0, 0, 1, 0})));  // [B, T, D]
   }
+  // adaLN reads what the frame is told, not where it sits in the window.
+  const torch::Tensor frame_cond = config.adaptive_norm == "none" ? torch::Tensor() : cond;
   if (temporal_pos.defined()) cond = cond + temporal_pos.slice(0, 0, T);
-  return EmbedCodes(tokens) + spatial_pos + cond.unsqueeze(2);  // [B, T, cells, D]
+  return {EmbedCodes(tokens) + spatial_pos + cond.unsqueeze(2), frame_cond};  // [B, T, cells, D]
 }
 
 torch::Tensor DynamicsNetImpl::EmbedCodes(const torch::Tensor& tokens) {

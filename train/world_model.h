@@ -58,8 +58,8 @@ struct DynamicsNetImpl : torch::nn::Module {
   // forward() in parts, for decoding with a temporal cache (train/imagine_step.h):
   // the transformer's input [B, T, N, D] (token, grid and window-position embeddings and the
   // action/z conditioning of each position),
-  torch::Tensor Embed(const torch::Tensor& tokens, const torch::Tensor& actions,
-                      const torch::Tensor& z);
+  // plus, with model.adaptive_norm, the same conditioning per frame [B, T, D] for the blocks),
+  StInput Embed(const torch::Tensor& tokens, const torch::Tensor& actions, const torch::Tensor& z);
   // the token logits [B, T, N, K] of the transformer's output h [B, T, N, D], given `prev`
   // [B, T, N], the code each position's predicted frame had one frame earlier (K: none; the copy
   // prior's bonus goes to it),

@@ -552,8 +552,9 @@ class DynamicsDefaults(unittest.TestCase):
             config = json.load(f)["config"]
         expected = schema_defaults(schema("dynamics-config"))
         expected["train"]["steps"] = 1  # --steps
-        # Written only when "rope", so learned-position configs keep their hashes.
+        # Written only when not the default, so older configs keep their hashes.
         self.assertEqual(expected["model"].pop("temporal_positions"), "learned")
+        self.assertEqual(expected["model"].pop("adaptive_norm"), "none")
         self.assertEqual(config, expected)
         validator("dynamics-config").validate(config)
 

@@ -1,7 +1,7 @@
 // dynamics_test_tool: fixtures for the Python checks of the dynamics model.
 //   make-tokens --out DIR ...        a moving-block token dataset (tests/train/moving_block.h)
 //   reference --out FILE [--rmsnorm] [--no-policy] [--tied] [--copy-prior] [--next-frame] [--rope]
-//             [--action-dim D] [--padded K] [--levels L]
+//             [--action-dim D] [--padded K] [--levels L] [--adaptive-norm none|identity|zero]
 //                                    (--padded: row 1 is a K-dim dataset's, padded to D and
 //                                    masked, its padding filled with noise that must not matter)
 //                                    a tensor archive with random weights ("model/..."), inputs
@@ -29,6 +29,7 @@ struct ReferenceFlags {
   bool rmsnorm = false, no_policy = false, tied = false, copy_prior = false, next_frame = false,
        rope = false;
   int action_dim = 7, padded = 0, levels = 1;
+  std::string adaptive_norm = "none";
 };
 
 void WriteReference(const std::string& path, const ReferenceFlags& f, uint64_t seed) {
@@ -41,6 +42,7 @@ void WriteReference(const std::string& path, const ReferenceFlags& f, uint64_t s
   c.model.temporal_positions = f.rope ? "rope" : "learned";
   c.model.action_dim = f.action_dim;
   c.model.levels = f.levels;
+  c.model.adaptive_norm = f.adaptive_norm;
   c.train.reward_weight = 0.7;
   c.train.terminal_weight = 0.3;
   c.train.policy_weight = 0.9;
@@ -50,7 +52,8 @@ void WriteReference(const std::string& path, const ReferenceFlags& f, uint64_t s
     torch::NoGradGuard no_grad;  // non-trivial norm weights and biases, so the twin checks them
     for (auto& p : m->named_parameters()) {
       if (p.key().find("norm") != std::string::npos || p.key().ends_with("token_bias") ||
-          p.key().find("copy_gate") != std::string::npos)
+          p.key().find("copy_gate") != std::string::npos ||
+          p.key().find("modulation") != std::string::npos)
         p.value().add_(torch::randn_like(p.value()) * 0.1);
     }
   }
@@ -172,6 +175,7 @@ int main(int argc, char** argv) {
   ref->add_option("--action-dim", flags.action_dim);
   ref->add_option("--padded", flags.padded);
   ref->add_option("--levels", flags.levels);
+  ref->add_option("--adaptive-norm", flags.adaptive_norm);
   ref->add_option("--seed", seed);
   std::string eval_run, eval_tokens;
   int eval_frames = 5, eval_windows = 200;

@@ -78,34 +78,60 @@ def rotate(x):
 
 
 class StBlock(nn.Module):
-    def __init__(self, dim, heads, mlp_ratio, rms, causal_time=True, rope_time=False):
+    def __init__(self, dim, heads, mlp_ratio, rms, causal_time=True, rope_time=False,
+                 adaptive_norm="none"):
         super().__init__()
         self.causal_time = causal_time
         self.rope_time = rope_time
         self.norm1, self.norm2, self.norm3 = Norm(dim, rms), Norm(dim, rms), Norm(dim, rms)
         self.spatial, self.temporal = Attention(dim, heads), Attention(dim, heads)
         self.fc1, self.fc2 = nn.Linear(dim, mlp_ratio * dim), nn.Linear(mlp_ratio * dim, dim)
+        if adaptive_norm != "none":  # adaLN: shift, scale, gate per sublayer from the frame's cond
+            self.modulation = nn.Linear(dim, 9 * dim)
+            self.gate_start = 0.0 if adaptive_norm == "zero" else 1.0
 
-    def forward(self, x):
+    def forward(self, x, cond=None):
+        """x [B, T, N, D]; cond [B, T, D] with adaptive norm."""
         b, t, n, d = x.shape
+        ident = (lambda h: h, lambda y: y)
+        mods = [ident] * 3
+        if hasattr(self, "modulation"):
+            terms = self.modulation(F.silu(cond)).chunk(9, -1)  # 9x [B, T, D]
+            mods = []
+            for i in range(3):
+                shift, scale, gate = terms[3 * i], terms[3 * i + 1], terms[3 * i + 2]
+                gate = gate + self.gate_start
+                mods.append(self._modulation(shift, scale, gate, i, b, t, n, d))
         x = x.reshape(b * t, n, d)
-        x = x + self.spatial(self.norm1(x), False)
+        x = x + mods[0][1](self.spatial(mods[0][0](self.norm1(x)), False))
         x = x.view(b, t, n, d).transpose(1, 2).reshape(b * n, t, d)
-        x = x + self.temporal(self.norm2(x), self.causal_time, self.rope_time)
+        x = x + mods[1][1](self.temporal(mods[1][0](self.norm2(x)), self.causal_time,
+                                         self.rope_time))
         x = x.view(b, n, t, d).transpose(1, 2)
-        return x + self.fc2(F.gelu(self.fc1(self.norm3(x))))
+        return x + mods[2][1](self.fc2(F.gelu(self.fc1(mods[2][0](self.norm3(x))))))
+
+    @staticmethod
+    def _modulation(shift, scale, gate, sublayer, b, t, n, d):
+        """(modulate, gate) for the sublayer's input layout: frames, grid positions, [B,T,N,D]."""
+        layout = [lambda v: v.reshape(b * t, 1, d),
+                  lambda v: v.unsqueeze(1).expand(b, n, t, d).reshape(b * n, t, d),
+                  lambda v: v.unsqueeze(2)][sublayer]
+        shift, scale, gate = layout(shift), layout(scale), layout(gate)
+        return (lambda h: h * (1 + scale) + shift, lambda y: y * gate)
 
 
 class StTransformer(nn.Module):
-    def __init__(self, dim, heads, mlp_ratio, rms, layers, causal_time=True, rope_time=False):
+    def __init__(self, dim, heads, mlp_ratio, rms, layers, causal_time=True, rope_time=False,
+                 adaptive_norm="none"):
         super().__init__()
         self.blocks = nn.ModuleList(
-            [StBlock(dim, heads, mlp_ratio, rms, causal_time, rope_time) for _ in range(layers)])
+            [StBlock(dim, heads, mlp_ratio, rms, causal_time, rope_time, adaptive_norm)
+             for _ in range(layers)])
         self.norm = Norm(dim, rms)
 
-    def forward(self, x):
+    def forward(self, x, cond=None):
         for block in self.blocks:
-            x = block(x)
+            x = block(x, cond)
         return self.norm(x)
 
 
@@ -176,7 +202,8 @@ class DynamicsNet(nn.Module):
             self.z_in = nn.Linear(z_dim, d)
         self.transformer = StTransformer(d, m["num_heads"], m["mlp_ratio"],
                                          m["norm"] == "rmsnorm", m["num_layers"],
-                                         rope_time=self.rope_time)
+                                         rope_time=self.rope_time,
+                                         adaptive_norm=m.get("adaptive_norm", "none"))
         self.num_codes = m["num_codes"]
         self.next_frame = m.get("objective", "masked") == "next_frame"
         if m.get("tied_token_head", False):
@@ -212,9 +239,11 @@ class DynamicsNet(nn.Module):
                               self.action_in(actions[:, :t - 1])], 1)
             if self.z_dim:
                 cond = cond + F.pad(self.z_in(z[:, :t - 1]), (0, 0, 1, 0))
+        frame_cond = cond  # what adaLN reads: the frame's action and z, not its window slot
         if not self.rope_time:
             cond = cond + self.temporal_pos[:t]
-        h = self.transformer(self.embed_codes(tokens) + self.spatial_pos + cond.unsqueeze(2))
+        h = self.transformer(self.embed_codes(tokens) + self.spatial_pos + cond.unsqueeze(2),
+                             frame_cond)
         reward, terminal = self.reward_head(h.mean(2)).unbind(-1)
         if hasattr(self, "token_head"):
             logits = self.token_head(h)

@@ -65,14 +65,23 @@ struct Case {
 };
 
 // copy_prior: an untrained copy prior puts the previous code far on top, so frames would not
-// show a wrong attention span; the tests that compare frames leave it off.
-Case MakeCase(bool policy, int64_t B, int64_t steps, bool copy_prior = false) {
+// show a wrong attention span; the tests that compare frames leave it off. With adaptive norm
+// the zero-initialised modulation gets random weights, so the frames' conditioning counts.
+Case MakeCase(bool policy, int64_t B, int64_t steps, bool copy_prior = false,
+              const std::string& adaptive_norm = "none") {
   DynamicsConfig c = test::TinyConfig(policy);
   c.model.objective = "next_frame";
   c.model.copy_prior = copy_prior;
   c.model.temporal_positions = "rope";
+  c.model.adaptive_norm = adaptive_norm;
   torch::manual_seed(7);
   Case k{WorldModel(c)};
+  {
+    torch::NoGradGuard no_grad;
+    for (auto& p : k.m->named_parameters()) {
+      if (p.key().find("modulation") != std::string::npos) p.value().normal_(0.0, 0.1);
+    }
+  }
   k.m->eval();
   k.first = torch::randint(c.model.num_codes, {B, 6}, torch::kInt64);
   k.actions = torch::randn({steps, B, 7});
@@ -107,12 +116,14 @@ Rollout Roll(Case& k, int64_t steps, double temperature) {
 }
 
 TEST(RollingWindow, ImaginesWhatTheWindowPathDoesUntilTheWindowSlides) {
-  for (bool policy : {true, false}) {
-    Case k = MakeCase(policy, 3, 3);  // context_frames 4: the window (3 frames) is full at step 2
+  for (const auto& [policy, norm] : {std::pair{true, "none"}, {false, "none"}, {true, "zero"}}) {
+    // context_frames 4: the window (3 frames) is full at step 2
+    Case k = MakeCase(policy, 3, 3, /*copy_prior=*/false, norm);
     torch::NoGradGuard no_grad;
     const Rollout roll = Roll(k, 3, 1.0);
     for (int64_t t = 0; t < 3; ++t) {
-      const std::string what = (policy ? "+z step " : "step ") + std::to_string(t);
+      const std::string what =
+          std::string(norm) + (policy ? " +z step " : " step ") + std::to_string(t);
       const torch::Tensor tokens = roll.frames.slice(1, 0, t + 1);
       const torch::Tensor actions = k.actions.slice(0, 0, t + 1).transpose(0, 1);  // [B, t+1, D]
       const torch::Tensor z = policy ? k.m->DynamicsZ(tokens, actions) : torch::Tensor();
@@ -130,8 +141,7 @@ TEST(RollingWindow, ImaginesWhatTheWindowPathDoesUntilTheWindowSlides) {
   }
 }
 
-TEST(RollingWindow, AfterTheSlideItsFramesAreTheBandedForwardOverTheHistory) {
-  Case k = MakeCase(true, 2, 7, /*copy_prior=*/true);
+void ExpectRollingIsTheBandedForward(Case k) {
   torch::NoGradGuard no_grad;
   const int64_t C = k.m->config.model.context_frames;
   const Rollout roll = Roll(k, 7, 1.0);
@@ -154,6 +164,13 @@ TEST(RollingWindow, AfterTheSlideItsFramesAreTheBandedForwardOverTheHistory) {
   EXPECT_GT(
       (torch::log_softmax(window, -1) - roll.log_probs.select(1, 6)).abs().max().item<double>(),
       1e-3);
+}
+
+TEST(RollingWindow, AfterTheSlideItsFramesAreTheBandedForwardOverTheHistory) {
+  for (const char* norm : {"none", "identity"}) {
+    SCOPED_TRACE(norm);
+    ExpectRollingIsTheBandedForward(MakeCase(true, 2, 7, /*copy_prior=*/true, norm));
+  }
 }
 
 TEST(RollingWindow, ARowsRolloutDoesNotDependOnTheRestOfItsBatch) {

@@ -67,7 +67,9 @@ def main():
                       ["--action-dim", "14", "--padded", "7"],  # a 7 + 14 mixture's padding
                       ["--levels", "3"],  # a residual tokenizer's codes per cell
                       ["--levels", "3", "--tied", "--copy-prior"],
-                      ["--levels", "2", "--tied", "--copy-prior", "--next-frame", "--rope"]):
+                      ["--levels", "2", "--tied", "--copy-prior", "--next-frame", "--rope"],
+                      ["--adaptive-norm", "identity"],  # adaLN on MaskGIT's shifted actions
+                      ["--adaptive-norm", "zero", "--tied", "--next-frame", "--rope"]):
             failures += check_case(tool, flags, tmp)
     if failures:
         print("FAILED:\n  " + "\n  ".join(failures))

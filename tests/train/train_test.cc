@@ -3,6 +3,7 @@
 // model API loads the result.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <filesystem>
 
@@ -301,13 +302,16 @@ TEST_F(DynamicsTrainTest, ModelApiPredictsFramesAndRewards) {
 // then PredictRewards over the extended window give for each row alone: the same tokens (same
 // row seeds), rewards and terminal probabilities within float rounding (docs/reports.md).
 TEST_F(DynamicsTrainTest, ImagineStepEqualsPredictThenRewardsRowByRow) {
-  for (const std::string variant : {"masked", "next_frame", "next_frame rope"}) {
+  for (const std::string variant :
+       {"masked", "next_frame", "next_frame rope", "masked adaln", "next_frame rope adaln"}) {
     const std::string objective = variant.substr(0, variant.find(' '));
-    const std::string run = variant.ends_with("rope") ? "rope" : objective;
+    std::string run = variant;
+    std::replace(run.begin(), run.end(), ' ', '_');
     TrainOptions o = Options(run, 10);
     o.config.model.objective = objective;
     o.config.model.copy_prior = true;
-    if (variant.ends_with("rope")) o.config.model.temporal_positions = "rope";
+    if (variant.find("rope") != std::string::npos) o.config.model.temporal_positions = "rope";
+    if (variant.ends_with("adaln")) o.config.model.adaptive_norm = "identity";
     TrainDynamics(o);
     auto model = DynamicsModel::Load(dir_ / run);
     const int64_t n = model->tokens_per_frame(), rows = 3, frames = 3;
@@ -448,6 +452,14 @@ TEST(DynamicsConfig, PresetsLoadAndErrorsNameFileAndKey) {
   EXPECT_NE(error("model:\n  temporal_positions: alibi\n")
                 .find("key 'model.temporal_positions': must be 'learned' or 'rope'"),
             std::string::npos);
+  EXPECT_NE(error("model:\n  adaptive_norm: film\n")
+                .find("key 'model.adaptive_norm': must be 'none', 'identity' or 'zero'"),
+            std::string::npos);
+  // Configs without adaLN keep their bytes and hashes; with it the key is stored.
+  EXPECT_FALSE(ConfigToJson(m)["model"].contains("adaptive_norm"));
+  DynamicsConfig zero = m;
+  zero.model.adaptive_norm = "zero";
+  EXPECT_EQ(ConfigFromJson(ConfigToJson(zero)).model.adaptive_norm, "zero");
   // A checkpoint written before model.objective / model.copy_prior existed keeps its behaviour.
   nlohmann::json old = ConfigToJson(m);
   old["model"].erase("objective");
