@@ -437,6 +437,7 @@ TEST(DynamicsConfig, PresetsLoadAndErrorsNameFileAndKey) {
   DynamicsConfig s = LoadDynamicsConfig(wm::test::SourceDir() + "/configs/dynamics/stable64.yaml");
   EXPECT_EQ(s.model.num_codes, 64);
   EXPECT_FALSE(s.model.copy_prior);
+  EXPECT_EQ(s.model.adaptive_norm, "identity");  // docs/dynamics.md, "Adaptive norm on stable64"
   auto error = [](const std::string& yaml) {
     return wm::test::ErrorText([&] { ParseDynamicsConfig(yaml, "dyn.yaml"); });
   };
