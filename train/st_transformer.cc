@@ -135,6 +135,7 @@ void StBlockImpl::ZeroModulation() {
 
 std::array<Modulation, 3> StBlockImpl::Modulations(const torch::Tensor& cond, int64_t N) {
   if (!modulation) return {};
+  Check(cond.defined(), "an adaptive-norm block needs its frames' conditioning (StInput::cond)");
   const int64_t B = cond.size(0), T = cond.size(1), D = cond.size(2);
   const auto terms = ApplyLayer(*modulation, torch::silu(cond)).chunk(9, -1);  // 9x [B, T, D]
   // Each sublayer's input layout: frames ([B*T, N, D]), grid positions ([B*N, T, D]), [B,T,N,D].
