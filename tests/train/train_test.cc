@@ -120,12 +120,14 @@ TEST_F(DynamicsTrainTest, ResumeRewritesAManifestLeftBehindByAKill) {
   EXPECT_EQ(Hash("run", "checkpoint.json"), good);
 }
 
-TEST_F(DynamicsTrainTest, NextFrameCopyPriorRunsAreReproducibleAndResume) {
+// The next-frame options together, adaptive norm included (the stable64 preset's).
+TEST_F(DynamicsTrainTest, NextFrameCopyPriorAdaptiveNormRunsAreReproducibleAndResume) {
   auto options = [&](const std::string& run) {
     TrainOptions o = Options(run, 20);
     o.config.model.objective = "next_frame";
     o.config.model.copy_prior = true;
     o.config.model.tied_token_head = true;
+    o.config.model.adaptive_norm = "identity";
     o.val_dir = dir_ / "val";
     return o;
   };
