@@ -5,13 +5,13 @@
 
 #include <algorithm>
 #include <cmath>
-#include <future>
 #include <sstream>
 
 #include "core/error.h"
 #include "core/log.h"
 #include "core/mix_bits.h"
 #include "core/provenance.h"
+#include "core/read_ahead.h"
 #include "core/tensor_archive.h"
 #include "motion/motion_net.h"
 #include "motion/motion_prior.h"
@@ -226,7 +226,7 @@ class MotionStage : public trainkit::TrainingStage {
     }
     const int64_t B = cfg_.train.batch_size, U = cfg_.train.unroll, S = cfg_.model.image_size;
     const int64_t D = s_.sampler->action_dim();
-    Batch batch = Prefetched(&MotionStage::Load, step, stop);
+    Batch batch = batches_.Take(step, stop, [this](int64_t k) { return Load(k); });
     const torch::Tensor frames =
         torch::from_blob(batch.frames.data(), {B, U + 2, 3, S, S}).to(device_, true, true);
     const torch::Tensor actions =
@@ -272,7 +272,8 @@ class MotionStage : public trainkit::TrainingStage {
   void TrainPoseAutoencoder(int64_t step, int64_t stop) {
     const TrainConfig& t = cfg_.train;
     const int64_t B = t.batch_size, S = cfg_.model.image_size;
-    Batch batch = Prefetched(&MotionStage::LoadPairs, step, std::min(stop, t.steps));
+    Batch batch =
+        batches_.Take(step, std::min(stop, t.steps), [this](int64_t k) { return LoadPairs(k); });
     const torch::Tensor pairs =
         torch::from_blob(batch.frames.data(), {2, B, 3, S, S}).to(device_, true, true);
     lr_ = trainkit::LearningRateAt(trainkit::ScheduleOf(t), step);
@@ -395,15 +396,6 @@ class MotionStage : public trainkit::TrainingStage {
     return batch;
   }
 
-  // Step `step`'s batch from `load`, and step + 1's started on another thread (decoded while
-  // this one trains) when step + 1 < `end`.
-  Batch Prefetched(Batch (MotionStage::*load)(int64_t) const, int64_t step, int64_t end) {
-    if (!pending_.valid()) pending_ = std::async(std::launch::async, load, this, step);
-    Batch batch = pending_.get();
-    if (step + 1 < end) pending_ = std::async(std::launch::async, load, this, step + 1);
-    return batch;
-  }
-
   // The pose kind's autoencoder: frames then their sources, [2, B, 3, S, S].
   Batch LoadPairs(int64_t step) const {
     const int B = cfg_.train.batch_size, S = cfg_.model.image_size;
@@ -421,7 +413,7 @@ class MotionStage : public trainkit::TrainingStage {
   TrainState& s_;
   std::optional<Validation>& val_;
   TrainSummary& summary_;
-  std::future<Batch> pending_;
+  ReadAhead<Batch> batches_;
   std::optional<PoseDynamicsTraining> dynamics_;  // the pose kind's poses, read at its phase 2
   torch::Tensor loss_;
   // metrics.csv's two model columns for the last batch (kWarpMetricsHeader, kLayerMetricsHeader)
@@ -445,8 +437,7 @@ TrainSummary TrainMotion(const TrainOptions& o) {
   TrainState s = MakeTrainState(o, device);
   if (run.resuming()) {
     LoadCheckpoint(run.checkpoint(), ConfigToJson(cfg), s);
-    LogInfo("resuming " + run.checkpoint() + " at step " + std::to_string(s.step));
-    run.RefreshManifest(Manifest(o, run, s));  // may describe an older archive
+    run.Resumed(s.step, Manifest(o, run, s));
   }
   trainkit::StepLog metrics(run.File(kMetrics), MetricsHeader(*s.model), s.step);
   std::optional<Validation> val;

@@ -3,12 +3,12 @@
 #include <torch/torch.h>
 
 #include <cmath>
-#include <future>
 #include <sstream>
 
 #include "core/error.h"
 #include "core/log.h"
 #include "core/provenance.h"
+#include "core/read_ahead.h"
 #include "core/tensor_archive.h"
 #include "success/labelled_frames.h"
 #include "success/success_net.h"
@@ -158,12 +158,7 @@ class SuccessStage : public trainkit::TrainingStage {
 
   void Train(int64_t step, int64_t stop) override {
     const int64_t B = cfg_.train.batch_size, S = cfg_.model.image_size;
-    if (!pending_.valid())
-      pending_ = std::async(std::launch::async, &SuccessStage::Load, this, step);
-    Batch batch = pending_.get();
-    if (step + 1 < stop) {
-      pending_ = std::async(std::launch::async, &SuccessStage::Load, this, step + 1);
-    }
+    Batch batch = batches_.Take(step, stop, [this](int64_t k) { return Load(k); });
     const torch::Tensor frames = torch::from_blob(batch.frames.data(), {B, 3, S, S}).to(device_);
     const torch::Tensor labels = torch::from_blob(batch.labels.data(), {B}).to(device_);
     lr_ = trainkit::LearningRateAt(trainkit::ScheduleOf(cfg_.train), step);
@@ -221,7 +216,7 @@ class SuccessStage : public trainkit::TrainingStage {
   TrainState& s_;
   std::optional<Validation>& val_;
   TrainSummary& summary_;
-  std::future<Batch> pending_;
+  ReadAhead<Batch> batches_;
   torch::Tensor loss_;
   double lr_ = 0;
 };
@@ -251,8 +246,7 @@ TrainSummary TrainSuccess(const TrainOptions& o) {
           .lr = t.max_lr, .beta1 = t.beta1, .beta2 = t.beta2, .weight_decay = t.weight_decay});
   if (run.resuming()) {
     Resume(run.checkpoint(), ConfigToJson(cfg), s);
-    LogInfo("resuming " + run.checkpoint() + " at step " + std::to_string(s.step));
-    run.RefreshManifest(Manifest(o, run, s));  // may describe an older archive
+    run.Resumed(s.step, Manifest(o, run, s));
   }
   LogInfo(std::to_string(s.frames->positives()) + " success frames and " +
           std::to_string(s.frames->negatives()) + " others in " +

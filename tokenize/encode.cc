@@ -3,13 +3,13 @@
 #include <torch/torch.h>
 
 #include <filesystem>
-#include <future>
 #include <optional>
 
 #include "core/atomic_file.h"
 #include "core/error.h"
 #include "core/progress.h"
 #include "core/provenance.h"
+#include "core/read_ahead.h"
 #include "core/shard/dataset_reader.h"
 #include "core/tokens/token_dataset.h"
 #include "core/tokens/token_format.h"
@@ -108,11 +108,9 @@ EncodeSummary EncodeDataset(const EncodeOptions& o) {
       std::vector<float> frames = EpisodeFrames(e, key, tok.image_size(), where);
       return std::make_pair(std::move(e), std::move(frames));
     };
-    std::future<std::pair<Episode, std::vector<float>>> pending;
-    if (first < last) pending = std::async(std::launch::async, load, first);
+    ReadAhead<std::pair<Episode, std::vector<float>>> episodes;
     for (int64_t k = first; k < last; ++k) {
-      auto [episode, frames] = pending.get();
-      if (k + 1 < last) pending = std::async(std::launch::async, load, k + 1);
+      auto [episode, frames] = episodes.Take(k, last, load);
       const int64_t n =
           static_cast<int64_t>(frames.size()) / (3 * tok.image_size() * tok.image_size());
       std::vector<uint32_t> codes = tok.EncodeEpisode(frames.data(), n, o.hysteresis);  // n = T

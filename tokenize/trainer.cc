@@ -2,14 +2,13 @@
 
 #include <torch/torch.h>
 
-#include <future>
 #include <optional>
 #include <sstream>
 
 #include "core/error.h"
-#include "core/log.h"
 #include "core/mix_bits.h"
 #include "core/provenance.h"
+#include "core/read_ahead.h"
 #include "core/tensor_archive.h"
 #include "tokenize/frame_sampler.h"
 #include "tokenize/init_from.h"
@@ -240,11 +239,7 @@ class TokenizerStage : public trainkit::TrainingStage {
 
   void Train(int64_t step, int64_t stop) override {
     const int B = cfg_.train.batch_size, S = cfg_.model.image_size;
-    if (!pending_.valid())
-      pending_ = std::async(std::launch::async, &TokenizerStage::Load, this, step);
-    std::vector<float> batch = pending_.get();
-    if (step + 1 < stop)
-      pending_ = std::async(std::launch::async, &TokenizerStage::Load, this, step + 1);
+    std::vector<float> batch = batches_.Take(step, stop, [this](int64_t k) { return Load(k); });
     torch::Tensor images = torch::from_blob(batch.data(), {B, 3, S, S}).to(device_, true, true);
     torch::Tensor anchors;
     if (cfg_.model.anchor_decoder) {
@@ -319,7 +314,7 @@ class TokenizerStage : public trainkit::TrainingStage {
   TrainState& s_;
   std::optional<Validation>& val_;
   TrainSummary& summary_;
-  std::future<std::vector<float>> pending_;
+  ReadAhead<std::vector<float>> batches_;
   VqVaeOutput out_;  // of the last step
   double lr_ = 0;
   int64_t reseeded_ = 0;
@@ -346,8 +341,7 @@ TrainSummary TrainTokenizer(const TrainOptions& o) {
   // Resuming takes precedence: a killed fine-tune continues from its own checkpoint.
   if (run.resuming()) {
     LoadCheckpoint(run.checkpoint(), ConfigToJson(cfg), s);
-    LogInfo("resuming " + run.checkpoint() + " at step " + std::to_string(s.step));
-    run.RefreshManifest(Manifest(o, run, s));  // may describe an older archive
+    run.Resumed(s.step, Manifest(o, run, s));
   } else if (parent) {
     trainkit::LoadParentModule(*parent, *s.model);
   }

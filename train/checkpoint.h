@@ -41,7 +41,7 @@ void SaveCheckpoint(const trainkit::RunDir& run, WorldModel& model, const traink
 
 // checkpoint.json for the checkpoint.wmt in `run`, whose meta is `meta`. A kill between the
 // archive and its manifest leaves the manifest describing the previous archive, so resuming
-// writes this again (trainkit::RunDir::RefreshManifest) for the archive it resumed from.
+// writes this again (trainkit::RunDir::Resumed) for the archive it resumed from.
 nlohmann::json Manifest(const trainkit::RunDir& run, const CheckpointMeta& meta,
                         const nlohmann::json& data);
 

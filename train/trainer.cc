@@ -164,10 +164,7 @@ int64_t Resume(const trainkit::RunDir& run, bool writer, const SegmentSampler& s
         {.file = run.checkpoint(), .key = "meta.reward_target"});
   meta.step = loaded.step;
   meta.adamw_step = loaded.adamw_step;
-  if (writer) {
-    LogInfo("resuming " + run.checkpoint() + " at step " + std::to_string(meta.step));
-    run.RefreshManifest(Manifest(run, meta, sampler.DataProvenance()));  // maybe an older archive
-  }
+  if (writer) run.Resumed(meta.step, Manifest(run, meta, sampler.DataProvenance()));
   return meta.step;
 }
 

@@ -4,6 +4,7 @@
 
 #include "core/atomic_file.h"
 #include "core/error.h"
+#include "core/log.h"
 #include "core/provenance.h"
 #include "core/sha256.h"
 #include "trainkit/init_from.h"
@@ -42,7 +43,8 @@ void RunDir::WriteManifest(const nlohmann::json& manifest) const {
   WriteFileAtomically(File(kManifestFile), manifest.dump(2) + "\n");
 }
 
-void RunDir::RefreshManifest(const nlohmann::json& manifest) const {
+void RunDir::Resumed(int64_t step, const nlohmann::json& manifest) const {
+  LogInfo("resuming " + checkpoint_ + " at step " + std::to_string(step));
   const std::string path = File(kManifestFile), bytes = manifest.dump(2) + "\n";
   std::error_code ec;
   if (fs::exists(path, ec) && ReadFile(path) == bytes) return;

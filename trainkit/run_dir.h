@@ -33,14 +33,15 @@ class RunDir {
   nlohmann::json Manifest(const std::string& tool, const nlohmann::json& config, int64_t step,
                           const nlohmann::json& init_from = nullptr) const;
   void WriteManifest(const nlohmann::json& manifest) const;  // atomically
-  // On resume: writes `manifest` unless checkpoint.json already holds exactly it, so only a
-  // manifest left stale by a kill is rewritten (and a read-only run directory fails where it
-  // did before, at the first log it appends to).
-  void RefreshManifest(const nlohmann::json& manifest) const;
+  // On resume from `step`: logs it, then writes `manifest` (the loaded archive's) unless
+  // checkpoint.json already holds exactly it, so only a manifest left stale by a kill is
+  // rewritten (and a read-only run directory fails where it did before, at the first log it
+  // appends to).
+  void Resumed(int64_t step, const nlohmann::json& manifest) const;
 
   // Writes checkpoint.wmt (atomically), then the manifest `manifest()` makes. A kill between the
   // two leaves the manifest describing the previous archive, so a resumed run rewrites it
-  // (RefreshManifest) from the archive it loaded.
+  // (Resumed) from the archive it loaded.
   void WriteCheckpoint(const TensorArchiveWriter& archive,
                        const std::function<nlohmann::json()>& manifest) const;
 
