@@ -35,7 +35,7 @@ std::string FrameName(int64_t step) {
 
 // actions.csv rows of steps [first, first + count): the logged action taken at each frame.
 // The canonical action has its names (docs/folder-format.md); another width a0, a1, ... (such
-// an export is for wm-metrics or a judge: the folder reader takes 7-dim actions only).
+// an export reads back as `other` actions, or the space --action-space names).
 std::string ActionsCsv(const Episode& ep, int64_t first, int64_t count) {
   const int64_t dim = ep.action_dim;
   std::string csv;

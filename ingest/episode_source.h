@@ -6,6 +6,7 @@
 #include <vector>
 
 #include "core/episode.h"
+#include "core/error.h"
 #include "core/shard/dataset_index.h"
 
 namespace wm::ingest {
@@ -22,6 +23,13 @@ struct EpisodeRef {
 // `terminal`; discounts 1. Shared by the sources that have no per-step flags of their own.
 void StartEpisode(Episode& episode, const EpisodeRef& ref);
 void SetBoundaryFlags(Episode& episode, bool terminal);
+
+// Sets the actions of a source without a mapping (HDF5, image folders), `width` values per step:
+// their space is `requested` when given (--action-space), else eef_delta when 7 wide (the
+// canonical Δxyz, Δrpy, gripper) and "other" otherwise. Throws wm::Error naming `where` when
+// eef_delta is asked of another width.
+void SetActions(Episode& episode, std::vector<float> actions, int64_t width,
+                const std::string& requested, const ErrorContext& where);
 
 class EpisodeSource {
  public:

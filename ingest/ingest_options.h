@@ -22,6 +22,9 @@ struct IngestOptions {
   // (default: the mapping's, else the only video feature)
   std::string camera;
   bool hdf5_depth = true;  // HDF5: also read obs/<camera>_depth (uint16) when present
+  // HDF5 / folders: the actions' space (eef_delta, joint_position, other); empty: eef_delta when
+  // 7 wide, else other (ingest::SetActions). LeRobot's mapping names its own; RLDS's are 7 wide.
+  std::string action_space;
   // HDF5: limits of the child process that reads each file listing / demo (hdf5_source.h); they
   // do not shape the output, so they stay out of ToConfig().
   ChildLimits hdf5_limits = kDefaultHdf5ReadLimits;

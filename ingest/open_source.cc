@@ -16,9 +16,9 @@ std::unique_ptr<EpisodeSource> OpenSource(const IngestOptions& o) {
   }
   if (o.format == "hdf5") {
     return std::make_unique<Hdf5Source>(o.input, o.camera, o.hdf5_depth,
-                                        Hdf5Isolation{.limits = o.hdf5_limits});
+                                        Hdf5Isolation{.limits = o.hdf5_limits}, o.action_space);
   }
-  if (o.format == "folder") return std::make_unique<FolderSource>(o.input);
+  if (o.format == "folder") return std::make_unique<FolderSource>(o.input, o.action_space);
   if (o.format == "lerobot") {
     return std::make_unique<LeRobotSource>(
         o.input, o.camera, o.mapping, o.configs_dir.empty() ? DefaultConfigsDir() : o.configs_dir);

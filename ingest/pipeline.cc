@@ -15,6 +15,7 @@
 #include "core/progress.h"
 #include "core/provenance.h"
 #include "core/sha256.h"
+#include "core/shard/dataset_index.h"
 #include "core/shard/dataset_writer.h"
 #include "ingest/image_codec.h"
 #include "ingest/ingest_options.h"
@@ -88,6 +89,12 @@ void IngestOptions::Check() const {
   wm::Check(threads >= 1 && threads <= 256, "--threads must be in [1, 256]");
   wm::Check((resize_width == 0) == (resize_height == 0) && resize_width >= 0 && resize_height >= 0,
             "--resize must be WxH with both positive");
+  wm::Check(action_space.empty() || format == "hdf5" || format == "folder",
+            "--action-space applies to hdf5 and folder inputs (a LeRobot mapping names its "
+            "action_space; RLDS actions are the canonical 7)");
+  wm::Check(
+      action_space.empty() || shard::IsKnownActionSpace(action_space),
+      "--action-space must be eef_delta, joint_position or other, got '" + action_space + "'");
 }
 
 json IngestOptions::ToConfig() const {

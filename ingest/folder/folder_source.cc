@@ -72,12 +72,21 @@ std::vector<std::string_view> SplitFields(std::string_view line) {
   }
 }
 
-// Rows of `width` comma-separated numbers, flattened. A first row whose first field is not a
-// number is a header and skipped; blank lines are skipped. Errors name the file and line.
-std::vector<float> ReadNumberRows(const fs::path& path, size_t width) {
+// The rows of a CSV file of numbers, flattened, `width` values each.
+struct NumberRows {
+  std::vector<float> values;
+  size_t width = 0;
+};
+
+// Rows of `width` comma-separated numbers (0: as many as the first data row has, at most
+// kMaxActionDim). A first row whose first field is not a number is a header and skipped; blank
+// lines are skipped. Errors name the file and line.
+
+NumberRows ReadNumberRows(const fs::path& path, size_t width) {
   std::ifstream in(path);
   Check(in.good(), "cannot open file", {path.string()});
-  std::vector<float> values;
+  NumberRows rows{.width = width};
+  const bool inferred = width == 0;
   std::string line;
   bool first_row = true;
   for (int64_t line_no = 1; std::getline(in, line); ++line_no) {
@@ -87,16 +96,24 @@ std::vector<float> ReadNumberRows(const fs::path& path, size_t width) {
     float value = 0;
     if (std::exchange(first_row, false) && !ParseFloat(fields[0], value)) continue;
     ErrorContext where{path.string(), line_no, "line"};
-    Check(fields.size() == width,
-          "expected " + std::to_string(width) + " comma-separated value" + (width == 1 ? "" : "s") +
-              ", got " + std::to_string(fields.size()),
+    if (rows.width == 0) {
+      rows.width = fields.size();
+      Check(rows.width <= kMaxActionDim,
+            "expected at most " + std::to_string(kMaxActionDim) + " values per row, got " +
+                std::to_string(rows.width),
+            where);
+    }
+    Check(fields.size() == rows.width,
+          "expected " + std::to_string(rows.width) + " comma-separated value" +
+              (rows.width == 1 ? "" : "s") + (inferred ? " (as in the first row)" : "") + ", got " +
+              std::to_string(fields.size()),
           where);
     for (std::string_view field : fields) {
       Check(ParseFloat(field, value), "'" + std::string(Trim(field)) + "' is not a number", where);
-      values.push_back(value);
+      rows.values.push_back(value);
     }
   }
-  return values;
+  return rows;
 }
 
 std::string ReadBytes(const fs::path& path) {
@@ -171,7 +188,14 @@ Meta ReadMeta(const fs::path& path) {
 
 }  // namespace
 
-FolderSource::FolderSource(std::string input) : input_(std::move(input)) {}
+FolderSource::FolderSource(std::string input, std::string action_space)
+    : input_(std::move(input)), action_space_(std::move(action_space)) {}
+
+nlohmann::json FolderSource::Describe() const {
+  nlohmann::json settings = nlohmann::json::object();
+  if (!action_space_.empty()) settings["action_space"] = action_space_;
+  return settings;
+}
 
 std::string FolderSource::dataset_name() const {
   fs::path p = fs::absolute(input_).lexically_normal();
@@ -213,17 +237,19 @@ Episode FolderSource::Load(const EpisodeRef& ref) const {
 
   const fs::path actions_path = dir / "actions.csv";
   Check(fs::exists(actions_path),
-        "episode has no actions.csv (T rows of 7 comma-separated numbers)", {dir.string()});
-  ep.actions = ReadNumberRows(actions_path, kActionDim);
-  const size_t rows = ep.actions.size() / kActionDim;
+        "episode has no actions.csv (T rows of D comma-separated numbers, e.g. 7)", {dir.string()});
+  NumberRows actions = ReadNumberRows(actions_path, /*width=*/0);
+  const size_t rows = actions.values.size() / std::max<size_t>(actions.width, 1);
   Check(rows == T,
         "has " + std::to_string(rows) + " action rows but the episode has " + std::to_string(T) +
             " frames (one row per frame)",
         {actions_path.string()});
+  SetActions(ep, std::move(actions.values), static_cast<int64_t>(actions.width), action_space_,
+             {actions_path.string()});
 
   const fs::path rewards_path = dir / "rewards.csv";
   if (fs::exists(rewards_path)) {
-    ep.rewards = ReadNumberRows(rewards_path, 1);
+    ep.rewards = ReadNumberRows(rewards_path, 1).values;
     Check(ep.rewards.size() == T,
           "has " + std::to_string(ep.rewards.size()) + " rewards but the episode has " +
               std::to_string(T) + " frames (one reward per frame)",

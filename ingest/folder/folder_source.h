@@ -10,8 +10,9 @@ namespace wm::ingest {
 
 class FolderSource : public EpisodeSource {
  public:
-  // `input`: the directory whose subdirectories are the episodes.
-  explicit FolderSource(std::string input);
+  // `input`: the directory whose subdirectories are the episodes. `action_space`: of the
+  // actions.csv rows (ingest::SetActions); empty: eef_delta when 7 wide, else other.
+  explicit FolderSource(std::string input, std::string action_space = "");
 
   std::string format() const override { return "folder"; }
   // The input directory's name.
@@ -22,11 +23,11 @@ class FolderSource : public EpisodeSource {
   // ref.path is the episode directory, ref.rel_path its name, ref.record 0. Frames keep their
   // encoded bytes. Thread-safe: no shared state.
   Episode Load(const EpisodeRef& ref) const override;
-  // The folder format has no settings.
-  nlohmann::json Describe() const override { return nlohmann::json::object(); }
+  // {} unless an action space was given.
+  nlohmann::json Describe() const override;
 
  private:
-  std::string input_;
+  std::string input_, action_space_;
 };
 
 }  // namespace wm::ingest

@@ -199,13 +199,17 @@ RawDemo ReadDemo(const EpisodeRef& ref, const std::string& camera, bool read_dep
   h5::Lock lock;
   DemoReader r(ref);
   RawDemo raw;
-  Dataset actions = r.Open("actions", "float32/float64 [T, 7]");
-  if (actions.cls != H5T_FLOAT || actions.dims.size() != 2 || actions.dims[1] != kActionDim) {
-    throw r.Fail("actions", "expected float32/float64 [T, 7] (7 action values per step), got " +
-                                actions.Describe());
+  const std::string expected =
+      "float32/float64 [T, D], 1 <= D <= " + std::to_string(kMaxActionDim) +
+      " action values per step";
+  Dataset actions = r.Open("actions", expected);
+  if (actions.cls != H5T_FLOAT || actions.dims.size() != 2 || actions.dims[1] < 1 ||
+      actions.dims[1] > static_cast<hsize_t>(kMaxActionDim)) {
+    throw r.Fail("actions", "expected " + expected + ", got " + actions.Describe());
   }
   raw.num_steps = static_cast<int64_t>(actions.dims[0]);
-  if (raw.num_steps == 0) throw r.Fail("actions", "demo has no steps ([0, 7])");
+  raw.action_dim = static_cast<int64_t>(actions.dims[1]);
+  if (raw.num_steps == 0) throw r.Fail("actions", "demo has no steps ([0, D])");
   raw.actions = r.Read<float>(actions, H5T_NATIVE_FLOAT, "actions");
   if (r.Has("rewards")) raw.rewards = r.ReadPerStep("rewards", raw.num_steps);
   if (r.Has("dones")) raw.dones = r.ReadPerStep("dones", raw.num_steps);
@@ -279,8 +283,13 @@ std::vector<std::pair<std::string, std::string>> FindInputFiles(const std::strin
 
 }  // namespace
 
-Hdf5Source::Hdf5Source(std::string input, std::string camera, bool depth, Hdf5Isolation isolation)
-    : input_(std::move(input)), camera_(std::move(camera)), depth_(depth), isolation_(isolation) {}
+Hdf5Source::Hdf5Source(std::string input, std::string camera, bool depth, Hdf5Isolation isolation,
+                       std::string action_space)
+    : input_(std::move(input)),
+      camera_(std::move(camera)),
+      depth_(depth),
+      isolation_(isolation),
+      action_space_(std::move(action_space)) {}
 
 std::string Hdf5Source::dataset_name() const {
   fs::path p = fs::absolute(input_).lexically_normal();
@@ -316,7 +325,8 @@ Episode Hdf5Source::Load(const EpisodeRef& ref) const {
   StartEpisode(ep, ref);
   ep.language_instruction = std::move(raw.language_instruction);
   ep.num_steps = raw.num_steps;
-  ep.actions = std::move(raw.actions);
+  SetActions(ep, std::move(raw.actions), raw.action_dim, action_space_,
+             {.file = ref.path, .record = ref.record, .record_label = "demo", .key = "actions"});
   ep.rewards = raw.rewards.empty() ? std::vector<float>(T, 0.0f) : std::move(raw.rewards);
   // Only the last step's done counts: robomimic's done_mode 2 also sets dones at mid-episode
   // success steps, which do not end the episode.
@@ -350,7 +360,9 @@ Episode Hdf5Source::Load(const EpisodeRef& ref) const {
 }
 
 json Hdf5Source::Describe() const {
-  return {{"camera", camera_.empty() ? "auto" : camera_}, {"depth", depth_}};
+  json settings = {{"camera", camera_.empty() ? "auto" : camera_}, {"depth", depth_}};
+  if (!action_space_.empty()) settings["action_space"] = action_space_;
+  return settings;
 }
 
 }  // namespace wm::ingest

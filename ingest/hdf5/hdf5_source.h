@@ -29,8 +29,10 @@ class Hdf5Source : public EpisodeSource {
   // ending in _rgb or _image.
   // `depth`: read obs/<camera>_depth (uint16 [T, H, W] or [T, H, W, 1]) as the "depth" stream
   // when it exists; false never reads it (e.g. for files whose depth is stored as float).
+  // `action_space`: of actions [T, D] (ingest::SetActions); empty: eef_delta when D is 7, else
+  // other.
   explicit Hdf5Source(std::string input, std::string camera = "", bool depth = true,
-                      Hdf5Isolation isolation = {});
+                      Hdf5Isolation isolation = {}, std::string action_space = "");
 
   std::string format() const override { return "hdf5"; }
   // The file stem, or the directory name.
@@ -49,6 +51,7 @@ class Hdf5Source : public EpisodeSource {
   std::string camera_;
   bool depth_;
   Hdf5Isolation isolation_;
+  std::string action_space_;
 };
 
 }  // namespace wm::ingest

@@ -9,6 +9,7 @@ namespace {
 template <class Demo, class F>
 void VisitFields(Demo& d, F&& f) {
   f(d.num_steps);
+  f(d.action_dim);
   f(d.actions);
   f(d.rewards);
   f(d.dones);

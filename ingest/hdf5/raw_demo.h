@@ -8,8 +8,9 @@
 namespace wm::ingest {
 
 struct RawDemo {
-  int64_t num_steps = 0;
-  std::vector<float> actions, rewards, dones;  // rewards / dones empty when absent
+  int64_t num_steps = 0, action_dim = 0;
+  std::vector<float> actions, rewards, dones;  // actions [T, action_dim]; rewards / dones empty
+                                               // when absent
   std::string camera;
   std::vector<uint8_t> rgb;     // [T, H, W, 3]
   std::vector<uint16_t> depth;  // [T, H, W], empty when absent

@@ -68,6 +68,10 @@ int main(int argc, char** argv) {
       "feature, e.g. observation.images.top (default: the mapping's, else the only one)");
   bool no_depth = false;
   app.add_flag("--hdf5-no-depth", no_depth, "HDF5: ignore obs/<camera>_depth (e.g. float depth)");
+  app.add_option("--action-space", o.action_space,
+                 "HDF5 / folder: the actions' space, eef_delta (7 wide), joint_position or other "
+                 "(default: eef_delta when 7 wide, else other)")
+      ->check(CLI::IsMember({"eef_delta", "joint_position", "other"}));
   app.add_option("--hdf5-memory-limit-mb", o.hdf5_limits.memory_mb,
                  "HDF5: memory a file listing or demo read may use (0: no limit)")
       ->capture_default_str();

@@ -8,6 +8,7 @@
 #include <functional>
 #include <opencv2/core.hpp>
 #include <opencv2/imgcodecs.hpp>
+#include <utility>
 
 #include "core/error.h"
 #include "tests/core/test_util.h"
@@ -100,6 +101,8 @@ TEST_F(FolderSourceTest, LoadsFramesAsStoredWithCsvAndMeta) {
   std::vector<float> actions{0.1f, 0.2f, 0.3f, 0.4f, 0.5f, 0.6f, 1, -1, 2, 0.3f, 0,
                              0,    0,    0,    7,    6,    5,    4, 3,  2, 1};
   EXPECT_EQ(ep.actions, actions);
+  EXPECT_EQ((std::pair{ep.action_dim, ep.action_space}),
+            (std::pair<int64_t, std::string>{7, "eef_delta"}));  // 7 wide: the canonical action
   EXPECT_EQ(ep.rewards, (std::vector<float>{0, 0.5f, 1}));
   EXPECT_EQ(ep.discounts, (std::vector<float>{1, 1, 1}));
   EXPECT_EQ(ep.is_first, (std::vector<uint8_t>{1, 0, 0}));
@@ -144,9 +147,27 @@ TEST_F(FolderSourceErrors, BadNumbersNameFileAndLine) {
   WriteText(actions_, "1,1,1,1,1,1,1\n2,2,2,2,2,2,1.5x\n");  // a prefix number is not enough
   ExpectIn(LoadError(), {actions_, "line 2", "'1.5x' is not a number"});
   WriteText(actions_, "x,y,z,r,p,yaw,g\n1,1,1,1,1,1\n2,2,2,2,2,2,2\n");
-  ExpectIn(LoadError(), {actions_, "line 2", "expected 7 comma-separated values, got 6"});
+  ExpectIn(LoadError(),
+           {actions_, "line 3", "expected 6 comma-separated values (as in the first row), got 7"});
   WriteText(actions_, "1,1,1,1,1,1,1\nx,y,z,r,p,yaw,g\n");  // only the first row may be a header
   ExpectIn(LoadError(), {actions_, "line 2", "'x' is not a number"});
+}
+
+TEST_F(FolderSourceTest, ActionsOfAnotherWidthKeepItInTheSpaceGiven) {
+  WriteText(ep10_ / "actions.csv", "a0,a1,a2\n1,2,3\n4,5,6\n");
+  const EpisodeRef ref{ep10_.string(), "ep_10", 0};
+  Episode ep = FolderSource(root_.string()).Load(ref);
+  EXPECT_EQ((std::pair{ep.action_dim, ep.action_space}),
+            (std::pair<int64_t, std::string>{3, "other"}));
+  EXPECT_EQ(ep.actions, (std::vector<float>{1, 2, 3, 4, 5, 6}));
+  EXPECT_EQ(FolderSource(root_.string(), "joint_position").Load(ref).action_space,
+            "joint_position");
+  const std::string what = ErrorText([&] { FolderSource(root_.string(), "eef_delta").Load(ref); });
+  for (const char* part : {"actions.csv", "eef_delta actions are 7 values per step", "got 3"}) {
+    EXPECT_NE(what.find(part), std::string::npos) << what;
+  }
+  EXPECT_EQ(FolderSource(root_.string()).Describe(), nlohmann::json::object());
+  EXPECT_EQ(FolderSource(root_.string(), "other").Describe()["action_space"], "other");
 }
 
 TEST_F(FolderSourceErrors, MissingActionsAndBadMeta) {

@@ -12,6 +12,7 @@
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 #include <thread>
+#include <utility>
 
 #include "core/error.h"
 #include "tests/core/test_util.h"
@@ -151,6 +152,8 @@ TEST_F(Hdf5SourceTest, LoadsStepsFlagsAndInstruction) {
   EXPECT_EQ(ep.language_instruction, "put the bowl on the plate");
   ASSERT_EQ(ep.num_steps, 3);
   ASSERT_EQ(ep.actions.size(), 21u);
+  EXPECT_EQ((std::pair{ep.action_dim, ep.action_space}),
+            (std::pair<int64_t, std::string>{7, "eef_delta"}));  // 7 wide: the canonical action
   for (int t = 0; t < 3; ++t) {
     for (int d = 0; d < 7; ++d) EXPECT_EQ(ep.actions[t * 7 + d], Action(t, d));
   }
@@ -277,7 +280,7 @@ TEST(Hdf5SourceErrors, BadDemosNameFileDemoAndKey) {
   hid_t file = H5Fcreate(path.c_str(), H5F_ACC_TRUNC, H5P_DEFAULT, H5P_DEFAULT);
   std::vector<float> six(12, 0.0f), seven(14, 0.0f);
   std::vector<uint8_t> rgb = Frames(2);
-  WriteDataset(file, "data/demo_3/actions", H5T_NATIVE_FLOAT, {2, 6}, six.data());
+  WriteDataset(file, "data/demo_3/actions", H5T_NATIVE_FLOAT, {2, 3, 2}, six.data());
   WriteDataset(file, "data/demo_3/obs/agentview_rgb", H5T_NATIVE_UINT8, {2, kSize, kSize, 3},
                rgb.data());
   H5Fclose(file);
@@ -286,7 +289,23 @@ TEST(Hdf5SourceErrors, BadDemosNameFileDemoAndKey) {
                 source.Load({path, "bad.hdf5", 3});
               }),
               path, "actions",
-              "expected float32/float64 [T, 7] (7 action values per step), got float32 [2, 6]");
+              "expected float32/float64 [T, D], 1 <= D <= 4096 action values per step, got "
+              "float32 [2, 3, 2]");
+  file = H5Fopen(path.c_str(), H5F_ACC_RDWR, H5P_DEFAULT);
+  H5Ldelete(file, "data/demo_3/actions", H5P_DEFAULT);
+  WriteDataset(file, "data/demo_3/actions", H5T_NATIVE_FLOAT, {2, 6}, six.data());
+  H5Fclose(file);
+  ExpectError(ErrorText([&] {
+                Hdf5Source(path, "", true, {}, "eef_delta").Load({path, "bad.hdf5", 3});
+              }),
+              path, "actions",
+              "eef_delta actions are 7 values per step (Δxyz, Δrpy, gripper), got 6");
+  Episode six_wide = source.Load({path, "bad.hdf5", 3});  // any other width is kept
+  EXPECT_EQ((std::pair{six_wide.action_dim, six_wide.action_space}),
+            (std::pair<int64_t, std::string>{6, "other"}));
+  EXPECT_EQ(six_wide.actions, six);
+  Episode joints = Hdf5Source(path, "", true, {}, "joint_position").Load({path, "bad.hdf5", 3});
+  EXPECT_EQ(joints.action_space, "joint_position");
 
   file = H5Fopen(path.c_str(), H5F_ACC_RDWR, H5P_DEFAULT);
   H5Ldelete(file, "data/demo_3/actions", H5P_DEFAULT);

@@ -227,6 +227,64 @@ class HdfAndFolderIngest(unittest.TestCase):
         self.assertEqual(e["image_shape"], [6, 5, 3])
         np.testing.assert_array_equal(first_frame(out, 0), pixels[0])
 
+    def index(self, out):
+        with open(os.path.join(out, "index.json")) as f:
+            return json.load(f)
+
+    def test_hdf5_actions_of_another_width_keep_it_and_name_their_space(self):
+        path = os.path.join(self.tmp, "bimanual.hdf5")
+        actions = self.rng.uniform(-1, 1, (3, 12)).astype(np.float32)  # e.g. robocasa's 12
+        with h5py.File(path, "w") as f:
+            f["data/demo_0/actions"] = actions
+            f["data/demo_0/obs/agentview_image"] = self.rng.integers(0, 256, (3, 8, 8, 3),
+                                                                     dtype=np.uint8)
+        out = os.path.join(self.tmp, "out")
+        ingest("hdf5", path, out)  # wmshard then checks shards, stats and width against index
+        (e,) = episodes(out)
+        np.testing.assert_array_equal(actions, np.float32(e["actions"]))
+        action = self.index(out)["features"]["action"]
+        self.assertEqual((action["dim"], action["space"]), (12, "other"))
+        self.assertEqual(self.index(out)["format_version"], 2)
+
+        joints = os.path.join(self.tmp, "joints")
+        ingest("hdf5", path, joints, extra=("--action-space", "joint_position"))
+        self.assertEqual(self.index(joints)["features"]["action"]["space"], "joint_position")
+        p = ingest("hdf5", path, os.path.join(self.tmp, "eef"), check=False,
+                   extra=("--action-space", "eef_delta"))
+        self.assertEqual(p.returncode, 1)
+        for part in ("bimanual.hdf5", "demo 0", "key 'actions'", "eef_delta", "got 12"):
+            self.assertIn(part, p.stderr)
+
+    def write_folder_episode(self, name, actions):
+        ep = os.path.join(self.tmp, "folders", name)
+        os.makedirs(ep)
+        for t in range(len(actions)):
+            cv2.imwrite(os.path.join(ep, f"{t}.png"), np.full((4, 4, 3), 10 * t, np.uint8))
+        with open(os.path.join(ep, "actions.csv"), "w") as f:
+            f.write("".join(",".join(repr(float(v)) for v in row) + "\n" for row in actions))
+        return ep
+
+    def test_folder_actions_of_another_width_keep_it_and_one_width_per_dataset(self):
+        actions = self.rng.uniform(-1, 1, (2, 3))
+        self.write_folder_episode("ep_0", actions)
+        out = os.path.join(self.tmp, "out")
+        ingest("folder", os.path.join(self.tmp, "folders"), out)
+        (e,) = episodes(out)
+        np.testing.assert_array_equal(np.float32(actions), np.float32(e["actions"]))
+        action = self.index(out)["features"]["action"]
+        self.assertEqual((action["dim"], action["space"]), (3, "other"))
+
+        self.write_folder_episode("ep_1", self.rng.uniform(-1, 1, (2, 4)))
+        p = ingest("folder", os.path.join(self.tmp, "folders"), os.path.join(self.tmp, "o"),
+                   check=False)
+        self.assertEqual(p.returncode, 1)
+        for part in ("ep_1", "differ from the dataset's first episode", '"dim":4'):
+            self.assertIn(part, p.stderr)
+        p = ingest("rlds", os.path.join(self.tmp, "folders"), os.path.join(self.tmp, "r"),
+                   check=False, extra=("--action-space", "other"))
+        self.assertEqual(p.returncode, 1)
+        self.assertIn("--action-space applies to hdf5 and folder inputs", p.stderr)
+
     def test_folder_with_nan_action_fails_with_key_and_step(self):
         ep = os.path.join(self.tmp, "folders", "ep_0")
         os.makedirs(ep)
