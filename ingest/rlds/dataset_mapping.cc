@@ -7,6 +7,7 @@
 #include "core/episode.h"
 #include "core/error.h"
 #include "core/sectioned_yaml.h"
+#include "core/shard/dataset_index.h"
 
 namespace wm::rlds {
 namespace fs = std::filesystem;
@@ -28,19 +29,22 @@ nlohmann::json DatasetMapping::ToJson() const {
   auto opt = [](const std::optional<std::string>& s) {
     return s ? nlohmann::json(*s) : nlohmann::json(nullptr);
   };
-  return {{"dataset", dataset},
-          {"image", image},
-          {"depth", opt(depth)},
-          {"segmentation", opt(segmentation)},
-          {"action", parts},
-          {"reward", opt(reward)},
-          {"discount", opt(discount)},
-          {"is_first", is_first},
-          {"is_last", is_last},
-          {"is_terminal", is_terminal},
-          {"language_instruction", opt(language_instruction)},
-          {"policy_id", opt(policy_id)},
-          {"episode_seed", opt(episode_seed)}};
+  nlohmann::json j = {{"dataset", dataset},
+                      {"image", image},
+                      {"depth", opt(depth)},
+                      {"segmentation", opt(segmentation)},
+                      {"action", parts},
+                      {"reward", opt(reward)},
+                      {"discount", opt(discount)},
+                      {"is_first", is_first},
+                      {"is_last", is_last},
+                      {"is_terminal", is_terminal},
+                      {"language_instruction", opt(language_instruction)},
+                      {"policy_id", opt(policy_id)},
+                      {"episode_seed", opt(episode_seed)}};
+  // Only when not the canonical space: the hashes of eef_delta mappings stay as they were.
+  if (action_space != "eef_delta") j["action_space"] = action_space;
+  return j;
 }
 
 DatasetMapping LoadDatasetMapping(const std::string& file) {
@@ -49,11 +53,11 @@ DatasetMapping LoadDatasetMapping(const std::string& file) {
   std::string key;
   try {
     YAML::Node y = YAML::LoadFile(file);
-    CheckKnownYamlKeys(
-        y,
-        {"dataset", "image", "depth", "segmentation", "action", "reward", "discount", "is_first",
-         "is_last", "is_terminal", "language_instruction", "policy_id", "episode_seed"},
-        file);
+    CheckKnownYamlKeys(y,
+                       {"dataset", "image", "depth", "segmentation", "action", "action_space",
+                        "reward", "discount", "is_first", "is_last", "is_terminal",
+                        "language_instruction", "policy_id", "episode_seed"},
+                       file);
     auto optional = [&](const char* k) -> std::optional<std::string> {
       key = k;
       if (!y[k] || y[k].IsNull()) return std::nullopt;
@@ -71,6 +75,9 @@ DatasetMapping LoadDatasetMapping(const std::string& file) {
     m.is_first = optional("is_first").value_or(m.is_first);
     m.is_last = optional("is_last").value_or(m.is_last);
     m.is_terminal = optional("is_terminal").value_or(m.is_terminal);
+    m.action_space = optional("action_space").value_or(m.action_space);
+    Check(shard::IsKnownActionSpace(m.action_space),
+          "must be eef_delta, joint_position or other, got '" + m.action_space + "'");
     key = "action";
     Check(y[key] && y[key].IsSequence(), "must be a list of parts");
     int index = 0;

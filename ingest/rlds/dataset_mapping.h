@@ -1,6 +1,7 @@
 #pragma once
 // How one RLDS dataset's features map onto the canonical episode: which key is the camera,
-// how the 7-dim action is assembled, where reward, flags and instruction live. One YAML file
+// how the action is assembled (the canonical 7-dim one, or another width and space), where reward,
+// flags and instruction live. One YAML file
 // per dataset in configs/datasets/ (documented in docs/dataset-mapping.md).
 #include <nlohmann/json.hpp>
 #include <optional>
@@ -22,7 +23,8 @@ struct DatasetMapping {
   std::string dataset;
   std::string image;  // required
   std::optional<std::string> depth, segmentation;
-  std::vector<ActionPart> action;               // widths sum to 7
+  std::vector<ActionPart> action;  // widths sum to 7 for eef_delta, else to 1..kMaxActionDim
+  std::string action_space = "eef_delta";       // eef_delta, joint_position or other
   std::optional<std::string> reward, discount;  // zeros / ones when absent
   std::string is_first = "steps/is_first", is_last = "steps/is_last",
               is_terminal = "steps/is_terminal";

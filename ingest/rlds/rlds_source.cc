@@ -90,10 +90,18 @@ RldsSource::RldsSource(const std::string& path, const std::string& split,
     }
     width += part.Width(size);
   }
-  Check(width == kActionDim,
-        "action parts add up to " + std::to_string(width) +
-            " dimensions, expected 7 (Δxyz, Δrpy, gripper)",
+  if (mapping_.action_space == "eef_delta") {
+    Check(width == kActionDim,
+          "action parts add up to " + std::to_string(width) +
+              " dimensions, expected 7 (Δxyz, Δrpy, gripper); for another action set "
+              "action_space: joint_position or other",
+          {.file = mapping_.file, .key = "action"});
+  }
+  Check(width >= 1 && width <= kMaxActionDim,
+        "action parts add up to " + std::to_string(width) + " dimensions, expected 1 to " +
+            std::to_string(kMaxActionDim),
         {.file = mapping_.file, .key = "action"});
+  action_width_ = width;
 }
 
 std::vector<EpisodeRef> RldsSource::ListEpisodes(std::vector<shard::SkippedEpisode>* damaged) {
@@ -151,7 +159,9 @@ Episode RldsSource::MapExample(const std::string& bytes) const {
   optional_frames(mapping_.depth, "depth");
   optional_frames(mapping_.segmentation, "segmentation");
 
-  e.actions.assign(static_cast<size_t>(t) * kActionDim, 0.0f);
+  e.action_dim = action_width_;
+  e.action_space = mapping_.action_space;
+  e.actions.assign(static_cast<size_t>(t) * action_width_, 0.0f);
   int dim = 0;
   for (const auto& part : mapping_.action) {
     if (part.key.empty()) {
@@ -166,7 +176,7 @@ Episode RldsSource::MapExample(const std::string& bytes) const {
     for (int64_t s = 0; s < t; ++s) {
       for (size_t j = 0; j < select.size(); ++j) {
         double x = v[static_cast<size_t>(s * size + select[j])] * part.scale + part.offset;
-        e.actions[static_cast<size_t>(s * kActionDim + dim) + j] = static_cast<float>(x);
+        e.actions[static_cast<size_t>(s * action_width_ + dim) + j] = static_cast<float>(x);
       }
     }
     dim += static_cast<int>(select.size());

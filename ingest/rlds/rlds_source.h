@@ -26,6 +26,7 @@ class RldsSource : public EpisodeSource {
  private:
   rlds::TfdsDataset dataset_;
   rlds::DatasetMapping mapping_;
+  int64_t action_width_ = 0;  // the action parts' widths summed
   std::string split_;
 };
 

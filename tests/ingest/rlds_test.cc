@@ -4,9 +4,11 @@
 #include <filesystem>
 #include <fstream>
 #include <nlohmann/json.hpp>
+#include <utility>
 
 #include "core/atomic_file.h"
 #include "core/error.h"
+#include "ingest/rlds/dataset_mapping.h"
 #include "ingest/rlds/example.h"
 #include "ingest/rlds/rlds_source.h"
 #include "ingest/rlds/tfrecord.h"
@@ -123,6 +125,44 @@ TEST(RldsSource, RecoversEveryFractalEpisodeExactly) {
     EXPECT_EQ(e.is_last.back(), 1);
     EXPECT_EQ(e.images.at("image").frames.size(), static_cast<size_t>(e.num_steps));
     EXPECT_EQ(e.episode_key, refs[i].rel_path + "#" + std::to_string(refs[i].record));
+  }
+}
+
+// A mapping with another action space keeps the parts' width: fractal's world vector and gripper
+// (4 values) as an `other` action, each value the one the canonical mapping puts at its place.
+TEST(RldsSource, AnotherActionSpaceKeepsThePartsWidth) {
+  test::TempDir dir;
+  std::string mapping = dir / "arm_and_gripper.yaml";
+  WriteFileAtomically(mapping,
+                      "dataset: fractal20220817_data\nimage: steps/observation/image\n"
+                      "action_space: other\naction:\n  - key: steps/action/world_vector\n"
+                      "  - key: steps/action/gripper_closedness_action\n");
+  RldsSource narrow(FractalDir(), "train", mapping, ConfigsDir());
+  RldsSource canonical(FractalDir(), "train", "", ConfigsDir());
+  const std::vector<EpisodeRef> refs = canonical.ListEpisodes(nullptr);
+  ASSERT_FALSE(refs.empty());
+  const Episode e = narrow.Load(refs[0]), c = canonical.Load(refs[0]);
+  EXPECT_EQ((std::pair{e.action_dim, e.action_space}),
+            (std::pair<int64_t, std::string>{4, "other"}));
+  ASSERT_EQ(e.actions.size(), static_cast<size_t>(4 * e.num_steps));
+  for (int64_t t = 0; t < e.num_steps; ++t) {
+    for (int d : {0, 1, 2}) EXPECT_EQ(e.actions[t * 4 + d], c.actions[t * kActionDim + d]);
+    EXPECT_EQ(e.actions[t * 4 + 3], c.actions[t * kActionDim + 6]);  // the gripper
+  }
+  EXPECT_EQ(c.action_space, "eef_delta");
+  // The canonical mapping's record (and so the config hash) has no action_space.
+  EXPECT_FALSE(rlds::LoadDatasetMapping(ConfigsDir() + "/datasets/fractal20220817_data.yaml")
+                   .ToJson()
+                   .contains("action_space"));
+  EXPECT_EQ(rlds::LoadDatasetMapping(mapping).ToJson()["action_space"], "other");
+
+  WriteFileAtomically(mapping,
+                      "dataset: x\nimage: steps/observation/image\naction_space: joints\n"
+                      "action:\n  - key: steps/action/world_vector\n");
+  const std::string msg =
+      ErrorText([&] { RldsSource s(FractalDir(), "train", mapping, ConfigsDir()); });
+  for (const char* part : {"arm_and_gripper.yaml", "key 'action_space'", "got 'joints'"}) {
+    EXPECT_NE(msg.find(part), std::string::npos) << msg;
   }
 }
 
