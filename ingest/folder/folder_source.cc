@@ -81,7 +81,6 @@ struct NumberRows {
 // Rows of `width` comma-separated numbers (0: as many as the first data row has, at most
 // kMaxActionDim). A first row whose first field is not a number is a header and skipped; blank
 // lines are skipped. Errors name the file and line.
-
 NumberRows ReadNumberRows(const fs::path& path, size_t width) {
   std::ifstream in(path);
   Check(in.good(), "cannot open file", {path.string()});
