@@ -75,8 +75,9 @@ struct TimeAxis {
   int64_t first = 0, span = 0;
 };
 
-// The transformer's input: x [B, T, N, D], and for blocks with adaptive norm each frame's
-// conditioning cond [B, T, D] (undefined otherwise). Converts from a bare x.
+// The transformer's input: x [B, T, N, D], and each frame's conditioning cond [B, T, D], which
+// only blocks with adaptive norm read (they require it; others ignore it, and it may be
+// undefined for them). Converts from a bare x.
 struct StInput {
   StInput(torch::Tensor x, torch::Tensor cond = {}) : x(std::move(x)), cond(std::move(cond)) {}
   torch::Tensor x, cond;

@@ -87,8 +87,9 @@ StInput DynamicsNetImpl::Embed(const torch::Tensor& tokens, const torch::Tensor&
     torch::Tensor zc = z_in->forward(z.slice(1, 0, n_cond));
     cond = cond + (shifted ? zc : F::pad(zc, F::PadFuncOptions({0, 0, 1, 0})));  // [B, T, D]
   }
-  // adaLN reads what the frame is told, not where it sits in the window.
-  const torch::Tensor frame_cond = config.adaptive_norm == "none" ? torch::Tensor() : cond;
+  // adaLN reads what the frame is told, not where it sits in the window (blocks without it
+  // ignore it).
+  const torch::Tensor frame_cond = cond;
   if (temporal_pos.defined()) cond = cond + temporal_pos.slice(0, 0, T);
   return {EmbedCodes(tokens) + spatial_pos + cond.unsqueeze(2), frame_cond};  // [B, T, cells, D]
 }

@@ -57,8 +57,8 @@ struct DynamicsNetImpl : torch::nn::Module {
                          const torch::Tensor& z, const TimeAxis& time = {});
   // forward() in parts, for decoding with a temporal cache (train/imagine_step.h):
   // the transformer's input [B, T, N, D] (token, grid and window-position embeddings and the
-  // action/z conditioning of each position),
-  // plus, with model.adaptive_norm, the same conditioning per frame [B, T, D] for the blocks),
+  // action/z conditioning of each position) and that conditioning per frame [B, T, D], without
+  // the window position, for blocks with adaptive norm,
   StInput Embed(const torch::Tensor& tokens, const torch::Tensor& actions, const torch::Tensor& z);
   // the token logits [B, T, N, K] of the transformer's output h [B, T, N, D], given `prev`
   // [B, T, N], the code each position's predicted frame had one frame earlier (K: none; the copy
