@@ -34,8 +34,8 @@ std::string FrameName(int64_t step) {
 }
 
 // actions.csv rows of steps [first, first + count): the logged action taken at each frame.
-// The canonical action has its names (docs/folder-format.md); another width a0, a1, ... (such
-// an export reads back as `other` actions, or the space --action-space names).
+// The canonical action has its names (docs/folder-format.md); another width a0, a1, ... (meta.json's
+// action_space keeps the space when the folder is read back).
 std::string ActionsCsv(const Episode& ep, int64_t first, int64_t count) {
   const int64_t dim = ep.action_dim;
   std::string csv;
@@ -102,7 +102,8 @@ void RolloutExporter::Write(int64_t episode, int64_t source_episode, const Episo
     const int64_t first = kind == "context" ? 0 : 1;
     nlohmann::json meta = {{"language_instruction", ep.language_instruction},
                            {"policy_id", ep.policy_id},
-                           {"terminal", false}};  // cut at the horizon, not ended
+                           {"terminal", false},  // cut at the horizon, not ended
+                           {"action_space", ep.action_space}};
     if (ep.episode_seed) meta["episode_seed"] = *ep.episode_seed;
     meta["wmkit_export"] = source_;
     meta["wmkit_export"].update({{"kind", kind},

@@ -11,6 +11,7 @@
 #include <utility>
 
 #include "core/error.h"
+#include "core/shard/dataset_index.h"
 #include "ingest/image_codec.h"
 
 namespace wm::ingest {
@@ -150,6 +151,7 @@ EncodedFrames ReadFrames(const fs::path& dir) {
 
 struct Meta {
   std::string language_instruction, policy_id;
+  std::string action_space;  // empty: not said
   std::optional<int64_t> episode_seed;
   bool terminal = false;
 };
@@ -182,6 +184,11 @@ Meta ReadMeta(const fs::path& path) {
       MetaField<int64_t>(j, "episode_seed", &json::is_number_integer, "an integer", path);
   meta.terminal =
       MetaField<bool>(j, "terminal", &json::is_boolean, "true or false", path).value_or(false);
+  meta.action_space =
+      MetaField<std::string>(j, "action_space", &json::is_string, "a string", path).value_or("");
+  Check(meta.action_space.empty() || shard::IsKnownActionSpace(meta.action_space),
+        "must be eef_delta, joint_position or other, got '" + meta.action_space + "'",
+        {path.string(), std::nullopt, "", "action_space"});
   return meta;
 }
 
@@ -234,6 +241,7 @@ Episode FolderSource::Load(const EpisodeRef& ref) const {
   const size_t T = image.frames.size();
   ep.num_steps = static_cast<int64_t>(T);
 
+  Meta meta = ReadMeta(dir / "meta.json");
   const fs::path actions_path = dir / "actions.csv";
   Check(fs::exists(actions_path),
         "episode has no actions.csv (T rows of D comma-separated numbers, e.g. 7)", {dir.string()});
@@ -243,8 +251,9 @@ Episode FolderSource::Load(const EpisodeRef& ref) const {
         "has " + std::to_string(rows) + " action rows but the episode has " + std::to_string(T) +
             " frames (one row per frame)",
         {actions_path.string()});
-  SetActions(ep, std::move(actions.values), static_cast<int64_t>(actions.width), action_space_,
-             {actions_path.string()});
+  // --action-space says what the user knows of the whole dataset, so it outranks meta.json's.
+  SetActions(ep, std::move(actions.values), static_cast<int64_t>(actions.width),
+             action_space_.empty() ? meta.action_space : action_space_, {actions_path.string()});
 
   const fs::path rewards_path = dir / "rewards.csv";
   if (fs::exists(rewards_path)) {
@@ -257,7 +266,6 @@ Episode FolderSource::Load(const EpisodeRef& ref) const {
     ep.rewards.assign(T, 0.0f);
   }
 
-  Meta meta = ReadMeta(dir / "meta.json");
   ep.language_instruction = std::move(meta.language_instruction);
   ep.policy_id = std::move(meta.policy_id);
   ep.episode_seed = meta.episode_seed;

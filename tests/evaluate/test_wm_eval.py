@@ -704,6 +704,7 @@ class WmEval(unittest.TestCase):
                 self.assertEqual(source_of["checkpoint"]["sha256"],
                                  sha256(self.path("dyn", "checkpoint.wmt")))
                 self.assertEqual(meta["policy_id"], self.policies[k])
+                self.assertEqual(meta["action_space"], "eef_delta")
         # Paired with the real frames, wm-metrics scores an exported rollout as the report did.
         for k in range(EPISODES):
             got = json.loads(ok("wm-metrics", "--ref", os.path.join(export, "real", f"episode_{k}"),

@@ -170,6 +170,24 @@ TEST_F(FolderSourceTest, ActionsOfAnotherWidthKeepItInTheSpaceGiven) {
   EXPECT_EQ(FolderSource(root_.string(), "other").Describe()["action_space"], "other");
 }
 
+// A 7-DoF arm's joint targets are 7 wide too: only meta.json (as wm-eval --save-rollouts writes
+// it) or --action-space can tell them from end-effector deltas.
+TEST_F(FolderSourceTest, MetaSaysTheActionSpaceAndTheFlagOutranksIt) {
+  const EpisodeRef ref{ep10_.string(), "ep_10", 0};
+  EXPECT_EQ(FolderSource(root_.string()).Load(ref).action_space, "eef_delta");  // inferred
+  WriteText(ep10_ / "meta.json", R"({"action_space": "joint_position"})");
+  Episode ep = FolderSource(root_.string()).Load(ref);
+  EXPECT_EQ((std::pair{ep.action_dim, ep.action_space}),
+            (std::pair<int64_t, std::string>{7, "joint_position"}));
+  EXPECT_EQ(FolderSource(root_.string(), "other").Load(ref).action_space, "other");
+  WriteText(ep10_ / "meta.json", R"({"action_space": "eef_delta"})");
+  WriteText(ep10_ / "actions.csv", "1,2\n3,4\n");
+  const std::string what = ErrorText([&] { FolderSource(root_.string()).Load(ref); });
+  for (const char* part : {"actions.csv", "eef_delta actions are 7 values per step", "got 2"}) {
+    EXPECT_NE(what.find(part), std::string::npos) << what;
+  }
+}
+
 TEST_F(FolderSourceErrors, MissingActionsAndBadMeta) {
   fs::remove(actions_);
   ExpectIn(LoadError(), {ep10_.string(), "no actions.csv"});
@@ -178,6 +196,9 @@ TEST_F(FolderSourceErrors, MissingActionsAndBadMeta) {
   ExpectIn(LoadError(), {(ep10_ / "meta.json").string(), "key 'episode_seed'", "an integer"});
   WriteText(ep10_ / "meta.json", "{not json");
   ExpectIn(LoadError(), {(ep10_ / "meta.json").string(), "not a JSON object"});
+  WriteText(ep10_ / "meta.json", R"({"action_space": "joints"})");
+  ExpectIn(LoadError(), {(ep10_ / "meta.json").string(), "key 'action_space'",
+                         "eef_delta, joint_position or other, got 'joints'"});
 }
 
 TEST_F(FolderSourceErrors, BadFramesAndInputs) {
