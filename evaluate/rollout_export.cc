@@ -34,8 +34,8 @@ std::string FrameName(int64_t step) {
 }
 
 // actions.csv rows of steps [first, first + count): the logged action taken at each frame.
-// The canonical action has its names (docs/folder-format.md); another width a0, a1, ... (meta.json's
-// action_space keeps the space when the folder is read back).
+// The canonical action has its names (docs/folder-format.md); another width a0, a1, ...
+// (meta.json's action_space keeps the space when the folder is read back).
 std::string ActionsCsv(const Episode& ep, int64_t first, int64_t count) {
   const int64_t dim = ep.action_dim;
   std::string csv;
