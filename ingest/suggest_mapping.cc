@@ -179,6 +179,23 @@ std::string SuggestLeRobot(const std::string& root) {
 
 // ---- RLDS: features.json through OpenTfdsDataset
 
+// One tensor steps/action says nothing of what its values are: 7 are taken as the canonical
+// delta, any other width is kept whole as `other` (dropping values is the user's decision), and
+// the builder's own description is quoted so the user can check either guess.
+void SuggestFlatAction(const rlds::FeatureSpec& action, std::ostream& out) {
+  const int64_t n = action.ElementSize();
+  std::string said = action.description;
+  std::replace_if(
+      said.begin(), said.end(), [](char c) { return c == '\n' || c == '\r'; }, ' ');
+  out << "# UNCERTAIN action: one " << n << "-value tensor steps/action; "
+      << (n == 7 ? "taken as xyz, rpy deltas and gripper in that order"
+                 : "kept whole as action_space other (if its first 7 values are xyz, rpy deltas "
+                   "and gripper, select: [0, 1, 2, 3, 4, 5, 6] and drop action_space)")
+      << "; the dataset says: " << (said.empty() ? "nothing" : "'" + said + "'") << "\n";
+  out << "action:\n  - key: steps/action\n";
+  if (n != 7) out << "action_space: other\n";
+}
+
 std::string SuggestRlds(const std::string& input) {
   const rlds::TfdsDataset d = rlds::OpenTfdsDataset(input);
   std::vector<std::string> cameras, texts;
@@ -199,7 +216,7 @@ std::string SuggestRlds(const std::string& input) {
       << "image: " << Scalar(image.empty() ? "steps/observation/image" : image) << "\n";
   // The action: wmkit's RLDS mappings assemble the 7-dim end-effector delta.
   out << "# action: the canonical 7 dims (dx, dy, dz, droll, dpitch, dyaw, gripper; action space "
-         "eef_delta)\n";
+         "eef_delta), or with action_space another width kept as it is\n";
   std::string gripper;
   for (const auto& [k, f] : d.features) {
     if (gripper.empty() && k.rfind("steps/action/", 0) == 0 && Contains(k, "gripper") &&
@@ -215,16 +232,11 @@ std::string SuggestRlds(const std::string& input) {
     } else {
       out << "  # check the gripper's sign: wmkit wants 1 = closed\n  - key: " << gripper << "\n";
     }
-  } else if (has("steps/action") && d.features.at("steps/action").ElementSize() >= 7) {
-    const int64_t n = d.features.at("steps/action").ElementSize();
-    out << "# UNCERTAIN action: one " << n << "-value tensor steps/action; taken as "
-        << (n == 7 ? "xyz, rpy deltas and gripper in that order" : "its first 7 values")
-        << " (check the dataset's description)\n";
-    out << "action:\n  - key: steps/action\n";
-    if (n != 7) out << "    select: [0, 1, 2, 3, 4, 5, 6]\n";
+  } else if (has("steps/action")) {
+    SuggestFlatAction(d.features.at("steps/action"), out);
   } else {
-    out << "# UNCERTAIN action: no world_vector + rotation_delta + gripper and no steps/action "
-           "of 7 or more values; fill in parts summing to 7 (zeros: N pads)\n";
+    out << "# UNCERTAIN action: no world_vector + rotation_delta + gripper and no steps/action; "
+           "fill in parts summing to 7 (zeros: N pads)\n";
     out << "action:\n  - zeros: 7\n";
   }
   out << "reward: " << (has("steps/reward") ? "steps/reward" : "null") << "\n";

@@ -49,6 +49,8 @@ void Flatten(const json& node, const std::string& prefix, bool per_step,
   FeatureSpec spec;
   spec.tfds_class = ClassName(node);
   spec.per_step = per_step;
+  if (node.contains("description") && node["description"].is_string())
+    spec.description = node["description"].get<std::string>();
   const json* t = node.contains("tensor")  ? &node["tensor"]
                   : node.contains("image") ? &node["image"]
                                            : nullptr;

@@ -15,6 +15,7 @@ struct FeatureSpec {
   std::vector<int64_t> shape;   // per element (per step for step features); [] for scalars
   std::string encoding;         // images: "jpeg" / "png"
   bool per_step = false;        // under the `steps` sequence
+  std::string description;      // the builder's words for it ("" when none), for people
   int64_t ElementSize() const;  // product of shape (1 for scalars)
 };
 

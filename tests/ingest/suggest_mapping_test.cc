@@ -10,6 +10,7 @@
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
+#include <nlohmann/json.hpp>
 
 #include "core/error.h"
 #include "ingest/lerobot/lerobot_mapping.h"
@@ -74,6 +75,34 @@ TEST(SuggestMapping, BridgeGuessLoadsAndMarksTheCameraUncertain) {
   EXPECT_EQ(m.language_instruction, "steps/language_instruction");
   EXPECT_EQ(ActionWidth(m, rlds::OpenTfdsDataset(dir.string())), 7);
   fs::remove(file);
+}
+
+// Bridge's spec with its one steps/action tensor made 10 wide (as its own description says it
+// is: joint velocities, gripper velocities, terminate): kept whole as `other`, with the words.
+TEST(SuggestMapping, RldsActionOfAnotherWidthIsKeptWholeAsOther) {
+  const fs::path bridge = Samples() / "rlds/bridge_dataset/1.0.0";
+  REQUIRE(bridge);
+  const fs::path dir =
+      fs::temp_directory_path() / ("wm_suggest_rlds10_" + std::to_string(getpid()));
+  fs::create_directories(dir);
+  fs::copy_file(bridge / "dataset_info.json", dir / "dataset_info.json");
+  std::ifstream in(bridge / "features.json");
+  nlohmann::json spec = nlohmann::json::parse(in);
+  spec["featuresDict"]["features"]["steps"]["sequence"]["feature"]["featuresDict"]["features"]
+      ["action"]["tensor"]["shape"]["dimensions"] = {"10"};
+  std::ofstream(dir / "features.json") << spec.dump();
+
+  const std::string yaml = SuggestMapping("rlds", dir.string());
+  EXPECT_THAT(yaml, HasSubstr("# UNCERTAIN action: one 10-value tensor steps/action; kept whole "
+                              "as action_space other"));
+  EXPECT_THAT(yaml, HasSubstr("the dataset says: 'Robot action, consists of [7x joint "
+                              "velocities, 2x gripper velocities, 1x terminate episode].'"));
+  const std::string file = Save(yaml, "bridge10.yaml");
+  const rlds::DatasetMapping m = rlds::LoadDatasetMapping(file);
+  EXPECT_EQ(m.action_space, "other");
+  EXPECT_EQ(ActionWidth(m, rlds::OpenTfdsDataset(dir.string())), 10);
+  fs::remove(file);
+  fs::remove_all(dir);
 }
 
 // The G1 guess is configs/lerobot/unitree_g1_v21.yaml, for the v2.1 sample and its v3.0 copy.
