@@ -1,0 +1,96 @@
+#!/usr/bin/python3
+"""Why a policy fails inside the world model: the colour policy replayed on what it was shown.
+
+`make wpe`'s colour policies are deterministic at noise 0, so replaying
+scripts/tabletop_colour_policy.py's ColourPolicy on the frames a closed-loop episode showed it
+gives back the actions it sent, and its beliefs with them. Per start, on the simulator's frames
+(WPE_DIR/strip_sim/<policy>, written by scripts/wpe_strips.py) and on the imagined ones (the
+policy's row of WPE_DIR/reports/<model>/strips/episode_K.png): the first step whose actions
+differ by over 1 cm, the step the gripper first closes, and whether the policy then believes it
+holds the block, and how far the block it sees moves from there (pixels, the most over the
+following steps; a carried block moves, one left behind does not). The imagined frames are the world model's; the policy's perception of them is
+what this separates from its dynamics (docs/dynamics.md, "Closed loop at 9600 steps").
+
+  bench/wpe_policy_replay.py WPE_DIR --model MODEL --episodes 0,...,15 [--policy colour_noise000]
+      [--trace K]   (K: print that start's per-step beliefs and actions)
+"""
+import argparse
+import os
+import sys
+import types
+
+import cv2
+import numpy as np
+
+SRC = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+sys.path.insert(0, os.path.join(SRC, "scripts"))
+import tabletop_colour_policy as colour  # noqa: E402
+import wmshard  # noqa: E402
+from wpe_strips import strip_row  # noqa: E402
+
+
+def replay(frames, instruction, trace=False):
+    """The policy's actions and `holding` belief on `frames` (RGB), step by step."""
+    policy = colour.ColourPolicy(types.SimpleNamespace(seed=0, instruction=instruction), 0.0)
+    actions, holding, blocks = [], [], []
+    for t, rgb in enumerate(frames):
+        block, _, arm = policy.see(rgb)
+        blocks.append(None if block is None or block[2] < 2 else np.array(block[:2]))
+        obs = types.SimpleNamespace(image=rgb, width=rgb.shape[1], step=t, instruction=instruction)
+        actions.append(policy.act(obs))
+        holding.append(policy.holding)
+        if trace:
+            seen = "none" if block is None else f"({block[0]:.0f}, {block[1]:.0f})"
+            print(f"  {t:2d} block px {seen:10s} arm px {int(arm.sum()):3d} holding "
+                  f"{int(policy.holding)} action [{', '.join(f'{a:+.3f}' for a in actions[-1])}]")
+    return np.array(actions), np.array(holding), blocks
+
+
+def carried(blocks, closed):
+    """How far (px) the seen block gets from where it was when the gripper closed."""
+    if closed is None or blocks[closed] is None:
+        return None
+    moves = [np.linalg.norm(b - blocks[closed]) for b in blocks[closed:] if b is not None]
+    return f"{max(moves):.0f}"
+
+
+def first(flags):
+    hits = np.nonzero(flags)[0]
+    return int(hits[0]) if len(hits) else None
+
+
+def main():
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser.add_argument("wpe_dir")
+    parser.add_argument("--model", required=True, help="a closed-loop report under WPE_DIR/reports")
+    parser.add_argument("--policy", default="colour_noise000")
+    parser.add_argument("--episodes", default="0,1,2,3")
+    parser.add_argument("--row", type=int, default=1, help="the policy's row in the strips")
+    parser.add_argument("--trace", type=int, default=-1)
+    args = parser.parse_args()
+    sim = wmshard.Dataset(os.path.join(args.wpe_dir, "strip_sim", args.policy))
+    print("start  differ_from  sim_closes  model_closes  sim_holds  model_holds  "
+          "sim_block_moves  model_block_moves")
+    for k in (int(e) for e in args.episodes.split(",")):
+        meta, _, blobs = sim.episode(k)
+        real = [cv2.imdecode(np.frombuffer(b, np.uint8), cv2.IMREAD_COLOR)[..., ::-1].copy()
+                for b in blobs["image"]]
+        imagined = [f[..., ::-1].copy() for f in strip_row(os.path.join(
+            args.wpe_dir, "reports", args.model, "strips", f"episode_{k}.png"), args.row)]
+        instruction = meta.get("language_instruction", "")
+        if args.trace == k:
+            print(f"start {k}, simulator:")
+        a_sim, h_sim, b_sim = replay(real, instruction, args.trace == k)
+        if args.trace == k:
+            print(f"start {k}, {args.model}:")
+        a_wm, h_wm, b_wm = replay(imagined, instruction, args.trace == k)
+        n = min(len(a_sim), len(a_wm))
+        differ = first(np.abs(a_sim[:n, :3] - a_wm[:n, :3]).max(axis=1) > 0.01)
+        close_sim, close_wm = first(a_sim[:, 6] >= 0.5), first(a_wm[:, 6] >= 0.5)
+        print(f"{k:5d}  {str(differ):11s}  {str(close_sim):10s}  {str(close_wm):12s}  "
+              f"{str(first(h_sim)):9s}  {str(first(h_wm)):11s}  "
+              f"{str(carried(b_sim, close_sim)):15s}  {carried(b_wm, close_wm)}")
+
+
+if __name__ == "__main__":
+    main()
