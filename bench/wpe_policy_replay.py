@@ -9,10 +9,16 @@ policy's row of WPE_DIR/reports/<model>/strips/episode_K.png): the first step wh
 differ by over 1 cm, the step the gripper first closes, and whether the policy then believes it
 holds the block, and how far the block it sees moves from there (pixels, the most over the
 following steps; a carried block moves, one left behind does not). The imagined frames are the world model's; the policy's perception of them is
-what this separates from its dynamics (docs/dynamics.md, "Closed loop at 9600 steps").
+what this separates from its dynamics (docs/dynamics.md, "Why the policies fail inside the
+model"). --decoded DIR replaces the imagined frames with DIR/episode_K/frame_SSSS.png, e.g. the
+tokenizer's reconstruction of the simulator's own frames (`wm-tokenize encode` of strip_sim, then
+`wm-tokenize decode --originals`): what the policy would read from a perfect token model. Then the
+frames are the simulator's own, so the policy's reading of each can be compared directly: where it
+puts the gripper on the simulator's frame and on the reconstruction of it, from step 6 on (the
+same height, the one the simulator replay tracked).
 
   bench/wpe_policy_replay.py WPE_DIR --model MODEL --episodes 0,...,15 [--policy colour_noise000]
-      [--trace K]   (K: print that start's per-step beliefs and actions)
+      [--trace K] [--decoded DIR]   (K: print that start's per-step beliefs and actions)
 """
 import argparse
 import os
@@ -54,6 +60,22 @@ def carried(blocks, closed):
     return f"{max(moves):.0f}"
 
 
+def gripper_misplaced(real, shown, instruction):
+    """cm between where the policy puts the gripper on each real frame and on its counterpart."""
+    policy = colour.ColourPolicy(types.SimpleNamespace(seed=0, instruction=instruction), 0.0)
+    probe = colour.ColourPolicy(types.SimpleNamespace(seed=0, instruction=instruction), 0.0)
+    misplaced = []
+    for t, (a, b) in enumerate(zip(real, shown)):
+        if policy.z is not None and t >= colour.DESCENT_STEPS:
+            probe.camera, probe.z = policy.camera, policy.z
+            seen = [probe.arm_position(probe.see(f)[2]) for f in (a, b)]
+            missing = any(x is None for x in seen)
+            misplaced.append(np.nan if missing else 100 * np.linalg.norm(seen[0] - seen[1]))
+        policy.act(types.SimpleNamespace(image=a, width=a.shape[1], step=t,
+                                         instruction=instruction))
+    return misplaced
+
+
 def first(flags):
     hits = np.nonzero(flags)[0]
     return int(hits[0]) if len(hits) else None
@@ -67,16 +89,23 @@ def main():
     parser.add_argument("--episodes", default="0,1,2,3")
     parser.add_argument("--row", type=int, default=1, help="the policy's row in the strips")
     parser.add_argument("--trace", type=int, default=-1)
+    parser.add_argument("--decoded", help="frames to replay instead of the model's strips")
     args = parser.parse_args()
     sim = wmshard.Dataset(os.path.join(args.wpe_dir, "strip_sim", args.policy))
     print("start  differ_from  sim_closes  model_closes  sim_holds  model_holds  "
           "sim_block_moves  model_block_moves")
+    misplaced = []
     for k in (int(e) for e in args.episodes.split(",")):
         meta, _, blobs = sim.episode(k)
         real = [cv2.imdecode(np.frombuffer(b, np.uint8), cv2.IMREAD_COLOR)[..., ::-1].copy()
                 for b in blobs["image"]]
-        imagined = [f[..., ::-1].copy() for f in strip_row(os.path.join(
-            args.wpe_dir, "reports", args.model, "strips", f"episode_{k}.png"), args.row)]
+        if args.decoded:
+            folder = os.path.join(args.decoded, f"episode_{k}")
+            shown = [cv2.imread(os.path.join(folder, f)) for f in sorted(os.listdir(folder))]
+        else:
+            shown = strip_row(os.path.join(args.wpe_dir, "reports", args.model, "strips",
+                                           f"episode_{k}.png"), args.row)
+        imagined = [f[..., ::-1].copy() for f in shown]
         instruction = meta.get("language_instruction", "")
         if args.trace == k:
             print(f"start {k}, simulator:")
@@ -90,6 +119,15 @@ def main():
         print(f"{k:5d}  {str(differ):11s}  {str(close_sim):10s}  {str(close_wm):12s}  "
               f"{str(first(h_sim)):9s}  {str(first(h_wm)):11s}  "
               f"{str(carried(b_sim, close_sim)):15s}  {carried(b_wm, close_wm)}")
+        if args.decoded:
+            misplaced += gripper_misplaced(real, imagined, instruction)
+    if misplaced:
+        cm = np.array(misplaced)
+        found = cm[~np.isnan(cm)]
+        print(f"gripper placed from the reconstructions vs the simulator's frames, {len(cm)} frames "
+              f"from step {colour.DESCENT_STEPS}: not found {len(cm) - len(found)}, median "
+              f"{np.median(found):.1f} cm, 90th percentile {np.percentile(found, 90):.1f} cm, "
+              f"over 1 cm {np.mean(found > 1):.2f}")
 
 
 if __name__ == "__main__":
