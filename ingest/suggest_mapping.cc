@@ -214,7 +214,7 @@ std::string SuggestRlds(const std::string& input) {
   if (image.empty()) note << "# UNCERTAIN image: no per-step Image feature; fill it in\n";
   out << note.str() << "dataset: " << Scalar(d.name) << "\n"
       << "image: " << Scalar(image.empty() ? "steps/observation/image" : image) << "\n";
-  // The action: wmkit's RLDS mappings assemble the 7-dim end-effector delta.
+  // The action: the canonical 7-dim end-effector delta where the features give one.
   out << "# action: the canonical 7 dims (dx, dy, dz, droll, dpitch, dyaw, gripper; action space "
          "eef_delta), or with action_space another width kept as it is\n";
   std::string gripper;
