@@ -6,11 +6,11 @@ scripts/tabletop_colour_policy.py's ColourPolicy on the frames a closed-loop epi
 gives back the actions it sent, and its beliefs with them. Per start, on the simulator's frames
 (WPE_DIR/strip_sim/<policy>, written by scripts/wpe_strips.py) and on the imagined ones (the
 policy's row of WPE_DIR/reports/<model>/strips/episode_K.png): the first step whose actions
-differ by over 1 cm, the step the gripper first closes, and whether the policy then believes it
-holds the block, and how far the block it sees moves from there (pixels, the most over the
-following steps; a carried block moves, one left behind does not). The imagined frames are the world model's; the policy's perception of them is
-what this separates from its dynamics (docs/dynamics.md, "Why the policies fail inside the
-model"). --decoded DIR replaces the imagined frames with DIR/episode_K/frame_SSSS.png, e.g. the
+differ by over 1 cm, the step the gripper first closes, the step the policy first believes it
+holds the block, and how far the block it sees moves from the closing step on (pixels, the most
+over the following steps; a carried block moves, one left behind does not). The imagined frames
+are the world model's; what the policy makes of them is what this separates from the model's
+dynamics (docs/dynamics.md, "Why the policies fail inside the model"). --decoded DIR replaces the imagined frames with DIR/episode_K/frame_SSSS.png, e.g. the
 tokenizer's reconstruction of the simulator's own frames (`wm-tokenize encode` of strip_sim, then
 `wm-tokenize decode --originals`): what the policy would read from a perfect token model. Then the
 frames are the simulator's own, so the policy's reading of each can be compared directly: where it
