@@ -78,11 +78,11 @@ def main(checkpoint, token_dir, shards_dir=None, episodes=EPISODES):
                              "acc_changed", "action_tv")}
     by_region = {name: {"p_true_changed": [], "acc_changed": [], "p_copy_changed": []}
                  for name in REGIONS}
+    grid = meta["config"]["model"]["grid_h"]
     for k in range(min(episodes, data.num_episodes)):
         e = data.episode(k)
         codes = np.array(e["tokens"]).reshape(len(e["tokens"]), -1)
         actions = normalised_actions(meta, e)
-        grid = meta["config"]["model"]["grid_h"]
         gripper = np.array(e["actions"]).reshape(len(e["tokens"]), -1)[:, 6]
         regions = cell_regions(shards, data.index["episodes"][k], grid, gripper) if shards else None
         for s in range(len(codes) - context + 1):
@@ -94,20 +94,21 @@ def main(checkpoint, token_dir, shards_dir=None, episodes=EPISODES):
                 lp, lp_flipped = (next_frame_log_probs(model, x, b) for b in (a, flipped))
             target, previous = x[0, 1:], x[0, :-1]
             changed = target != previous
-            p_true = lp.gather(-1, target[..., None])[..., 0]
+            log_p_true = lp.gather(-1, target[..., None])[..., 0]
+            p_true = log_p_true.exp()
             p_copy = lp.gather(-1, previous[..., None])[..., 0].exp()
-            found["p_true_changed"] += p_true.exp()[changed].tolist()
-            found["rank_true"] += (lp > p_true[..., None]).sum(-1)[changed].tolist()
+            right = (lp.argmax(-1) == target).float()
+            found["p_true_changed"] += p_true[changed].tolist()
+            found["rank_true"] += (lp > log_p_true[..., None]).sum(-1)[changed].tolist()
             found["p_copy_changed"] += p_copy[changed].tolist()
             found["p_copy_static"] += p_copy[~changed].tolist()
-            found["acc_changed"] += (lp.argmax(-1) == target)[changed].float().tolist()
+            found["acc_changed"] += right[changed].tolist()
             found["action_tv"].append(0.5 * (lp.exp() - lp_flipped.exp()).abs().sum(-1).mean().item())
             if regions is not None:
                 region = torch.tensor(regions[s:s + context - 1])
-                right = (lp.argmax(-1) == target).float()
                 for r, name in enumerate(REGIONS):
                     where = changed & (region == r)
-                    by_region[name]["p_true_changed"] += p_true.exp()[where].tolist()
+                    by_region[name]["p_true_changed"] += p_true[where].tolist()
                     by_region[name]["acc_changed"] += right[where].tolist()
                     by_region[name]["p_copy_changed"] += p_copy[where].tolist()
     changed = len(found["p_true_changed"])

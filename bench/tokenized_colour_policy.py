@@ -31,8 +31,8 @@ import wmpolicy  # noqa: E402
 
 def planar(rgb):
     """uint8 [S, S, 3] -> float [1, 3, S, S] in [-1, 1], C-contiguous (vqvae_twin's note)."""
-    return torch.from_numpy(np.ascontiguousarray(rgb.transpose(2, 0, 1), dtype=np.float32)
-                            )[None].contiguous() / 127.5 - 1
+    return torch.from_numpy(
+        np.ascontiguousarray(rgb.transpose(2, 0, 1), dtype=np.float32))[None] / 127.5 - 1
 
 
 def rgb8(frame):

@@ -35,13 +35,19 @@ import wmshard  # noqa: E402
 from wpe_strips import strip_row  # noqa: E402
 
 
+def noiseless(instruction):
+    return colour.ColourPolicy(types.SimpleNamespace(seed=0, instruction=instruction), 0.0)
+
+
 def replay(frames, instruction, trace=False):
-    """The policy's actions and `holding` belief on `frames` (RGB), step by step."""
-    policy = colour.ColourPolicy(types.SimpleNamespace(seed=0, instruction=instruction), 0.0)
-    actions, holding, blocks = [], [], []
+    """The policy's actions, `holding` belief, the block it sees and the gripper height it
+    believes before each step's action, on `frames` (RGB), step by step."""
+    policy = noiseless(instruction)
+    actions, holding, blocks, heights = [], [], [], []
     for t, rgb in enumerate(frames):
         block, _, arm = policy.see(rgb)
         blocks.append(None if block is None or block[2] < 2 else np.array(block[:2]))
+        heights.append(policy.z)
         obs = types.SimpleNamespace(image=rgb, width=rgb.shape[1], step=t, instruction=instruction)
         actions.append(policy.act(obs))
         holding.append(policy.holding)
@@ -49,7 +55,7 @@ def replay(frames, instruction, trace=False):
             seen = "none" if block is None else f"({block[0]:.0f}, {block[1]:.0f})"
             print(f"  {t:2d} block px {seen:10s} arm px {int(arm.sum()):3d} holding "
                   f"{int(policy.holding)} action [{', '.join(f'{a:+.3f}' for a in actions[-1])}]")
-    return np.array(actions), np.array(holding), blocks
+    return np.array(actions), np.array(holding), blocks, heights
 
 
 def carried(blocks, closed):
@@ -60,19 +66,18 @@ def carried(blocks, closed):
     return f"{max(moves):.0f}"
 
 
-def gripper_misplaced(real, shown, instruction):
-    """cm between where the policy puts the gripper on each real frame and on its counterpart."""
-    policy = colour.ColourPolicy(types.SimpleNamespace(seed=0, instruction=instruction), 0.0)
-    probe = colour.ColourPolicy(types.SimpleNamespace(seed=0, instruction=instruction), 0.0)
+def gripper_misplaced(real, shown, heights, instruction):
+    """cm between where the policy puts the gripper on each real frame and on its counterpart,
+    at the height its simulator replay believed (`replay`'s heights)."""
+    probe = noiseless(instruction)
+    probe.camera = colour.Camera(real[0].shape[1])
     misplaced = []
     for t, (a, b) in enumerate(zip(real, shown)):
-        if policy.z is not None and t >= colour.DESCENT_STEPS:
-            probe.camera, probe.z = policy.camera, policy.z
+        if heights[t] is not None and t >= colour.DESCENT_STEPS:
+            probe.z = heights[t]
             seen = [probe.arm_position(probe.see(f)[2]) for f in (a, b)]
             missing = any(x is None for x in seen)
             misplaced.append(np.nan if missing else 100 * np.linalg.norm(seen[0] - seen[1]))
-        policy.act(types.SimpleNamespace(image=a, width=a.shape[1], step=t,
-                                         instruction=instruction))
     return misplaced
 
 
@@ -109,10 +114,10 @@ def main():
         instruction = meta.get("language_instruction", "")
         if args.trace == k:
             print(f"start {k}, simulator:")
-        a_sim, h_sim, b_sim = replay(real, instruction, args.trace == k)
+        a_sim, h_sim, b_sim, heights = replay(real, instruction, args.trace == k)
         if args.trace == k:
             print(f"start {k}, {args.model}:")
-        a_wm, h_wm, b_wm = replay(imagined, instruction, args.trace == k)
+        a_wm, h_wm, b_wm, _ = replay(imagined, instruction, args.trace == k)
         n = min(len(a_sim), len(a_wm))
         differ = first(np.abs(a_sim[:n, :3] - a_wm[:n, :3]).max(axis=1) > 0.01)
         close_sim, close_wm = first(a_sim[:, 6] >= 0.5), first(a_wm[:, 6] >= 0.5)
@@ -120,7 +125,7 @@ def main():
               f"{str(first(h_sim)):9s}  {str(first(h_wm)):11s}  "
               f"{str(carried(b_sim, close_sim)):15s}  {carried(b_wm, close_wm)}")
         if args.decoded:
-            misplaced += gripper_misplaced(real, imagined, instruction)
+            misplaced += gripper_misplaced(real, imagined, heights, instruction)
     if misplaced:
         cm = np.array(misplaced)
         found = cm[~np.isnan(cm)]
