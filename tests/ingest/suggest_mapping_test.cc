@@ -82,9 +82,8 @@ TEST(SuggestMapping, BridgeGuessLoadsAndMarksTheCameraUncertain) {
 TEST(SuggestMapping, RldsActionOfAnotherWidthIsKeptWholeAsOther) {
   const fs::path bridge = Samples() / "rlds/bridge_dataset/1.0.0";
   REQUIRE(bridge);
-  const fs::path dir =
-      fs::temp_directory_path() / ("wm_suggest_rlds10_" + std::to_string(getpid()));
-  fs::create_directories(dir);
+  const test::TempDir temp;  // removed however the test ends
+  const fs::path& dir = temp.path();
   fs::copy_file(bridge / "dataset_info.json", dir / "dataset_info.json");
   std::ifstream in(bridge / "features.json");
   nlohmann::json spec = nlohmann::json::parse(in);
@@ -102,7 +101,6 @@ TEST(SuggestMapping, RldsActionOfAnotherWidthIsKeptWholeAsOther) {
   EXPECT_EQ(m.action_space, "other");
   EXPECT_EQ(ActionWidth(m, rlds::OpenTfdsDataset(dir.string())), 10);
   fs::remove(file);
-  fs::remove_all(dir);
 }
 
 // The G1 guess is configs/lerobot/unitree_g1_v21.yaml, for the v2.1 sample and its v3.0 copy.
